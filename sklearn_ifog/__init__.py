@@ -1,0 +1,11 @@
+"""sklearn-ifog: temperature-drift compensation for fibre-optic gyroscopes.
+
+Public names only; see DESIGN.md for the contract.
+"""
+
+__version__ = "0.1.0.dev0"
+
+from sklearn_ifog.features import ThermalFeatures  # noqa: E402
+from sklearn_ifog.rbf import RBFNetRegressor  # noqa: E402
+
+__all__ = ["RBFNetRegressor", "ThermalFeatures", "__version__"]

@@ -1,0 +1,28 @@
+"""Every private scikit-learn import of the package, in one place.
+
+scikit-learn does not promise these names across releases; keeping them here means a
+scikit-learn upgrade that moves one breaks a single module, not the whole package.
+"""
+
+from sklearn.base import _fit_context
+from sklearn.utils._param_validation import (
+    HasMethods,
+    Hidden,
+    Interval,
+    Options,
+    StrOptions,
+    validate_params,
+)
+from sklearn.utils.validation import _check_feature_names, _check_sample_weight
+
+__all__ = [
+    "HasMethods",
+    "Hidden",
+    "Interval",
+    "Options",
+    "StrOptions",
+    "_check_feature_names",
+    "_check_sample_weight",
+    "_fit_context",
+    "validate_params",
+]

@@ -1,0 +1,83 @@
+"""scikit-learn's estimator checks on every estimator of the package.
+
+Modelled on imbalanced-learn's ``imblearn/tests/test_common.py``: one
+``parametrize_with_checks`` over all estimators, an ``expected_failed_checks`` callable that
+gives the reason for each expected failure, and the explicit checks scikit-learn's own suite
+adds on top.
+"""
+
+import pytest
+from sklearn.utils.estimator_checks import (
+    check_dataframe_column_names_consistency,
+    check_param_validation,
+    check_set_output_transform,
+    check_set_output_transform_pandas,
+    check_set_output_transform_polars,
+    check_transformer_get_feature_names_out,
+    check_transformer_get_feature_names_out_pandas,
+    parametrize_with_checks,
+)
+
+from sklearn_ifog._discovery import all_estimators
+
+# Parameters under which an estimator can take the generic arrays the checks feed it.
+CHECK_PARAMS = {
+    # The checks pass unnamed arrays: name the temperature column by position.
+    "ThermalFeatures": {"temperature": 0},
+}
+
+# Checks that fail by design, with the reason (imbalanced-learn's convention).
+EXPECTED_FAILED_CHECKS = {
+    "ThermalFeatures": {},
+}
+
+
+def _instances():
+    return [cls(**CHECK_PARAMS.get(name, {})) for name, cls in all_estimators()]
+
+
+def expected_failed_checks(estimator):
+    return EXPECTED_FAILED_CHECKS.get(type(estimator).__name__, {})
+
+
+def _ids(estimator):
+    return type(estimator).__name__
+
+
+def test_every_estimator_is_checked():
+    names = {name for name, _ in all_estimators()}
+    assert {"ThermalFeatures", "RBFNetRegressor"} <= names
+
+
+@parametrize_with_checks(_instances(), expected_failed_checks=expected_failed_checks)
+def test_sklearn_compatible_estimator(estimator, check):
+    check(estimator)
+
+
+@pytest.mark.parametrize("estimator", _instances(), ids=_ids)
+def test_param_validation(estimator):
+    check_param_validation(type(estimator).__name__, estimator)
+
+
+@pytest.mark.parametrize("estimator", _instances(), ids=_ids)
+def test_dataframe_column_names_consistency(estimator):
+    check_dataframe_column_names_consistency(type(estimator).__name__, estimator)
+
+
+TRANSFORMERS = [est for est in _instances() if hasattr(est, "transform")]
+
+
+@pytest.mark.parametrize("estimator", TRANSFORMERS, ids=_ids)
+@pytest.mark.parametrize(
+    "check",
+    [
+        check_set_output_transform,
+        check_set_output_transform_pandas,
+        check_set_output_transform_polars,
+        check_transformer_get_feature_names_out,
+        check_transformer_get_feature_names_out_pandas,
+    ],
+    ids=lambda check: check.__name__,
+)
+def test_transformer_output_checks(estimator, check):
+    check(type(estimator).__name__, estimator)
