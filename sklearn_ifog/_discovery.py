@@ -24,9 +24,7 @@ def all_estimators():
     True
     """
     found = {}
-    for module_info in pkgutil.walk_packages(
-        sklearn_ifog.__path__, prefix="sklearn_ifog."
-    ):
+    for module_info in pkgutil.walk_packages(sklearn_ifog.__path__, prefix="sklearn_ifog."):
         if module_info.name.endswith(("__main__", ".cli")):
             continue
         module = importlib.import_module(module_info.name)

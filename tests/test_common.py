@@ -28,7 +28,15 @@ CHECK_PARAMS = {
 
 # Checks that fail by design, with the reason (imbalanced-learn's convention).
 EXPECTED_FAILED_CHECKS = {
-    "ThermalFeatures": {},
+    "ThermalFeatures": {
+        "check_methods_subset_invariance": (
+            "dT of a row is the difference from the previous row of its run: a row transformed "
+            "in a smaller batch loses its predecessor (first-row rule, dT = 0)."
+        ),
+        "check_methods_sample_order_invariance": (
+            "Row order is the time order within a run: shuffling the rows changes every dT."
+        ),
+    },
 }
 
 

@@ -1,0 +1,508 @@
+"""ThermalFeatures and its numerics: values, run isolation, causality, errors, containers."""
+
+import re
+
+import numpy as np
+import pandas as pd
+import polars as pl
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+from scipy import sparse
+from sklearn.linear_model import LinearRegression
+from sklearn.model_selection import GridSearchCV, GroupKFold
+from sklearn.pipeline import make_pipeline
+
+from sklearn_ifog import ThermalFeatures
+from sklearn_ifog import features as features_module
+from sklearn_ifog._compat import InvalidParameterError
+from sklearn_ifog.features import (
+    assemble_terms,
+    causal_rate,
+    compute_thermal_features,
+    ema_smooth,
+    group_rows_by_run,
+)
+
+T4 = [20.0, 21.0, 23.0, 22.0]
+VALID_4 = ("T", "dT", "TdT", "T2")
+
+
+def _frame(temperature, time=None, run=None):
+    data = {"temperature": temperature}
+    if time is not None:
+        data["time"] = time
+    if run is not None:
+        data["run"] = run
+    return pd.DataFrame(data)
+
+
+def _random_run(rng, n, start_temperature):
+    time = np.cumsum(rng.uniform(0.5, 2.0, n))
+    temperature = start_temperature + np.cumsum(rng.normal(0.0, 0.3, n))
+    return time, temperature
+
+
+def _two_run_frame(seed=0, n_a=37, n_b=23):
+    """Two runs with string ids, rows interleaved at random (each run's rows in time order)."""
+    rng = np.random.default_rng(seed)
+    time_a, temp_a = _random_run(rng, n_a, 20.0)
+    time_b, temp_b = _random_run(rng, n_b, 35.0)
+    run_a = pd.DataFrame({"run": "a", "time": time_a, "temperature": temp_a})
+    run_b = pd.DataFrame({"run": "b", "time": time_b, "temperature": temp_b})
+    is_a = rng.permutation(np.r_[np.ones(n_a, bool), np.zeros(n_b, bool)])
+    frame = pd.DataFrame(index=range(n_a + n_b), columns=["run", "time", "temperature"])
+    frame.loc[is_a] = run_a.to_numpy()
+    frame.loc[~is_a] = run_b.to_numpy()
+    frame = frame.astype({"time": float, "temperature": float})
+    frame["note"] = "free text"  # an unused, non-numeric column must pass untouched
+    return frame, run_a, run_b, is_a
+
+
+# --- hand-computed values --------------------------------------------------------------------
+
+
+def test_terms_per_sample_hand_computed():
+    features = ThermalFeatures(terms=("T", "dT", "TdT", "T2"))
+    out = features.fit_transform(_frame(T4))
+    expected = np.array(
+        [
+            [20.0, 0.0, 0.0, 400.0],
+            [21.0, 1.0, 21.0, 441.0],
+            [23.0, 2.0, 46.0, 529.0],
+            [22.0, -1.0, -22.0, 484.0],
+        ]
+    )
+    assert_array_equal(out, expected)
+    assert list(features.get_feature_names_out()) == ["T", "dT", "T_dT", "T2"]
+
+
+def test_terms_any_subset_and_order():
+    out = ThermalFeatures(terms=["TdT", "T"]).fit_transform(_frame(T4))
+    assert_array_equal(out, [[0.0, 20.0], [21.0, 21.0], [46.0, 23.0], [-22.0, 22.0]])
+    out = ThermalFeatures(terms=("dT",)).fit_transform(_frame(T4))
+    assert_array_equal(out[:, 0], [0.0, 1.0, 2.0, -1.0])
+
+
+@pytest.mark.parametrize(
+    ("rate_unit", "expected"),
+    [
+        ("min", [0.0, 2.0, 2.0, -2.0]),
+        ("s", [0.0, 1 / 30, 2 / 60, -1 / 30]),
+        ("h", [0.0, 120.0, 120.0, -120.0]),
+        (10.0, [0.0, 1 / 3, 1 / 3, -1 / 3]),
+    ],
+)
+def test_rate_with_time_hand_computed(rate_unit, expected):
+    X = _frame(T4, time=[0.0, 30.0, 90.0, 120.0])
+    out = ThermalFeatures(time="time", rate_unit=rate_unit).fit_transform(X)
+    assert_allclose(out[:, 0], T4)
+    assert_allclose(out[:, 1], expected, rtol=1e-14)
+    assert_allclose(out[:, 2], np.asarray(T4) * expected, rtol=1e-14)
+
+
+def test_smoothing_hand_computed():
+    # a = 1 / (1 + 1) = 0.5: s = [20, 21, 21.5, 23.75]; "T" and T*dT use the raw temperature.
+    X = _frame([20.0, 22.0, 22.0, 26.0])
+    out = ThermalFeatures(smoothing=1.0, terms=("T", "dT", "TdT")).fit_transform(X)
+    assert_array_equal(out[:, 0], [20.0, 22.0, 22.0, 26.0])
+    assert_array_equal(out[:, 1], [0.0, 1.0, 0.5, 2.25])
+    assert_array_equal(out[:, 2], [0.0, 22.0, 11.0, 58.5])
+
+
+def test_smoothing_with_time_hand_computed():
+    # smoothing=3: a = 0.25, s = [20, 21, 21.75, 22.3125]; steps 60 s, 120 s, 60 s; per minute.
+    X = _frame([20.0, 24.0, 24.0, 24.0], time=[0.0, 60.0, 180.0, 240.0])
+    out = ThermalFeatures(time="time", smoothing=3.0, terms=["dT"]).fit_transform(X)
+    assert_allclose(out[:, 0], [0.0, 1.0, 0.375, 0.5625], rtol=1e-14)
+
+
+def test_first_row_of_each_run_has_zero_rate():
+    X = _frame([20.0, 30.0, 21.0, 33.0], run=[1, 2, 1, 2])
+    out = ThermalFeatures(run="run", terms=["dT"]).fit_transform(X)
+    assert_array_equal(out[:, 0], [0.0, 0.0, 1.0, 3.0])
+
+
+# --- run isolation and causality -------------------------------------------------------------
+
+
+@pytest.mark.parametrize("smoothing", [0.0, 4.0])
+def test_interleaved_runs_equal_per_run_results_bit_for_bit(smoothing):
+    frame, run_a, run_b, is_a = _two_run_frame()
+    features = ThermalFeatures(time="time", run="run", smoothing=smoothing, terms=VALID_4)
+    out = features.fit_transform(frame)
+    alone_a = ThermalFeatures(time="time", smoothing=smoothing, terms=VALID_4).fit_transform(run_a)
+    alone_b = ThermalFeatures(time="time", smoothing=smoothing, terms=VALID_4).fit_transform(run_b)
+    assert_array_equal(out[is_a], alone_a)
+    assert_array_equal(out[~is_a], alone_b)
+    # Without the run column the two runs would mix: the test data can tell the difference.
+    mixed = ThermalFeatures(smoothing=smoothing, terms=VALID_4).fit_transform(
+        frame[["temperature"]]
+    )
+    assert not np.array_equal(mixed[is_a], alone_a)
+
+
+def test_numeric_run_ids_and_many_runs_bit_for_bit():
+    rng = np.random.default_rng(3)
+    lengths = [1, 2, 5, 9, 17, 40]  # several power-of-two length classes of the smoother
+    run = np.repeat(np.arange(len(lengths)) * 10.0, lengths)  # rows grouped, in time order
+    temperature = rng.normal(25.0, 3.0, run.size)
+    # A random interleaving of the runs that keeps each run's rows in order.
+    slot_runs = rng.permutation(run)
+    source_row = np.empty(run.size, dtype=int)
+    source_row[np.argsort(slot_runs, kind="stable")] = np.arange(run.size)
+    X = np.column_stack([run[source_row], temperature[source_row]])
+    assert not np.array_equal(X[:, 0], run)
+    out = ThermalFeatures(temperature=1, run=0, smoothing=2.5).fit_transform(X)
+    for run_id in np.unique(run):
+        alone = ThermalFeatures(temperature=0, smoothing=2.5).fit_transform(
+            temperature[run == run_id][:, None]
+        )
+        assert_array_equal(out[X[:, 0] == run_id], alone)
+
+
+@pytest.mark.parametrize("k", [1, 2, 7, 16, 17, 30])
+def test_causal_prefix_property(k):
+    _, run_a, _, _ = _two_run_frame(seed=1, n_a=31)
+    features = ThermalFeatures(time="time", smoothing=5.0, terms=VALID_4)
+    whole = features.fit_transform(run_a)
+    prefix = features.fit_transform(run_a.iloc[:k])
+    assert_array_equal(prefix, whole[:k])
+
+
+def test_output_rows_follow_input_rows():
+    frame, _, _, _ = _two_run_frame(seed=2)
+    frame.index = frame.index[::-1]
+    features = ThermalFeatures(time="time", run="run").set_output(transform="pandas")
+    out = features.fit_transform(frame)
+    assert list(out.index) == list(frame.index)
+    assert_array_equal(out["T"].to_numpy(), frame["temperature"].to_numpy())
+
+
+# --- plain numerics --------------------------------------------------------------------------
+
+
+def test_group_rows_by_run_is_stable():
+    order, run_starts = group_rows_by_run(np.array([3, 1, 3, 1, 2, 3]))
+    assert_array_equal(order, [1, 3, 4, 0, 2, 5])
+    assert_array_equal(run_starts, [True, False, True, True, False, False])
+    assert group_rows_by_run(None) == (None, None)
+
+
+def test_group_rows_by_run_mixed_id_types(monkeypatch):
+    # Hashing (pandas) keeps 1 and "1" apart and needs no order between types.
+    order, run_starts = group_rows_by_run(np.array([1, "1", 1, "a", "1"], dtype=object))
+    assert_array_equal(order, [0, 2, 1, 4, 3])
+    assert_array_equal(run_starts, [True, False, True, False, True])
+    # Without pandas, ids are sorted, which mixed types cannot be.
+    monkeypatch.setattr(features_module, "_object_codes", lambda run: None)
+    with pytest.raises(ValueError, match=r"one orderable type.*\['int', 'str'\]"):
+        group_rows_by_run(np.array([1, "a", 2], dtype=object))
+    order, _ = group_rows_by_run(np.array(["b", "a", "b"], dtype=object))
+    assert_array_equal(order, [1, 0, 2])
+
+
+def test_ema_smooth_continues_across_chunks_bit_for_bit():
+    rng = np.random.default_rng(4)
+    temperature = rng.normal(20.0, 1.0, (50, 2))
+    whole = ema_smooth(temperature, None, smoothing=3.0)
+    first = ema_smooth(temperature[:20], None, smoothing=3.0)
+    second = ema_smooth(temperature[20:], None, smoothing=3.0, initial=first[-1])
+    assert_array_equal(np.vstack([first, second]), whole)
+    # A run start in the new chunk ignores the carried state.
+    restarted = ema_smooth(temperature[20:], np.r_[True, np.zeros(29, bool)], 3.0, initial=0.0)
+    assert_array_equal(restarted, ema_smooth(temperature[20:], None, 3.0))
+
+
+def test_ema_smooth_matches_sample_by_sample_recursion_bit_for_bit():
+    # The form a streaming or C implementation uses (see ema_smooth's Notes).
+    rng = np.random.default_rng(11)
+    temperature = rng.normal(20.0, 2.0, 40)
+    run_starts = np.zeros(40, bool)
+    run_starts[[0, 13, 14, 30]] = True
+    alpha = 1.0 / (1.0 + 2.7)
+    keep = 1.0 - alpha
+    expected = np.empty(40)
+    for i, value in enumerate(temperature):
+        expected[i] = value if run_starts[i] else alpha * value + keep * expected[i - 1]
+    assert_array_equal(ema_smooth(temperature, run_starts, 2.7), expected)
+
+
+def test_ema_smooth_zero_is_identity_and_rejects_negative():
+    T = np.array([1.0, 5.0, 2.0])
+    assert_array_equal(ema_smooth(T, None, 0.0), T)
+    with pytest.raises(ValueError, match="smoothing must be >= 0"):
+        ema_smooth(T, None, -1.0)
+
+
+def test_causal_rate_rejects_non_increasing_time():
+    with pytest.raises(ValueError, match=r"row 2 has time 1\.0 after 1\.0 at row 1"):
+        causal_rate([1.0, 2.0, 3.0], [True, False, False], time=[0.0, 1.0, 1.0])
+    # A time reset at a run start is fine.
+    rate = causal_rate([1.0, 2.0, 3.0], [True, False, True], time=[0.0, 30.0, 0.0])
+    assert_array_equal(rate, [0.0, 2.0, 0.0])
+
+
+def test_assemble_terms_gradient_and_compute_match_estimator():
+    T = np.array([[20.0, 21.0], [22.0, 25.0]])
+    out = assemble_terms(T, np.zeros_like(T), ["T", "gradient"])
+    assert_array_equal(out, [[20.0, 21.0, 1.0], [22.0, 25.0, 3.0]])
+    frame, _, _, _ = _two_run_frame(seed=5)
+    direct = compute_thermal_features(
+        frame["temperature"].to_numpy(),
+        time=frame["time"].to_numpy(),
+        run=frame["run"].to_numpy(),
+        smoothing=2.0,
+        seconds_per_unit=60.0,
+    )
+    estimator = ThermalFeatures(time="time", run="run", smoothing=2.0).fit_transform(frame)
+    assert_array_equal(direct, estimator)
+
+
+# --- several sensors, containers, names ------------------------------------------------------
+
+
+def test_several_sensors_names_and_values():
+    X = pd.DataFrame(
+        {"coil": [20.0, 21.0, 23.0], "case": [19.0, 19.5, 21.0], "run": ["r", "r", "r"]}
+    )
+    features = ThermalFeatures(
+        temperature=["coil", "case"], run="run", terms=("T", "dT", "TdT", "gradient")
+    ).set_output(transform="pandas")
+    out = features.fit_transform(X)
+    assert list(out.columns) == [
+        "coil_T",
+        "coil_dT",
+        "coil_T_dT",
+        "case_T",
+        "case_dT",
+        "case_T_dT",
+        "case_gradient",
+    ]
+    assert_array_equal(out["coil_dT"], [0.0, 1.0, 2.0])
+    assert_array_equal(out["case_dT"], [0.0, 0.5, 1.5])
+    assert_array_equal(out["case_T_dT"], [0.0, 9.75, 31.5])
+    assert_array_equal(out["case_gradient"], [-1.0, -1.5, -2.0])
+
+
+def test_several_sensors_by_position_names():
+    X = np.array([[20.0, 1.0, 19.0], [21.0, 1.0, 19.5]])
+    features = ThermalFeatures(temperature=[2, 0], terms=["T", "gradient"])
+    assert list(features.get_feature_names_out()) == ["x2_T", "x0_T", "x0_gradient"]
+    out = features.fit_transform(X)
+    assert list(features.get_feature_names_out()) == ["x2_T", "x0_T", "x0_gradient"]
+    assert_array_equal(out, [[19.0, 20.0, 1.0], [19.5, 21.0, 1.5]])
+    frame = pd.DataFrame(X, columns=["coil", "flag", "case"])
+    features.fit(frame)
+    assert list(features.get_feature_names_out()) == ["case_T", "coil_T", "coil_gradient"]
+
+
+def test_array_and_dataframe_give_equal_values():
+    frame, _, _, _ = _two_run_frame(seed=6)
+    by_name = ThermalFeatures(time="time", run="run", smoothing=1.5).fit_transform(frame)
+    array = frame[["run", "time", "temperature"]].to_numpy()  # object array: string run ids
+    by_position = ThermalFeatures(temperature=2, time=1, run=0, smoothing=1.5).fit_transform(array)
+    assert_array_equal(by_name, by_position)
+
+
+def test_polars_input_equals_pandas():
+    frame, _, _, _ = _two_run_frame(seed=7)
+    features = ThermalFeatures(time="time", run="run", smoothing=2.0, terms=VALID_4)
+    from_pandas = features.fit_transform(frame)
+    from_polars = features.fit_transform(pl.from_pandas(frame))
+    assert_array_equal(from_polars, from_pandas)
+    out = features.set_output(transform="polars").fit_transform(pl.from_pandas(frame))
+    assert isinstance(out, pl.DataFrame)
+    assert out.columns == ["T", "dT", "T_dT", "T2"]
+    assert_array_equal(out.to_numpy(), from_pandas)
+
+
+def test_set_output_pandas_named_columns():
+    frame, _, _, _ = _two_run_frame(seed=8)
+    frame.index = frame.index + 100
+    features = ThermalFeatures(time="time", run="run").set_output(transform="pandas")
+    out = features.fit(frame).transform(frame)
+    assert list(out.columns) == ["T", "dT", "T_dT"]
+    assert list(out.index) == list(frame.index)
+    assert_array_equal(out["T"], frame["temperature"])
+
+
+def test_transform_without_fit_is_stateless():
+    frame, _, _, _ = _two_run_frame(seed=9)
+    unfitted = ThermalFeatures(time="time", run="run")
+    assert unfitted.__sklearn_is_fitted__()
+    assert not hasattr(unfitted, "n_features_in_")
+    assert_array_equal(unfitted.transform(frame), unfitted.fit_transform(frame))
+    assert unfitted.n_features_in_ == 4
+    assert list(unfitted.feature_names_in_) == ["run", "time", "temperature", "note"]
+
+
+# --- GridSearchCV ----------------------------------------------------------------------------
+
+
+def test_gridsearch_tunes_smoothing_in_pipeline():
+    rng = np.random.default_rng(10)
+    parts = []
+    for run in range(4):
+        time = np.arange(120) * 10.0
+        temperature = 20.0 + np.cumsum(rng.normal(0.0, 0.2, 120))
+        parts.append(pd.DataFrame({"run": run, "time": time, "temperature": temperature}))
+    X = pd.concat(parts, ignore_index=True)
+    # The drift follows the rate of a smoothed temperature (time constant 4 samples).
+    true_rate = ThermalFeatures(time="time", run="run", smoothing=4.0, terms=["dT"])
+    y = 0.3 * true_rate.fit_transform(X)[:, 0] + rng.normal(0.0, 1e-3, len(X))
+    pipe = make_pipeline(ThermalFeatures(time="time", run="run", terms=["dT"]), LinearRegression())
+    grid = {"thermalfeatures__smoothing": [0.0, 4.0, 20.0]}
+    search = GridSearchCV(pipe, grid, cv=GroupKFold(n_splits=2)).fit(X, y, groups=X["run"])
+    assert search.best_params_["thermalfeatures__smoothing"] in grid["thermalfeatures__smoothing"]
+    assert search.best_params_["thermalfeatures__smoothing"] == 4.0
+    assert np.all(np.isfinite(search.cv_results_["mean_test_score"]))
+    assert search.cv_results_["mean_test_score"].max() > 0.99
+
+
+# --- errors ----------------------------------------------------------------------------------
+
+
+def test_missing_column_is_named_with_available_ones():
+    X = _frame(T4, time=[0.0, 1.0, 2.0, 3.0])
+    with pytest.raises(
+        ValueError, match=r"Column 'coil' \(temperature\) not found in X; available columns: "
+    ) as info:
+        ThermalFeatures(temperature="coil").fit(X)
+    assert "['temperature', 'time']" in str(info.value)
+    with pytest.raises(ValueError, match=r"Column 'run' \(run\) not found"):
+        ThermalFeatures(run="run").fit(X)
+
+
+def test_column_name_with_array_and_position_out_of_range():
+    X = np.ones((3, 2))
+    with pytest.raises(ValueError, match=r"temperature='temperature' names a column, but X has"):
+        ThermalFeatures().fit(X)
+    with pytest.raises(ValueError, match=r"time=5 is not a column position of X, which has 2"):
+        ThermalFeatures(temperature=0, time=5).fit(X)
+
+
+def test_same_column_in_two_roles_and_duplicate_sensors():
+    X = _frame(T4, time=[0.0, 1.0, 2.0, 3.0])
+    with pytest.raises(ValueError, match=r"time='temperature' is the same column as temperature"):
+        ThermalFeatures(time="temperature").fit(X)
+    with pytest.raises(ValueError, match="lists a column twice"):
+        ThermalFeatures(temperature=["temperature", 0]).fit(X)
+    with pytest.raises(ValueError, match="temperature is empty"):
+        ThermalFeatures(temperature=[]).fit(X)
+
+
+def test_non_numeric_temperature_and_time():
+    with pytest.raises(ValueError, match=r"temperature column 'temperature' must be numeric"):
+        ThermalFeatures().fit(_frame(["warm", "hot", "hot", "hot"]))
+    with pytest.raises(ValueError, match=r"time column 'time' must be numeric"):
+        ThermalFeatures(time="time").fit(_frame(T4, time=["a", "b", "c", "d"]))
+    # Strings that look like numbers are not parsed silently in an object array either.
+    X = np.array([["20.5", 1], ["21.0", 1]], dtype=object)
+    with pytest.raises(ValueError, match=r"temperature column 0 must be numeric"):
+        ThermalFeatures(temperature=0).fit(X)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_nan_or_inf_temperature_names_column_and_row(bad):
+    X = _frame([20.0, 21.0, bad, 22.0, bad])
+    with pytest.raises(
+        ValueError,
+        match=r"temperature column 'temperature' contains NaN or inf \(2 value\(s\); "
+        r"first at row 2",
+    ):
+        ThermalFeatures().fit(X)
+    with pytest.raises(ValueError, match=r"first at row 2"):
+        ThermalFeatures().transform(X)
+
+
+def test_time_not_increasing_names_run_and_row():
+    X = pd.DataFrame(
+        {
+            "run": ["a", "b", "a", "b", "b", "a"],
+            "time": [0.0, 0.0, 60.0, 30.0, 30.0, 50.0],
+            "temperature": [20.0, 30.0, 21.0, 29.0, 28.0, 22.0],
+        }
+    )
+    with pytest.raises(
+        ValueError,
+        match=r"time column 'time': time must increase strictly within each run; in run 'b' "
+        r"row 4 has time 30\.0, not after 30\.0 at row 3",
+    ):
+        ThermalFeatures(time="time", run="run").fit(X)
+    # Without the run column, X is one run: the first violation is row 1 (0.0 after 0.0).
+    with pytest.raises(ValueError, match=r"; row 1 has time 0\.0, not after 0\.0 at row 0"):
+        ThermalFeatures(time="time").transform(X)
+
+
+def test_missing_run_ids_are_rejected():
+    X = _frame(T4, run=["a", None, "a", "a"])
+    with pytest.raises(ValueError, match=r"run column 'run' has missing run ids \(first at row 1"):
+        ThermalFeatures(run="run").fit(X)
+    X = _frame(T4, run=[1.0, 1.0, np.nan, 1.0])
+    with pytest.raises(ValueError, match=r"missing run ids \(first at row 2"):
+        ThermalFeatures(run="run").fit(X)
+    with pytest.raises(ValueError, match=r"run column 1 has missing run ids \(first at row 3"):
+        ThermalFeatures(temperature=0, run=1).fit(
+            np.array([[20, "a"], [21, "a"], [22, "b"], [23, None]], dtype=object)
+        )
+    X = pl.DataFrame({"temperature": T4, "run": [None, "a", "a", "a"]})
+    with pytest.raises(ValueError, match=r"run column 'run' has missing run ids \(first at row 0"):
+        ThermalFeatures(run="run").fit(X)
+
+
+@pytest.mark.parametrize(
+    ("terms", "message"),
+    [
+        (
+            ("T", "dT2"),
+            re.escape("Unknown term(s) ['dT2'] in terms; valid terms are ['T', 'dT', 'TdT', 'T2'"),
+        ),
+        ((), "terms is empty"),
+        (("T", "dT", "T"), re.escape("Duplicate term(s) ['T']")),
+        (("gradient",), "needs at least two temperature columns; got 1"),
+    ],
+)
+def test_bad_terms(terms, message):
+    with pytest.raises(ValueError, match=message):
+        ThermalFeatures(terms=terms).fit(_frame(T4))
+    with pytest.raises(ValueError, match=message):
+        ThermalFeatures(terms=terms).get_feature_names_out()
+
+
+def test_wrong_columns_at_transform():
+    X = _frame(T4, time=[0.0, 1.0, 2.0, 3.0])
+    features = ThermalFeatures(time="time").fit(X)
+    with pytest.raises(
+        ValueError, match="Feature names seen at fit time, yet now missing:\n- time"
+    ):
+        features.transform(X[["temperature"]])
+    with pytest.raises(ValueError, match="The feature names should match those"):
+        features.transform(X.rename(columns={"time": "seconds"}))
+    array_fitted = ThermalFeatures(temperature=0).fit(np.ones((3, 2)))
+    with pytest.raises(ValueError, match="X has 3 features, but ThermalFeatures is expecting 2"):
+        array_fitted.transform(np.ones((3, 3)))
+
+
+@pytest.mark.parametrize(
+    ("params", "name"),
+    [
+        ({"smoothing": -1.0}, "smoothing"),
+        ({"smoothing": "big"}, "smoothing"),
+        ({"rate_unit": "day"}, "rate_unit"),
+        ({"rate_unit": 0.0}, "rate_unit"),
+        ({"terms": "T"}, "terms"),
+        ({"temperature": 1.5}, "temperature"),
+        ({"time": -1}, "time"),
+        ({"run": 2.0}, "run"),
+    ],
+)
+def test_bad_parameter_types(params, name):
+    with pytest.raises(InvalidParameterError, match=f"The '{name}' parameter of ThermalFeatures"):
+        ThermalFeatures(**params).fit(_frame(T4))
+
+
+def test_bad_column_key_type_in_list_and_sparse_input():
+    with pytest.raises(TypeError, match=r"temperature must name a column .* got 1\.5"):
+        ThermalFeatures(temperature=["temperature", 1.5]).fit(_frame(T4))
+    with pytest.raises(TypeError, match=r"[Ss]parse"):
+        ThermalFeatures(temperature=0).fit(sparse.csr_matrix(np.ones((3, 2))))
