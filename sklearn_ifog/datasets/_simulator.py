@@ -1,6 +1,667 @@
-"""Thermal-test simulator (placeholder until the simulator work lands; being written now)."""
+"""Physics-based simulator of an IFOG thermal-test campaign.
+
+The chain, per run (one recording of one unit at one azimuth)::
+
+    chamber set-point profile (+ controller fluctuation)
+      -> outer coil layer      (first-order lag, tau_outer)
+      -> inner coil layer      (first-order lag of the outer layer, tau_inner)
+      -> temperature sensor    (first-order lag of the outer layer, tau_sensor, offset, 0.01 degC)
+    drift = static_bias(T_coil) + k(T_coil) * (dT_coil/dt + gamma * d(T_outer - T_inner)/dt)
+    rate  = quantise(reference + drift + turn-on bias + bias instability + angle random walk)
+
+Every recursion runs through :func:`scipy.signal.lfilter`; the only Python loop is over runs.
+"""
+
+from numbers import Integral, Real
+
+import numpy as np
+import pandas as pd
+from scipy.signal import lfilter
+from sklearn.utils import Bunch, check_random_state
+
+from sklearn_ifog._compat import Interval, StrOptions, validate_params
+from sklearn_ifog.metrics import earth_rate
+
+__all__ = ["make_thermal_campaign"]
+
+PROFILES = ("paper", "cycle", "staircase")
+FRAME_COLUMNS = (
+    "unit",
+    "run",
+    "azimuth",
+    "time",
+    "temperature",
+    "rate",
+    "reference",
+    "drift",
+    "chamber_temperature",
+)
+FEATURE_NAMES = ("unit", "run", "azimuth", "time", "temperature")
+TARGET_NAME = "drift_measured"
+COMPONENT_COLUMNS = (
+    "coil_outer",
+    "coil_inner",
+    "coil_mean",
+    "coil_rate",
+    "static_bias",
+    "shupe",
+    "turn_on_bias",
+    "bias_instability",
+    "angle_random_walk",
+    "quantisation",
+)
+
+# Reference temperature of the Shupe coefficient and of the static-bias polynomial: the middle
+# of the usual -10..40 degC test range (reference paper, section 2.1).
+REFERENCE_TEMPERATURE = 15.0
+SENSOR_RESOLUTION = 0.01  # degC, reference paper section 4
+OUTPUT_ANGLE_QUANTUM = 0.05 / 3600.0  # deg (0.05 arcsec), typical closed-loop IFOG LSB
+CHAMBER_FLUCTUATION = 0.05  # degC std, reference paper section 4: control accuracy 0.1 degC
+CHAMBER_FLUCTUATION_TIME = 300.0  # s, typical chamber controller cycle
+TURN_ON_BIAS_REPEATABILITY = 0.003  # deg/h std per run, typical navigation grade
+_SECONDS_PER_MINUTE = 60.0
+
+_DESCR = """\
+Simulated IFOG thermal-test campaign
+------------------------------------
+
+Each unit (its own coefficients) is held static at a known azimuth in a thermal chamber while
+the chamber follows a temperature profile; each row is one sample of one run.
+
+Columns: unit, run (unique across the campaign), azimuth (deg), time (s from the start of the
+run), temperature (coil sensor reading, degC, 0.01 degC resolution), rate (gyro output, deg/h),
+reference (Earth-rate component, deg/h), drift (true thermal drift, noise-free, deg/h),
+chamber_temperature (degC).
+
+Target: drift_measured = rate - reference (thermal drift plus gyro noise).
+
+Physics: coil layers lag the chamber (first-order), the Shupe drift is driven by the coil's
+temperature rates with a temperature-dependent coefficient k(T) = k0 (1 + k1 (T - T0)), plus a
+static temperature bias, turn-on bias, bias instability, angle random walk and output
+quantisation. The true coefficients of each unit are in ``unit_params``.
+"""
 
 
-def make_thermal_campaign(*args, **kwargs):
-    """Placeholder."""
-    raise NotImplementedError
+def first_order_lag(u, sampling_period, time_constant, initial):
+    """Response of ``tau * dy/dt = u - y`` to ``u`` sampled every ``sampling_period`` seconds.
+
+    First-order-hold discretisation (exact when ``u`` is linear between samples, as a
+    chamber ramp is), run by :func:`scipy.signal.lfilter`; ``y[0] = initial``.
+
+    Parameters
+    ----------
+    u : ndarray of shape (n_samples,)
+        Input, sampled on a uniform grid.
+    sampling_period : float
+        Sample spacing, seconds.
+    time_constant : float
+        Time constant tau, seconds.
+    initial : float
+        State at the first sample.
+
+    Returns
+    -------
+    y : ndarray of shape (n_samples,)
+        Lagged signal.
+    """
+    pole = np.exp(-sampling_period / time_constant)
+    gain_ratio = (1.0 - pole) * time_constant / sampling_period
+    numerator = [1.0 - gain_ratio, gain_ratio - pole]
+    y = np.empty_like(u, dtype=np.float64)
+    y[0] = initial
+    if u.shape[0] > 1:
+        # Direct-form-II-transposed state after the first sample (input u[0], output y[0]).
+        state = [numerator[1] * u[0] + pole * initial]
+        y[1:], _ = lfilter(numerator, [1.0, -pole], u[1:], zi=state)
+    return y
+
+
+def gauss_markov(white, sampling_period, correlation_time, sigma, initial):
+    """First-order Gauss–Markov sequence with stationary std ``sigma``.
+
+    ``x[n] = phi * x[n-1] + sigma * sqrt(1 - phi**2) * white[n]``, ``phi =
+    exp(-sampling_period / correlation_time)``, started from ``x[-1] = initial``.
+
+    Parameters
+    ----------
+    white : ndarray of shape (n_samples,)
+        Standard normal innovations.
+    sampling_period : float
+        Sample spacing, seconds.
+    correlation_time : float
+        Correlation time, seconds.
+    sigma : float
+        Stationary standard deviation.
+    initial : float
+        State before the first sample (draw it from N(0, sigma**2) for a stationary start).
+
+    Returns
+    -------
+    x : ndarray of shape (n_samples,)
+        The sequence.
+    """
+    phi = np.exp(-sampling_period / correlation_time)
+    drive = sigma * np.sqrt(1.0 - phi**2) * white
+    x, _ = lfilter([1.0], [1.0, -phi], drive, zi=[phi * initial])
+    return x
+
+
+def shupe_coefficient(temperature, k0, k1, reference_temperature=REFERENCE_TEMPERATURE):
+    """Temperature-dependent Shupe coefficient ``k(T) = k0 * (1 + k1 * (T - T0))``.
+
+    Parameters
+    ----------
+    temperature : ndarray
+        Coil temperature, degC.
+    k0 : float
+        Coefficient at ``reference_temperature``, deg/h per (degC/min).
+    k1 : float
+        Relative change per degC, 1/degC.
+    reference_temperature : float, default=15.0
+        T0, degC.
+
+    Returns
+    -------
+    k : ndarray
+        Coefficient, deg/h per (degC/min).
+    """
+    return k0 * (1.0 + k1 * (temperature - reference_temperature))
+
+
+def static_bias(temperature, coefficients, reference_temperature=REFERENCE_TEMPERATURE):
+    """Static temperature bias ``b0 + b1 * (T - T0) + b2 * (T - T0)**2`` in deg/h.
+
+    Parameters
+    ----------
+    temperature : ndarray
+        Coil temperature, degC.
+    coefficients : sequence of float
+        ``(b0, b1, b2)``: deg/h, deg/h/degC, deg/h/degC².
+    reference_temperature : float, default=15.0
+        T0, degC.
+
+    Returns
+    -------
+    bias : ndarray
+        Static bias, deg/h.
+    """
+    return np.polynomial.polynomial.polyval(temperature - reference_temperature, coefficients)
+
+
+def _signed_uniform(rng, low, high):
+    return float(rng.choice([-1.0, 1.0]) * rng.uniform(low, high))
+
+
+def _draw_unit_params(rng, unit):
+    """One unit's true coefficients (a fixed number of draws, in a fixed order)."""
+    return {
+        "unit": unit,
+        "tau_outer": float(rng.uniform(15.0, 30.0)) * _SECONDS_PER_MINUTE,
+        "tau_inner": float(rng.uniform(5.0, 15.0)) * _SECONDS_PER_MINUTE,
+        "tau_sensor": float(rng.uniform(1.0, 3.0)) * _SECONDS_PER_MINUTE,
+        "sensor_offset": float(rng.uniform(-0.1, 0.1)),
+        "k0": float(rng.uniform(0.1, 0.3)),
+        "k1": float(rng.uniform(0.01, 0.025)),
+        "gradient_weight": float(rng.uniform(-0.5, 0.5)),
+        "bias_coefficients": (
+            _signed_uniform(rng, 0.05, 0.15),
+            _signed_uniform(rng, 2e-3, 4e-3),
+            _signed_uniform(rng, 1e-5, 5e-5),
+        ),
+        "angle_random_walk": float(rng.uniform(0.0005, 0.001)),
+        "bias_instability": float(rng.uniform(0.002, 0.005)),
+        "bias_correlation_time": float(rng.uniform(300.0, 1000.0)),
+        "turn_on_bias_repeatability": TURN_ON_BIAS_REPEATABILITY,
+        "reference_temperature": REFERENCE_TEMPERATURE,
+    }
+
+
+def _draw_ramp_rate(rng, ramp_rate):
+    if np.ndim(ramp_rate) == 0:
+        return float(ramp_rate)
+    low, high = ramp_rate
+    return float(np.exp(rng.uniform(np.log(low), np.log(high))))
+
+
+def _chamber_profile(profile, rng, ramp_rate, temperature_range):
+    """Breakpoints (seconds, degC) of a piecewise-linear chamber set-point."""
+    low_limit, high_limit = temperature_range
+    span = high_limit - low_limit
+    rate = _draw_ramp_rate(rng, ramp_rate) / _SECONDS_PER_MINUTE  # degC/s
+    if profile == "paper":
+        # Reference paper, section 4: soak 1 h at the low level, ramp up, soak 2 h at the top.
+        low = rng.uniform(low_limit, low_limit + 0.4 * span)
+        high = rng.uniform(high_limit - 0.3 * span, high_limit)
+        levels = [low, high]
+        soaks = [rng.uniform(45.0, 75.0), rng.uniform(100.0, 140.0)]
+    elif profile == "cycle":
+        low = rng.uniform(low_limit, low_limit + 0.2 * span)
+        high = rng.uniform(high_limit - 0.2 * span, high_limit)
+        n_cycles = int(rng.randint(1, 3))
+        levels = [low] + [high, low] * n_cycles
+        soaks = list(rng.uniform(30.0, 60.0, size=len(levels)))
+    else:  # staircase
+        low = rng.uniform(low_limit, low_limit + 0.2 * span)
+        high = rng.uniform(high_limit - 0.2 * span, high_limit)
+        n_steps = int(rng.randint(3, 6))
+        levels = list(np.linspace(low, high, n_steps + 1))
+        if rng.uniform() < 0.5:
+            levels = levels[::-1]
+        soaks = list(rng.uniform(30.0, 60.0, size=len(levels)))
+    times, temperatures = [0.0], [levels[0]]
+    for index, (level, soak) in enumerate(zip(levels, soaks, strict=True)):
+        if index > 0:
+            times.append(times[-1] + abs(level - temperatures[-1]) / rate)
+            temperatures.append(level)
+        times.append(times[-1] + soak * _SECONDS_PER_MINUTE)
+        temperatures.append(level)
+    return np.asarray(times), np.asarray(temperatures), rate * _SECONDS_PER_MINUTE
+
+
+def _simulate_run(unit_params, chamber_setpoint, sampling_period, reference, noise, rng):
+    """Arrays of one run: temperatures, drift components and gyro output."""
+    n_samples = chamber_setpoint.shape[0]
+    p = unit_params
+    if noise:
+        fluctuation = gauss_markov(
+            rng.standard_normal(n_samples),
+            sampling_period,
+            CHAMBER_FLUCTUATION_TIME,
+            CHAMBER_FLUCTUATION,
+            rng.normal(0.0, CHAMBER_FLUCTUATION),
+        )
+        chamber = chamber_setpoint + fluctuation
+    else:
+        chamber = chamber_setpoint.copy()
+    # The run starts after a soak: coil and sensor in equilibrium with the chamber.
+    outer = first_order_lag(chamber, sampling_period, p["tau_outer"], chamber[0])
+    inner = first_order_lag(outer, sampling_period, p["tau_inner"], chamber[0])
+    sensor = first_order_lag(outer, sampling_period, p["tau_sensor"], chamber[0])
+    temperature = np.round((sensor + p["sensor_offset"]) / SENSOR_RESOLUTION) * SENSOR_RESOLUTION
+    # Exact derivatives of the continuous lag equations at the samples, degC/min.
+    outer_rate = (chamber - outer) / p["tau_outer"] * _SECONDS_PER_MINUTE
+    inner_rate = (outer - inner) / p["tau_inner"] * _SECONDS_PER_MINUTE
+    coil_mean = 0.5 * (outer + inner)
+    coil_rate = 0.5 * (outer_rate + inner_rate) + p["gradient_weight"] * (outer_rate - inner_rate)
+    shupe = shupe_coefficient(coil_mean, p["k0"], p["k1"], p["reference_temperature"]) * coil_rate
+    bias = static_bias(coil_mean, p["bias_coefficients"], p["reference_temperature"])
+    drift = bias + shupe
+
+    zeros = np.zeros(n_samples)
+    if noise:
+        turn_on = np.full(n_samples, rng.normal(0.0, p["turn_on_bias_repeatability"]))
+        instability = gauss_markov(
+            rng.standard_normal(n_samples),
+            sampling_period,
+            p["bias_correlation_time"],
+            p["bias_instability"],
+            rng.normal(0.0, p["bias_instability"]),
+        )
+        # IEEE Std 952-1997: white rate noise of PSD N^2 averaged over dt has std N / sqrt(dt);
+        # N in deg/sqrt(h) -> N * 60 / sqrt(dt[s]) in deg/h.
+        arw = p["angle_random_walk"] * 60.0 / np.sqrt(sampling_period)
+        white = arw * rng.standard_normal(n_samples)
+        unquantised = reference + drift + turn_on + instability + white
+        # The output counts whole angle quanta; the rate is the counted angle per sample.
+        angle = np.cumsum(unquantised) * (sampling_period / 3600.0)
+        phase = rng.uniform(0.0, OUTPUT_ANGLE_QUANTUM)
+        counted = np.round((angle + phase) / OUTPUT_ANGLE_QUANTUM)
+        counted_before = np.concatenate(([np.round(phase / OUTPUT_ANGLE_QUANTUM)], counted[:-1]))
+        rate = (counted - counted_before) * OUTPUT_ANGLE_QUANTUM * (3600.0 / sampling_period)
+        quantisation = rate - unquantised
+    else:
+        turn_on = instability = white = quantisation = zeros
+        rate = reference + drift
+    return {
+        "temperature": temperature,
+        "rate": rate,
+        "drift": drift,
+        "chamber_temperature": chamber,
+        "coil_outer": outer,
+        "coil_inner": inner,
+        "coil_mean": coil_mean,
+        "coil_rate": coil_rate,
+        "static_bias": bias,
+        "shupe": shupe,
+        "turn_on_bias": turn_on,
+        "bias_instability": instability,
+        "angle_random_walk": white,
+        "quantisation": quantisation,
+    }
+
+
+def _check_profile(profile):
+    if isinstance(profile, str):
+        names = list(PROFILES) if profile == "mix" else [profile]
+    else:
+        names = list(profile)
+        if not names:
+            raise ValueError("profile must name at least one profile, got an empty list.")
+    unknown = [name for name in names if name not in PROFILES]
+    if unknown:
+        raise ValueError(
+            f"profile must be one of {list(PROFILES)} or 'mix' (or a list of them), "
+            f"got {unknown[0]!r}."
+        )
+    return names
+
+
+def _check_azimuths(azimuths):
+    try:
+        values = np.asarray(azimuths, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"azimuths must be numbers in degrees, got {azimuths!r}.") from exc
+    values = np.atleast_1d(values)
+    if values.ndim != 1 or values.size == 0:
+        raise ValueError(f"azimuths must be a non-empty 1-D list of degrees, got {azimuths!r}.")
+    if not np.all(np.isfinite(values)):
+        raise ValueError(f"azimuths must be finite, got {azimuths!r}.")
+    return values
+
+
+def _check_range(value, name, lower=None):
+    """A positive float, or a (low, high) pair with low <= high."""
+    if np.ndim(value) == 0:
+        return float(value)
+    pair = np.asarray(value, dtype=np.float64)
+    if pair.shape != (2,) or not np.all(np.isfinite(pair)) or pair[0] > pair[1]:
+        raise ValueError(f"{name} must be a number or a (low, high) pair, got {value!r}.")
+    if lower is not None and pair[0] <= lower:
+        raise ValueError(f"{name} must be > {lower}, got {value!r}.")
+    return (float(pair[0]), float(pair[1]))
+
+
+@validate_params(
+    {
+        "n_units": [Interval(Integral, 1, None, closed="left")],
+        "n_runs": [Interval(Integral, 1, None, closed="left")],
+        "azimuths": ["array-like", Real],
+        "latitude": [Interval(Real, -90.0, 90.0, closed="both")],
+        "profile": [StrOptions({*PROFILES, "mix"}), list, tuple],
+        "sampling_period": [Interval(Real, 0.1, 600.0, closed="both")],
+        "ramp_rate": [Interval(Real, 0.0, None, closed="neither"), tuple, list],
+        "temperature_range": [tuple, list],
+        "noise": ["boolean"],
+        "random_state": ["random_state"],
+        "as_frame": ["boolean"],
+        "return_X_y": ["boolean"],
+    },
+    prefer_skip_nested_validation=True,
+)
+def make_thermal_campaign(
+    n_units=3,
+    n_runs=5,
+    azimuths=(0.0, 45.0, 90.0, 135.0),
+    latitude=45.0,
+    profile="paper",
+    *,
+    sampling_period=10.0,
+    ramp_rate=(0.1, 2.0),
+    temperature_range=(-10.0, 40.0),
+    noise=True,
+    random_state=None,
+    as_frame=True,
+    return_X_y=False,
+):
+    """Simulate a thermal-test campaign of navigation-grade IFOGs.
+
+    Every unit (gyro) has its own coefficients, drawn from ``random_state``, and is recorded
+    ``n_runs`` times at each azimuth while the thermal chamber follows a temperature profile.
+    Runs differ in ramp rate, soak lengths and temperature levels, so some runs reach
+    temperatures that others do not (as held-out runs do in practice). The physics, per run:
+
+    1. chamber set-point, piecewise linear (profile below), plus a controller fluctuation
+       (first-order Gauss–Markov);
+    2. outer coil layer: first-order lag of the chamber (``tau_outer``); inner layer:
+       first-order lag of the outer layer (``tau_inner``), hence a radial gradient while the
+       temperature changes; coil temperature ``T = (T_outer + T_inner) / 2``;
+    3. Shupe drift ``k(T) * (dT/dt + gamma * d(T_outer - T_inner)/dt)`` (rates in degC/min) with
+       ``k(T) = k0 * (1 + k1 * (T - T0))``: the drift follows the coil's temperature rate, and
+       the temperature dependence of ``k`` is why a T·ΔT term helps (reference paper, Eq. 13);
+    4. static bias ``b0 + b1 (T - T0) + b2 (T - T0)²``; ``drift`` = static bias + Shupe drift;
+    5. temperature sensor: first-order lag of the outer layer (``tau_sensor``), calibration
+       offset, 0.01 degC resolution;
+    6. gyro output: reference + drift + turn-on bias (per run) + bias instability
+       (first-order Gauss–Markov) + angle random walk (white rate noise), quantised by counting
+       whole output angle quanta;
+    7. reference: the Earth-rate component Ω_e·cos(latitude)·cos(azimuth), computed by
+       :func:`sklearn_ifog.metrics.earth_rate` (Ω_e = 15.041067 deg/h).
+
+    Parameters
+    ----------
+    n_units : int, default=3
+        Number of gyros, each with its own coefficients.
+    n_runs : int, default=5
+        Runs per unit and azimuth (the reference paper tests each gyro five times).
+    azimuths : float or array-like of float, default=(0.0, 45.0, 90.0, 135.0)
+        Azimuths of the sensitive axis from true north, degrees.
+    latitude : float, default=45.0
+        Latitude of the test site, degrees.
+    profile : {"paper", "cycle", "staircase", "mix"} or list of str, default="paper"
+        Chamber profile of every run. ``"paper"``: the reference paper's sequence (soak about
+        1 h at a low level, ramp up, soak about 2 h at the top); ``"cycle"``: one or two
+        low-high-low cycles with soaks of 30-60 min; ``"staircase"``: 3-5 equal steps up or
+        down with soaks of 30-60 min. A list draws each run's profile uniformly from the list;
+        ``"mix"`` is the list of all three. Levels are drawn per run inside
+        ``temperature_range``: paper: low in the bottom 40 % of the range, top in the top
+        30 %; cycle and staircase: bottom 20 % and top 20 %.
+    sampling_period : float, default=10.0
+        Sample spacing, seconds, in [0.1, 600]. The default campaign has about 10^5 rows;
+        rows (and memory, about 200 bytes a row with the components) scale as
+        1/sampling_period.
+    ramp_rate : float or (float, float), default=(0.1, 2.0)
+        Chamber ramp rate, degC/min: one value for every run, or a range from which each run
+        draws its rate (log-uniformly).
+    temperature_range : (float, float), default=(-10.0, 40.0)
+        Lowest and highest chamber temperature, degC.
+    noise : bool, default=True
+        Whether to add the chamber fluctuation, turn-on bias, bias instability, angle random
+        walk and output quantisation. With ``noise=False`` the output is exactly
+        ``reference + drift`` (the temperature reading stays quantised).
+    random_state : int, RandomState instance or None, default=None
+        Seed of every random draw (unit coefficients first, then runs); an int gives the same
+        campaign bit for bit.
+    as_frame : bool, default=True
+        Return pandas objects (``frame``, ``data`` as DataFrames, ``target`` as a Series).
+        Unlike scikit-learn's ``fetch_*`` functions the default is True: the run and time
+        columns make a table the natural form. False gives numpy arrays and ``frame=None``.
+    return_X_y : bool, default=False
+        Return ``(data, target)`` instead of a Bunch.
+
+    Returns
+    -------
+    data : :class:`~sklearn.utils.Bunch`
+        Dictionary-like object with attributes:
+
+        frame : DataFrame or None
+            Columns unit (int), run (int, unique across the campaign), azimuth (deg), time
+            (s, from 0 in each run), temperature (sensor reading, degC), rate (gyro output,
+            deg/h), reference (deg/h), drift (true thermal drift, deg/h) and
+            chamber_temperature (degC). Rows grouped by run, in time order.
+        data : DataFrame or ndarray of shape (n_samples, 5)
+            Columns unit, run, azimuth, time, temperature.
+        target : Series or ndarray of shape (n_samples,)
+            ``drift_measured = rate - reference``.
+        feature_names : list of str
+            Names of the data columns.
+        target_names : list of str
+            ``["drift_measured"]``.
+        unit_params : list of dict
+            True coefficients of each unit (keys as in the Notes table; times in seconds).
+        run_params : DataFrame or list of dict
+            Per run: unit, run, azimuth, profile, ramp_rate (degC/min), duration (s),
+            min_setpoint and max_setpoint (degC), breakpoint_times (s) and
+            breakpoint_temperatures (degC) of the chamber set-point.
+        components : DataFrame or dict of ndarray
+            Per row, the hidden truth: coil_outer, coil_inner, coil_mean (degC), coil_rate
+            (the rate driving the Shupe drift, degC/min), static_bias, shupe, turn_on_bias,
+            bias_instability, angle_random_walk, quantisation (deg/h).
+        DESCR : str
+            Description of the data set.
+
+    (data, target) : tuple if ``return_X_y`` is True
+        ``data`` and ``target`` as above.
+
+    See Also
+    --------
+    sklearn_ifog.metrics.earth_rate : The reference column's formula.
+
+    Notes
+    -----
+    Per-unit coefficients are drawn uniformly from the ranges below ("±" draws the sign too).
+    Values marked *typical* are representative of navigation-grade IFOGs rather than taken
+    from a specific device.
+
+    ============================  ============================  ===================================
+    coefficient                   default                       source / justification
+    ============================  ============================  ===================================
+    tau_outer (chamber->coil)     15-30 min                     typical; the reference paper (s. 4)
+                                                                notes the chamber air gap slows heat
+                                                                transfer ("tens of minutes")
+    tau_inner (outer->inner)      5-15 min                      typical radial diffusion time of a
+                                                                potted coil
+    tau_sensor                    1-3 min                       typical thermistor on the coil spool
+    sensor_offset                 ±0.1 degC                     typical calibration error
+    sensor resolution             0.01 degC                     reference paper, s. 4
+    k0 (Shupe)                    0.05-0.15 deg/h per degC/min  order of the Shupe effect of a ~1 km
+                                                                quadrupole coil (Shupe 1980;
+                                                                Lefèvre, *The Fiber-Optic
+                                                                Gyroscope*); gives 0.01-0.3 deg/h
+                                                                at 0.1-2 degC/min, cf. the paper's
+                                                                Fig. 3 (> 0.2 deg/h)
+    k1                            0.01-0.025 /degC              chosen so that T·ΔT matters (paper
+                                                                Eq. 13); physically the temperature
+                                                                dependence of the thermo-optic and
+                                                                coating/potting (elasto-optic)
+                                                                terms
+    T0                            15 degC                       middle of the -10..40 degC range
+    gamma (gradient weight)       -0.5..0.5                     chosen: winding asymmetry between
+                                                                outer and inner layers
+    b0, b1, b2 (static bias)      ±0.1 deg/h, ±(1-3)e-3 deg/h/  typical bias temperature
+                                  degC, ±(1-5)e-5 deg/h/degC²   sensitivity of navigation-grade
+                                                                IFOGs
+    angle random walk N           0.001-0.003 deg/sqrt(h)       IEEE Std 952-1997 noise term N;
+                                                                navigation grade (typical)
+    bias instability              0.002-0.005 deg/h std,        IEEE Std 952-1997 term B (modelled
+                                  correlation 300-1000 s        as first-order Gauss–Markov, a
+                                                                common approximation; typical)
+    turn-on bias repeatability    0.003 deg/h std per run       typical
+    output angle quantum          0.05 arcsec                   typical closed-loop IFOG LSB
+    chamber fluctuation           0.05 degC std, 300 s          paper s. 4: control accuracy 0.1 degC
+    Ω_e                           15.041067 deg/h               WGS 84 / IERS, 7.292115e-5 rad/s
+    ============================  ============================  ===================================
+
+    The white rate noise of angle random walk N (deg/sqrt(h)) averaged over a sample of
+    ``dt`` seconds has std ``N * 60 / sqrt(dt)`` deg/h (IEEE Std 952-1997, Annex C). The
+    first-order lags are discretised with a first-order hold (exact for linear ramps); the
+    ``coil_rate`` component is the exact derivative of the continuous lag equations.
+
+    References
+    ----------
+    .. [1] D. M. Shupe, "Thermally induced nonreciprocity in the fiber-optic interferometer",
+       Applied Optics 19(5), 654-655, 1980.
+    .. [2] H. C. Lefèvre, *The Fiber-Optic Gyroscope*, 2nd ed., Artech House, 2014.
+    .. [3] IEEE Std 952-1997, IEEE Standard Specification Format Guide and Test Procedure for
+       Single-Axis Interferometric Fiber Optic Gyros.
+
+    Examples
+    --------
+    >>> from sklearn_ifog.datasets import make_thermal_campaign
+    >>> campaign = make_thermal_campaign(n_units=1, n_runs=1, azimuths=[0.0], random_state=0)
+    >>> list(campaign.frame.columns)
+    ['unit', 'run', 'azimuth', 'time', 'temperature', 'rate', 'reference', 'drift', 'chamber_temperature']
+    >>> round(float(campaign.frame["reference"].iloc[0]), 4)
+    10.6357
+    >>> X, y = make_thermal_campaign(n_units=2, n_runs=1, random_state=0, return_X_y=True)
+    >>> sorted(X["unit"].unique().tolist()), y.name
+    ([0, 1], 'drift_measured')
+    """  # noqa: E501
+    azimuth_values = _check_azimuths(azimuths)
+    profile_names = _check_profile(profile)
+    ramp = _check_range(ramp_rate, "ramp_rate", lower=0.0)
+    if np.ndim(ramp) == 0 and ramp <= 0:
+        raise ValueError(f"ramp_rate must be > 0, got {ramp_rate!r}.")
+    low_high = _check_range(temperature_range, "temperature_range")
+    if np.ndim(low_high) == 0 or low_high[0] >= low_high[1]:
+        raise ValueError(
+            f"temperature_range must be a (low, high) pair with low < high, "
+            f"got {temperature_range!r}."
+        )
+
+    rng = check_random_state(random_state)
+    unit_params = [_draw_unit_params(rng, unit) for unit in range(n_units)]
+
+    blocks, component_blocks, run_params = [], [], []
+    run_id = 0
+    for params in unit_params:
+        for azimuth in azimuth_values:
+            reference_value = earth_rate(latitude, azimuth)
+            for _ in range(n_runs):
+                name = profile_names[int(rng.randint(len(profile_names)))]
+                times, setpoints, rate_used = _chamber_profile(name, rng, ramp, low_high)
+                n_samples = int(np.floor(times[-1] / sampling_period)) + 1
+                time = np.arange(n_samples) * sampling_period
+                setpoint = np.interp(time, times, setpoints)
+                reference = np.full(n_samples, reference_value)
+                arrays = _simulate_run(params, setpoint, sampling_period, reference, noise, rng)
+                blocks.append(
+                    {
+                        "unit": np.full(n_samples, params["unit"], dtype=np.int64),
+                        "run": np.full(n_samples, run_id, dtype=np.int64),
+                        "azimuth": np.full(n_samples, azimuth),
+                        "time": time,
+                        "temperature": arrays["temperature"],
+                        "rate": arrays["rate"],
+                        "reference": reference,
+                        "drift": arrays["drift"],
+                        "chamber_temperature": arrays["chamber_temperature"],
+                    }
+                )
+                component_blocks.append({key: arrays[key] for key in COMPONENT_COLUMNS})
+                run_params.append(
+                    {
+                        "unit": params["unit"],
+                        "run": run_id,
+                        "azimuth": float(azimuth),
+                        "profile": name,
+                        "ramp_rate": rate_used,
+                        "duration": float(time[-1]),
+                        "min_setpoint": float(setpoints.min()),
+                        "max_setpoint": float(setpoints.max()),
+                        "breakpoint_times": times,
+                        "breakpoint_temperatures": setpoints,
+                    }
+                )
+                run_id += 1
+
+    columns = {name: np.concatenate([block[name] for block in blocks]) for name in FRAME_COLUMNS}
+    components = {
+        name: np.concatenate([block[name] for block in component_blocks])
+        for name in COMPONENT_COLUMNS
+    }
+    target_values = columns["rate"] - columns["reference"]
+
+    if as_frame:
+        frame = pd.DataFrame(columns, columns=list(FRAME_COLUMNS))
+        data = frame[list(FEATURE_NAMES)]
+        target = pd.Series(target_values, name=TARGET_NAME)
+        components = pd.DataFrame(components, columns=list(COMPONENT_COLUMNS))
+        run_params = pd.DataFrame(run_params)
+    else:
+        frame = None
+        data = np.column_stack([columns[name].astype(np.float64) for name in FEATURE_NAMES])
+        target = target_values
+
+    if return_X_y:
+        return data, target
+    return Bunch(
+        frame=frame,
+        data=data,
+        target=target,
+        feature_names=list(FEATURE_NAMES),
+        target_names=[TARGET_NAME],
+        unit_params=unit_params,
+        run_params=run_params,
+        components=components,
+        DESCR=_DESCR,
+    )

@@ -104,8 +104,14 @@ def predict_network(Z, centers, widths, coef, tail_coef, intercept, *, chunk_row
     --------
     >>> import numpy as np
     >>> Z = np.array([[0.0], [1.0]])
-    >>> predict_network(Z, np.zeros((1, 1)), np.ones(1), np.ones((1, 1)),
-    ...                 np.zeros((1, 1)), np.zeros(1)).round(4)
+    >>> predict_network(
+    ...     Z,
+    ...     np.zeros((1, 1)),
+    ...     np.ones(1),
+    ...     np.ones((1, 1)),
+    ...     np.zeros((1, 1)),
+    ...     np.zeros(1),
+    ... ).round(4)
     array([[1.    ],
            [0.6065]])
     """
@@ -181,3 +187,121 @@ def solve_output_weights(Phi, T, Y, *, sample_weight=None, alpha=0.0):
     tail_coef = W[n_centers:].T.copy()
     intercept = mean_y - mean_phi @ W[:n_centers] - mean_t @ W[n_centers:]
     return coef, tail_coef, intercept
+
+
+def solve_output_weights_chunked(
+    Z, Y, centers, widths, *, tail=True, sample_weight=None, alpha=0.0, chunk_rows=None
+):
+    """Weighted ridge solve of the output layer over all rows, in row blocks.
+
+    Same problem as :func:`solve_output_weights` (ridge on the Gaussian weights only, free
+    affine tail and intercept) but the design is never held whole: each block of rows is
+    stacked under the running triangular factor and re-factorised (a tall-skinny QR), so
+    memory stays at one block and the accuracy is that of a least-squares solve on the full
+    design, not of the normal equations. The intercept is a weighted constant column rather
+    than a centring step, so no mean is subtracted in a single pass. The final triangular
+    system is solved by an SVD-based least-squares solve with a relative cutoff: rank
+    deficiency (a constant feature, duplicate centres) gives the minimum-norm weights, never
+    a ``LinAlgError`` or a NaN.
+
+    Parameters
+    ----------
+    Z : ndarray of shape (n_samples, n_features)
+        Standardised inputs.
+    Y : ndarray of shape (n_samples, n_outputs)
+        Targets.
+    centers : ndarray of shape (n_centers, n_features)
+        Centres.
+    widths : ndarray of shape (n_centers,)
+        Widths.
+    tail : bool, default=True
+        Whether the inputs are regressors beside the Gaussian units.
+    sample_weight : ndarray of shape (n_samples,), default=None
+        Non-negative weights.
+    alpha : float, default=0.0
+        Ridge penalty on the Gaussian weights (absolute, as in
+        :func:`solve_output_weights`).
+    chunk_rows : int, default=None
+        Rows per block; ``None`` uses ``DEFAULT_CHUNK_ROWS``.
+
+    Returns
+    -------
+    coef : ndarray of shape (n_outputs, n_centers)
+    tail_coef : ndarray of shape (n_outputs, n_features) or (n_outputs, 0)
+    intercept : ndarray of shape (n_outputs,)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> Z = np.linspace(-1, 1, 7)[:, None]
+    >>> coef, tail, b = solve_output_weights_chunked(
+    ...     Z, 3 * Z - 1, np.zeros((0, 1)), np.ones(0), chunk_rows=3
+    ... )
+    >>> tail.round(6), b.round(6)
+    (array([[3.]]), array([-1.]))
+    """
+    chunk_rows = DEFAULT_CHUNK_ROWS if chunk_rows is None else int(chunk_rows)
+    n_samples, n_features = Z.shape
+    n_centers, n_outputs = centers.shape[0], Y.shape[1]
+    n_tail = n_features if tail else 0
+    n_params = 1 + n_tail + n_centers
+    if sample_weight is not None and np.sum(sample_weight) <= 0:
+        raise ValueError("sample_weight must have a positive sum.")
+    # The penalty rows start the factor: sqrt(alpha) on each Gaussian weight.
+    R = np.zeros((n_centers, n_params + n_outputs))
+    if alpha > 0 and n_centers:
+        R[:, 1 + n_tail : n_params] = np.sqrt(alpha) * np.eye(n_centers)
+    for start in range(0, n_samples, chunk_rows):
+        stop = min(start + chunk_rows, n_samples)
+        block = np.empty((stop - start, n_params + n_outputs))
+        block[:, 0] = 1.0
+        block[:, 1 : 1 + n_tail] = Z[start:stop, :n_tail]
+        block[:, 1 + n_tail : n_params] = gaussian_design(Z[start:stop], centers, widths)
+        block[:, n_params:] = Y[start:stop]
+        if sample_weight is not None:
+            block *= np.sqrt(sample_weight[start:stop])[:, None]
+        R = np.linalg.qr(np.vstack([R, block]), mode="r")
+    R11 = np.zeros((n_params, n_params))
+    R12 = np.zeros((n_params, n_outputs))
+    rows = min(R.shape[0], n_params)
+    R11[:rows] = R[:rows, :n_params]
+    R12[:rows] = R[:rows, n_params:]
+    W = guarded_lstsq(R11, R12)
+    return W[1 + n_tail :].T.copy(), W[1 : 1 + n_tail].T.copy(), W[0].copy()
+
+
+def guarded_lstsq(A, B, *, rcond=1e-12):
+    """Least-squares solve that never raises on rank deficiency and never returns NaN.
+
+    SVD-based (LAPACK ``gelsd``) with singular values below ``rcond`` times the largest
+    treated as zero, so a rank-deficient system gives its minimum-norm solution. Non-finite
+    input raises a ``ValueError`` (it can only come from a bug upstream).
+
+    Parameters
+    ----------
+    A : ndarray of shape (m, n)
+        Matrix.
+    B : ndarray of shape (m, k)
+        Right-hand sides.
+    rcond : float, default=1e-12
+        Relative cutoff on the singular values.
+
+    Returns
+    -------
+    X : ndarray of shape (n, k)
+        Minimum-norm least-squares solution.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> guarded_lstsq(np.array([[1.0, 1.0], [1.0, 1.0]]), np.array([[2.0], [2.0]]))
+    array([[1.],
+           [1.]])
+    """
+    if A.shape[1] == 0:
+        return np.zeros((0, B.shape[1]))
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+        raise ValueError("Non-finite values in a least-squares system.")
+    if not np.any(A):
+        return np.zeros((A.shape[1], B.shape[1]))
+    return scipy.linalg.lstsq(A, B, cond=rcond, lapack_driver="gelsd", check_finite=False)[0]
