@@ -208,7 +208,7 @@ def _draw_unit_params(rng, unit):
             _signed_uniform(rng, 2e-3, 4e-3),
             _signed_uniform(rng, 1e-5, 5e-5),
         ),
-        "angle_random_walk": float(rng.uniform(0.0005, 0.001)),
+        "angle_random_walk": float(rng.uniform(0.001, 0.003)),
         "bias_instability": float(rng.uniform(0.002, 0.005)),
         "bias_correlation_time": float(rng.uniform(300.0, 1000.0)),
         "turn_on_bias_repeatability": TURN_ON_BIAS_REPEATABILITY,
@@ -395,7 +395,7 @@ def make_thermal_campaign(
     latitude=45.0,
     profile="paper",
     *,
-    sampling_period=10.0,
+    sampling_period=60.0,
     ramp_rate=(0.1, 2.0),
     temperature_range=(-10.0, 40.0),
     noise=True,
@@ -445,8 +445,10 @@ def make_thermal_campaign(
         ``"mix"`` is the list of all three. Levels are drawn per run inside
         ``temperature_range``: paper: low in the bottom 40 % of the range, top in the top
         30 %; cycle and staircase: bottom 20 % and top 20 %.
-    sampling_period : float, default=10.0
-        Sample spacing, seconds, in [0.1, 600]. The default campaign has about 10^5 rows;
+    sampling_period : float, default=60.0
+        Sample spacing, seconds, in [0.1, 600]. One-minute samples are the usual resolution
+        of thermal-drift modelling (thermal time constants are tens of minutes; shorter
+        samples mostly add angle random walk). The default campaign has about 17,000 rows;
         rows (and memory, about 200 bytes a row with the components) scale as
         1/sampling_period.
     ramp_rate : float or (float, float), default=(0.1, 2.0)
