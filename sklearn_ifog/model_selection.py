@@ -1,0 +1,848 @@
+"""Cross-validation across units, azimuths and runs, and model comparison.
+
+A thermal-test campaign nests runs inside (unit, azimuth) pairs, so the honest questions are
+"does a model trained on these runs compensate a run it has not seen?" (leave-one-run-out),
+"... the same gyro at another heading?" (leave-one-azimuth-out, within a unit) and "... another
+gyro?" (leave-one-unit-out). The splitters here answer them. They are ordinary scikit-learn
+cross-validators: they take the labels from the columns of ``X`` when ``X`` is a DataFrame
+(the run id travels inside X, see the design notes), or from ``groups``, and work anywhere a
+``cv=`` is accepted (:class:`~sklearn.model_selection.GridSearchCV`,
+:func:`~sklearn.model_selection.cross_validate`, :func:`compare_regressors`). A run never
+straddles two folds: the unit and azimuth splitters check that every run of ``X`` has one
+unit and one azimuth.
+
+:func:`compare_regressors` cross-validates the package's models against baselines in one
+call and returns a table of mean squared deviations (MSD) before and after compensation;
+:func:`default_regressors` gives the models it compares, as a dict to edit.
+
+Running on a Dask cluster
+-------------------------
+Every fit here goes through joblib, so a Dask cluster takes the work without code changes:
+connect a :class:`distributed.Client` and wrap the call in joblib's ``"dask"`` backend::
+
+    import joblib
+    from distributed import Client
+    from sklearn.model_selection import GridSearchCV
+
+    client = Client("tcp://scheduler:8786")  # or Client(LocalCluster()) on one machine
+    with joblib.parallel_backend("dask"):
+        search = GridSearchCV(pipe, grid, cv=LeaveOneRunOut(), n_jobs=-1).fit(X, y)
+        table = compare_regressors(X, y, cv=LeaveOneUnitOut(), n_jobs=-1)
+
+The workers need ``sklearn-ifog`` installed (same version as the client). The results are
+the same as with the default backend: each fit is seeded by ``random_state``, not by where it
+runs. For large campaigns, ship the data to the workers once rather than with every task:
+``joblib.parallel_backend("dask", scatter=[X, y])``.
+"""
+
+import numbers
+import sys
+import time
+from typing import ClassVar
+
+import numpy as np
+from sklearn.base import BaseEstimator, MetaEstimatorMixin, RegressorMixin, clone
+from sklearn.compose import TransformedTargetRegressor
+from sklearn.dummy import DummyRegressor
+from sklearn.gaussian_process import GaussianProcessRegressor
+from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
+from sklearn.kernel_ridge import KernelRidge
+from sklearn.linear_model import LinearRegression, Ridge
+from sklearn.model_selection import BaseCrossValidator, GroupKFold
+from sklearn.neural_network import MLPRegressor
+from sklearn.pipeline import Pipeline
+from sklearn.preprocessing import PolynomialFeatures, StandardScaler
+from sklearn.svm import SVR
+from sklearn.utils import check_random_state, get_tags
+from sklearn.utils.parallel import Parallel, delayed
+from sklearn.utils.validation import check_consistent_length, check_is_fitted, validate_data
+
+from sklearn_ifog._compat import (
+    GroupsConsumerMixin,
+    HasMethods,
+    Interval,
+    _fit_context,
+    _safe_indexing,
+)
+from sklearn_ifog.features import ThermalFeatures
+from sklearn_ifog.metrics import mean_squared_deviation
+from sklearn_ifog.rbf import RBFNetRegressor
+
+__all__ = [
+    "LeaveOneAzimuthOut",
+    "LeaveOneRunOut",
+    "LeaveOneUnitOut",
+    "SubsampledRegressor",
+    "compare_regressors",
+    "default_regressors",
+]
+
+
+# --------------------------------------------------------------------------------------------
+# Splitters
+# --------------------------------------------------------------------------------------------
+
+
+def _column_values(X, key):
+    """Values of column ``key`` (name or position) of ``X``, or None if X has no such column."""
+    if key is None or X is None:
+        return None
+    columns = getattr(X, "columns", None)
+    if columns is not None:
+        if key in list(columns):
+            return np.asarray(X[key])
+        if isinstance(key, numbers.Integral) and not isinstance(key, bool):
+            if hasattr(X, "iloc"):
+                return np.asarray(X.iloc[:, key])
+            return np.asarray(X[:, key])
+        return None
+    if isinstance(key, numbers.Integral) and not isinstance(key, bool):
+        array = np.asarray(X)
+        if array.ndim == 2 and -array.shape[1] <= key < array.shape[1]:
+            return array[:, key]
+    return None
+
+
+def _labels_1d(values, *, name):
+    values = np.asarray(values)
+    if values.ndim != 1:
+        raise ValueError(f"{name} labels must be 1-D, got shape {values.shape}.")
+    if values.dtype.kind == "f" and np.isnan(values).any():
+        raise ValueError(f"{name} labels contain NaN; every row needs a {name}.")
+    return values
+
+
+class _LeaveOneLabelOut(GroupsConsumerMixin, BaseCrossValidator):
+    """Leave out one label at a time, optionally within each unit (shared machinery).
+
+    Subclasses set ``_label_name`` (the attribute holding the label column) and
+    ``_within_unit`` (whether folds stay inside one unit).
+    """
+
+    _label_name = ""
+
+    def _within(self):
+        return False
+
+    def _labels(self, X, groups):
+        """(labels, units or None) of every row, validated."""
+        n_samples = None if X is None else (X.shape[0] if hasattr(X, "shape") else len(X))
+        label_column = getattr(self, self._label_name)
+        what = self._label_name
+        if groups is not None:
+            labels = _labels_1d(groups, name=what)
+        else:
+            labels = _column_values(X, label_column)
+            if labels is None:
+                columns = list(getattr(X, "columns", []))
+                raise ValueError(
+                    f"{type(self).__name__} needs the {what} of every row: X has no column "
+                    f"{label_column!r} (columns: {columns}) and groups is None. Pass a "
+                    f"DataFrame with that column, set {what}= to its name or position, or "
+                    "pass groups=."
+                )
+            labels = _labels_1d(labels, name=what)
+        if n_samples is not None and labels.shape[0] != n_samples:
+            raise ValueError(
+                f"{what} labels have {labels.shape[0]} values but X has {n_samples} rows."
+            )
+        units = None
+        if self._within():
+            units = _column_values(X, self.unit)
+            if units is None:
+                raise ValueError(
+                    f"{type(self).__name__}(within_unit=True) needs the unit of every row: X "
+                    f"has no column {self.unit!r}. For data from one unit, pass "
+                    "within_unit=False (the folds are the same)."
+                )
+            units = _labels_1d(units, name="unit")
+        self._check_runs_nested(X, labels, units)
+        return labels, units
+
+    def _check_runs_nested(self, X, labels, units):
+        """Raise if a run of X spans several labels (or units): it would straddle folds."""
+        run_column = getattr(self, "run", None)
+        runs = _column_values(X, run_column)
+        if runs is None:
+            return
+        runs = _labels_1d(runs, name="run")
+        checks = [(units, "unit")]
+        if self._label_name != "run":
+            checks.insert(0, (labels, self._label_name))
+        run_ids, run_codes = np.unique(runs, return_inverse=True)
+        for values, what in checks:
+            if values is None:
+                continue
+            names, codes = np.unique(values, return_inverse=True)
+            pairs = np.unique(run_codes.ravel() * names.size + codes.ravel())
+            per_run = np.bincount(pairs // names.size, minlength=run_ids.size)
+            if (per_run > 1).any():
+                bad = int(np.flatnonzero(per_run > 1)[0])
+                seen = names[pairs[pairs // names.size == bad] % names.size]
+                raise ValueError(
+                    f"Run {run_ids[bad]} spans several {what}s "
+                    f"({', '.join(str(value) for value in seen.tolist())}): a run must belong "
+                    f"to one {what}, or it would straddle two folds. Check the {run_column!r} "
+                    f"and {what} columns."
+                )
+
+    def _folds(self, labels, units):
+        """Boolean (train, test) masks, fold by fold."""
+        if units is None:
+            blocks = [np.ones(labels.shape[0], dtype=bool)]
+        else:
+            blocks = [units == unit for unit in np.unique(units)]
+        folds = []
+        for block in blocks:
+            block_labels = np.unique(labels[block])
+            if block_labels.size < 2:
+                continue
+            for label in block_labels:
+                test = block & (labels == label)
+                folds.append((block & ~test, test))
+        if not folds:
+            where = " within any unit" if units is not None else ""
+            raise ValueError(
+                f"{type(self).__name__} needs at least 2 distinct {self._label_name}s"
+                f"{where}; got {np.unique(labels).tolist()}."
+            )
+        return folds
+
+    def split(self, X, y=None, groups=None):
+        """Generate indices to split data into training and test set.
+
+        Parameters
+        ----------
+        X : DataFrame or array-like of shape (n_samples, n_columns)
+            Training data; the label columns are read from it when ``groups`` is None.
+        y : array-like of shape (n_samples,), default=None
+            Ignored, for API compatibility.
+        groups : array-like of shape (n_samples,), default=None
+            Labels of the left-out quantity; overrides the column of ``X``.
+
+        Yields
+        ------
+        train : ndarray
+            The training set indices for that split.
+        test : ndarray
+            The testing set indices for that split.
+        """
+        labels, units = self._labels(X, groups)
+        for train, test in self._folds(labels, units):
+            yield np.flatnonzero(train), np.flatnonzero(test)
+
+    def get_n_splits(self, X=None, y=None, groups=None):
+        """Number of splitting iterations.
+
+        Parameters
+        ----------
+        X : DataFrame or array-like of shape (n_samples, n_columns), default=None
+            Data to read the label columns from when ``groups`` is None.
+        y : array-like of shape (n_samples,), default=None
+            Ignored, for API compatibility.
+        groups : array-like of shape (n_samples,), default=None
+            Labels of the left-out quantity; overrides the column of ``X``.
+
+        Returns
+        -------
+        n_splits : int
+            Number of folds.
+        """
+        labels, units = self._labels(X, groups)
+        return len(self._folds(labels, units))
+
+
+class LeaveOneUnitOut(_LeaveOneLabelOut):
+    """Leave-one-unit-out cross-validator: train on the other gyros, test on one.
+
+    Each fold tests on every row of one unit and trains on all the others. Labels come from
+    the ``unit`` column of ``X`` (a DataFrame, or an array with ``unit`` an integer
+    position) or from ``groups``. When ``X`` has the ``run`` column, every run must belong to
+    one unit (else a ValueError), so no run straddles two folds.
+
+    Parameters
+    ----------
+    unit : str or int, default="unit"
+        Column of ``X`` holding the unit id.
+    run : str, int or None, default="run"
+        Column of ``X`` holding the run id, for the nesting check; None skips the check.
+
+    See Also
+    --------
+    LeaveOneAzimuthOut : Leave one azimuth out, within each unit.
+    LeaveOneRunOut : Leave one run out.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from sklearn_ifog.model_selection import LeaveOneUnitOut
+    >>> X = pd.DataFrame({"unit": [1, 1, 2, 2], "run": [0, 1, 2, 3], "temperature": 20.0})
+    >>> cv = LeaveOneUnitOut()
+    >>> cv.get_n_splits(X)
+    2
+    >>> [test.tolist() for _, test in cv.split(X)]
+    [[0, 1], [2, 3]]
+    """
+
+    _label_name = "unit"
+
+    def __init__(self, unit="unit", run="run"):
+        self.unit = unit
+        self.run = run
+
+
+class LeaveOneAzimuthOut(_LeaveOneLabelOut):
+    """Leave-one-azimuth-out cross-validator, within each unit by default.
+
+    With ``within_unit=True`` each fold tests on the rows of one (unit, azimuth) pair and
+    trains on the same unit's other azimuths: a gyro's compensation is calibrated at some
+    headings and checked at another, as in the reference paper's Table 2 (train at 0°, test
+    at 90°). Units with a single azimuth give no fold. With ``within_unit=False`` the folds
+    pool all units: test on one azimuth, train on every other azimuth of every unit.
+
+    Labels come from the ``azimuth`` (and ``unit``) columns of ``X``, or the azimuths from
+    ``groups``. When ``X`` has the ``run`` column, every run must have one azimuth and one
+    unit (else a ValueError), so no run straddles two folds.
+
+    Parameters
+    ----------
+    unit : str or int, default="unit"
+        Column of ``X`` holding the unit id (used when ``within_unit=True``).
+    azimuth : str or int, default="azimuth"
+        Column of ``X`` holding the azimuth (deg).
+    run : str, int or None, default="run"
+        Column of ``X`` holding the run id, for the nesting check; None skips the check.
+    within_unit : bool, default=True
+        Whether a fold trains only on the test unit's other azimuths.
+
+    See Also
+    --------
+    LeaveOneUnitOut : Leave one unit out.
+    LeaveOneRunOut : Leave one run out.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from sklearn_ifog.model_selection import LeaveOneAzimuthOut
+    >>> X = pd.DataFrame(
+    ...     {
+    ...         "unit": [1, 1, 1, 2, 2],
+    ...         "azimuth": [0.0, 0.0, 90.0, 0.0, 45.0],
+    ...         "run": [0, 1, 2, 3, 4],
+    ...     }
+    ... )
+    >>> for train, test in LeaveOneAzimuthOut().split(X):
+    ...     print(train.tolist(), test.tolist())
+    [2] [0, 1]
+    [0, 1] [2]
+    [4] [3]
+    [3] [4]
+    """
+
+    _label_name = "azimuth"
+
+    def __init__(self, unit="unit", azimuth="azimuth", run="run", within_unit=True):
+        self.unit = unit
+        self.azimuth = azimuth
+        self.run = run
+        self.within_unit = within_unit
+
+    def _within(self):
+        return bool(self.within_unit)
+
+
+class LeaveOneRunOut(_LeaveOneLabelOut):
+    """Leave-one-run-out cross-validator: test on one whole run, train on the others.
+
+    Rows of one run always land in the same fold. With ``within_unit=True`` a fold trains
+    only on the other runs of the test run's unit (a per-gyro calibration); by default it
+    trains on every other run.
+
+    Parameters
+    ----------
+    run : str or int, default="run"
+        Column of ``X`` holding the run id.
+    unit : str or int, default="unit"
+        Column of ``X`` holding the unit id (used when ``within_unit=True``).
+    within_unit : bool, default=False
+        Whether a fold trains only on runs of the test run's unit.
+
+    See Also
+    --------
+    LeaveOneUnitOut : Leave one unit out.
+    LeaveOneAzimuthOut : Leave one azimuth out, within each unit.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn_ifog.model_selection import LeaveOneRunOut
+    >>> X = np.array([[0, 21.0], [0, 21.5], [1, 22.0], [2, 22.5]])
+    >>> [test.tolist() for _, test in LeaveOneRunOut(run=0).split(X)]
+    [[0, 1], [2], [3]]
+    """
+
+    _label_name = "run"
+
+    def __init__(self, run="run", unit="unit", within_unit=False):
+        self.run = run
+        self.unit = unit
+        self.within_unit = within_unit
+
+    def _within(self):
+        return bool(self.within_unit)
+
+
+# --------------------------------------------------------------------------------------------
+# A regressor on a random subsample (kernel methods on long recordings)
+# --------------------------------------------------------------------------------------------
+
+
+class SubsampledRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
+    """Fit a regressor on a random subsample of at most ``max_samples`` rows.
+
+    Exact kernel methods (Gaussian processes, kernel ridge, SVR) cost O(n²) memory and up to
+    O(n³) time; a thermal test logs tens of thousands of samples. This wrapper fits a clone
+    of ``estimator`` on a uniform random subsample without replacement (rows kept in their
+    original order) and predicts with it. Put it *after* the feature step of a pipeline:
+    ΔT needs consecutive rows.
+
+    Parameters
+    ----------
+    estimator : estimator object, default=None
+        The regressor to fit. None means
+        :class:`~sklearn.gaussian_process.GaussianProcessRegressor`.
+    max_samples : int, default=1000
+        Largest number of rows the estimator is fitted on; all rows when there are fewer.
+    random_state : int, RandomState instance or None, default=None
+        Draws the subsample. Pass an int for reproducible results.
+
+    Attributes
+    ----------
+    estimator_ : estimator
+        The fitted clone of ``estimator``.
+    sample_indices_ : ndarray of shape (n_fitted,)
+        Rows of the training data the estimator was fitted on, increasing.
+    n_features_in_ : int
+        Number of features seen during fit.
+    feature_names_in_ : ndarray of shape (n_features_in_,)
+        Names of features seen during fit, when X has string column names.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn_ifog.model_selection import SubsampledRegressor
+    >>> X = np.arange(100.0).reshape(-1, 1)
+    >>> model = SubsampledRegressor(LinearRegression(), max_samples=10, random_state=0)
+    >>> model.fit(X, 2 * X[:, 0]).sample_indices_.shape
+    (10,)
+    >>> model.predict([[200.0]]).round(6)
+    array([400.])
+    """
+
+    _parameter_constraints: ClassVar[dict] = {
+        "estimator": [HasMethods(["fit", "predict"]), None],
+        "max_samples": [Interval(numbers.Integral, 1, None, closed="left")],
+        "random_state": ["random_state"],
+    }
+
+    def __init__(self, estimator=None, *, max_samples=1000, random_state=None):
+        self.estimator = estimator
+        self.max_samples = max_samples
+        self.random_state = random_state
+
+    def _base_estimator(self):
+        return GaussianProcessRegressor() if self.estimator is None else self.estimator
+
+    @_fit_context(
+        # The wrapped estimator validates its own parameters.
+        prefer_skip_nested_validation=False
+    )
+    def fit(self, X, y):
+        """Fit the estimator on a random subsample of the rows.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+            Training data.
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            Target values.
+
+        Returns
+        -------
+        self : object
+            Fitted estimator.
+        """
+        X, y = validate_data(self, X, y, y_numeric=True, multi_output=True)
+        n_samples = X.shape[0]
+        if n_samples > self.max_samples:
+            rng = check_random_state(self.random_state)
+            indices = np.sort(rng.choice(n_samples, size=self.max_samples, replace=False))
+        else:
+            indices = np.arange(n_samples)
+        self.sample_indices_ = indices
+        self.estimator_ = clone(self._base_estimator()).fit(X[indices], y[indices])
+        return self
+
+    def predict(self, X):
+        """Predict with the estimator fitted on the subsample.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+            Samples.
+
+        Returns
+        -------
+        y_pred : ndarray of shape (n_samples,) or (n_samples, n_outputs)
+            Predicted values.
+        """
+        check_is_fitted(self)
+        X = validate_data(self, X, reset=False)
+        return self.estimator_.predict(X)
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        inner = get_tags(self._base_estimator())
+        tags.target_tags.multi_output = inner.target_tags.multi_output
+        tags.non_deterministic = inner.non_deterministic
+        return tags
+
+
+# --------------------------------------------------------------------------------------------
+# Model comparison
+# --------------------------------------------------------------------------------------------
+
+
+def _traditional_terms(terms):
+    return tuple(term for term in terms if term != "TdT")
+
+
+def default_regressors(*, features=None, max_kernel_samples=600, random_state=0):
+    """The models :func:`compare_regressors` compares by default, as an editable dict.
+
+    Every model but the baselines is a :class:`~sklearn.pipeline.Pipeline`
+    ``ThermalFeatures → StandardScaler → regressor``. Regressors sensitive to the target's
+    scale (MLP, SVR, kernel ridge) see a standardised target through
+    :class:`~sklearn.compose.TransformedTargetRegressor`; the exact kernel methods are fitted
+    on at most ``max_kernel_samples`` rows (:class:`SubsampledRegressor`).
+
+    ============================  ==========================================================
+    name                          model
+    ============================  ==========================================================
+    ``"raw"``                     no compensation: predicts zero drift
+    ``"bias"``                    constant: the training mean (turn-on bias calibration)
+    ``"linear"``                  linear thermal model on T, ΔT, T·ΔT (IEEE Std 952 style)
+    ``"poly2_ridge"``             degree-2 polynomial of the features, ridge
+    ``"poly3_ridge"``             degree-3 polynomial of the features, ridge
+    ``"mlp"``                     MLPRegressor, one hidden layer (the "BP network")
+    ``"svr"``                     SVR, RBF kernel
+    ``"kernel_ridge"``            KernelRidge, RBF kernel
+    ``"gaussian_process"``        GaussianProcessRegressor, anisotropic RBF + white noise
+    ``"rbf_traditional"``         RBFNetRegressor on (T, ΔT)
+    ``"rbf_modified"``            RBFNetRegressor on (T, ΔT, T·ΔT)
+    ============================  ==========================================================
+
+    Parameters
+    ----------
+    features : ThermalFeatures, default=None
+        Feature step, cloned into every pipeline. None means
+        ``ThermalFeatures(temperature="temperature", time="time", run="run")``, the layout
+        of :func:`~sklearn_ifog.datasets.make_thermal_campaign`. The traditional RBF model
+        uses the same step without the ``"TdT"`` term.
+    max_kernel_samples : int, default=600
+        Largest training subsample of SVR and kernel ridge; the Gaussian process, whose fit
+        also tunes its kernel (each step cubic in the rows), gets half as many.
+    random_state : int, RandomState instance or None, default=0
+        Seeds the MLP, the RBF networks and the subsamples.
+
+    Returns
+    -------
+    regressors : dict of str to estimator
+        Unfitted estimators, in the order of the table above.
+
+    Examples
+    --------
+    >>> from sklearn_ifog.model_selection import default_regressors
+    >>> models = default_regressors()
+    >>> list(models)[:3]
+    ['raw', 'bias', 'linear']
+    >>> models["rbf_traditional"][0].terms
+    ('T', 'dT')
+    """
+    if features is None:
+        features = ThermalFeatures(temperature="temperature", time="time", run="run")
+    rng = check_random_state(random_state)
+    seeds = rng.randint(np.iinfo(np.int32).max, size=6)
+
+    def pipeline(regressor, *, terms=None, extra=()):
+        feature_step = clone(features)
+        if terms is not None:
+            feature_step.set_params(terms=terms)
+        steps = [("features", feature_step), ("scale", StandardScaler()), *extra]
+        return Pipeline([*steps, ("regressor", regressor)])
+
+    def scaled_target(regressor):
+        return TransformedTargetRegressor(regressor=regressor, transformer=StandardScaler())
+
+    n_features = len(features.terms)
+    gp_kernel = ConstantKernel(1.0) * RBF(length_scale=np.ones(n_features)) + WhiteKernel(0.1)
+    return {
+        "raw": DummyRegressor(strategy="constant", constant=0.0),
+        "bias": DummyRegressor(strategy="mean"),
+        "linear": pipeline(LinearRegression()),
+        "poly2_ridge": pipeline(
+            Ridge(alpha=1e-3), extra=[("poly", PolynomialFeatures(2, include_bias=False))]
+        ),
+        "poly3_ridge": pipeline(
+            Ridge(alpha=1e-3), extra=[("poly", PolynomialFeatures(3, include_bias=False))]
+        ),
+        "mlp": pipeline(
+            scaled_target(
+                MLPRegressor(
+                    hidden_layer_sizes=(20,),
+                    solver="lbfgs",
+                    alpha=1e-3,
+                    max_iter=500,
+                    random_state=seeds[0],
+                )
+            )
+        ),
+        "svr": pipeline(
+            SubsampledRegressor(
+                scaled_target(SVR(C=10.0, epsilon=0.01, gamma="scale")),
+                max_samples=max_kernel_samples,
+                random_state=seeds[1],
+            )
+        ),
+        "kernel_ridge": pipeline(
+            SubsampledRegressor(
+                scaled_target(KernelRidge(kernel="rbf", alpha=0.1, gamma=0.05)),
+                max_samples=max_kernel_samples,
+                random_state=seeds[2],
+            )
+        ),
+        "gaussian_process": pipeline(
+            SubsampledRegressor(
+                GaussianProcessRegressor(gp_kernel, normalize_y=True, random_state=seeds[3]),
+                max_samples=max(1, max_kernel_samples // 2),
+                random_state=seeds[3],
+            )
+        ),
+        "rbf_traditional": pipeline(
+            RBFNetRegressor(random_state=seeds[4]), terms=_traditional_terms(features.terms)
+        ),
+        "rbf_modified": pipeline(RBFNetRegressor(random_state=seeds[5])),
+    }
+
+
+def _describe_fold(X, test):
+    """Short text naming the units, azimuths and runs of a test fold, from X's columns."""
+    parts = []
+    for column in ("unit", "azimuth", "run"):
+        values = _column_values(X, column)
+        if values is None:
+            continue
+        found = np.unique(values[test])
+        shown = ", ".join(
+            f"{value:g}" if isinstance(value, float) else str(value)
+            for value in found.tolist()[:6]
+        )
+        if found.size > 6:
+            shown += f", ... ({found.size})"
+        parts.append(f"{column}={shown}")
+    return "; ".join(parts) if parts else f"{test.size} rows"
+
+
+def _fit_and_evaluate(name, estimator, X, y, train, test, fold):
+    """Fit a clone on ``train``, predict ``test``: one row of the per-fold table."""
+    X_train, X_test = _safe_indexing(X, train), _safe_indexing(X, test)
+    y_train, y_test = _safe_indexing(y, train), _safe_indexing(y, test)
+    model = clone(estimator)
+    start = time.perf_counter()
+    model.fit(X_train, y_train)
+    fit_time = time.perf_counter() - start
+    start = time.perf_counter()
+    y_pred = model.predict(X_test)
+    predict_time = time.perf_counter() - start
+    y_test = np.asarray(y_test, dtype=np.float64)
+    msd_before = mean_squared_deviation(y_test, np.zeros_like(y_test))
+    msd_after = mean_squared_deviation(y_test, np.asarray(y_pred, dtype=np.float64))
+    return {
+        "model": name,
+        "fold": fold,
+        "test": _describe_fold(X, test),
+        "n_train": len(train),
+        "n_test": len(test),
+        "msd_before": float(msd_before),
+        "msd_after": float(msd_after),
+        "reduction": float(msd_before / msd_after) if msd_after > 0 else np.inf,
+        "fit_time": fit_time,
+        "predict_time": predict_time,
+    }
+
+
+def _summarize(folds, names):
+    """Per-model summary of the per-fold table."""
+    grouped = folds.groupby("model", sort=False)
+    summary = grouped.agg(
+        msd_before=("msd_before", "mean"),
+        msd_after=("msd_after", "mean"),
+        msd_after_std=("msd_after", "std"),
+        worst_fold_reduction=("reduction", "min"),
+        fit_time=("fit_time", "mean"),
+        predict_time=("predict_time", "mean"),
+        n_folds=("fold", "count"),
+    )
+    summary.insert(3, "reduction", summary["msd_before"] / summary["msd_after"])
+    return summary.reindex(names)
+
+
+def compare_regressors(
+    X,
+    y,
+    *,
+    regressors=None,
+    cv=None,
+    groups=None,
+    features=None,
+    n_jobs=None,
+    verbose=0,
+    return_folds=False,
+    random_state=0,
+):
+    """Cross-validate drift models against baselines, in one call.
+
+    Every (model, fold) pair is an independent joblib task, so ``n_jobs`` spreads the whole
+    comparison over cores (or a Dask cluster, see the module notes). For each fold the
+    model is fitted on the training rows and its prediction subtracted from the test target:
+
+    - ``msd_before``: the MSD with no compensation, ``mean(y_test²)``. With the target
+      ``rate - reference`` (:func:`~sklearn_ifog.compensation.drift_target`) this is the
+      reference paper's MSD of the raw output, ``MSE(d - A)``. It is the same for all models
+      of a fold; the ``"raw"`` baseline (zero drift) reproduces it.
+    - ``msd_after``: ``mean((y_test - y_pred)²)``, the MSD of the compensated output.
+      The ``"bias"`` baseline (the training mean) is the usual turn-on bias calibration;
+      a thermal model must beat it to be worth its keep.
+    - ``reduction``: ``msd_before / msd_after`` (> 1 is an improvement).
+
+    Parameters
+    ----------
+    X : DataFrame of shape (n_samples, n_columns)
+        Thermal-test table: the columns the feature step reads (temperature, time, run) and
+        those the splitter reads (unit, azimuth, run). Rows of a run in time order.
+    y : array-like of shape (n_samples,)
+        Drift target (deg/h), e.g. ``rate - reference``.
+    regressors : dict of str to estimator, default=None
+        Models to compare; None means :func:`default_regressors` (``features``,
+        ``random_state``).
+    cv : int, cross-validation generator or iterable, default=None
+        Splitter. None means :class:`LeaveOneRunOut` ``(within_unit=True)``: each run is
+        compensated by a model trained on its unit's other runs. An int ``k`` means
+        :class:`~sklearn.model_selection.GroupKFold` ``(k)`` over the runs (never a plain
+        KFold, which would cut runs in two).
+    groups : array-like of shape (n_samples,), default=None
+        Group labels passed to ``cv.split`` (the splitters of this module read them from
+        ``X`` when None; an int ``cv`` uses the ``run`` column when None).
+    features : ThermalFeatures, default=None
+        Feature step of the default models (ignored when ``regressors`` is given).
+    n_jobs : int, default=None
+        Parallel jobs over (model, fold) pairs; -1 uses all cores.
+    verbose : int, default=0
+        0 is silent; 1 prints the plan and a line per finished model; more also prints
+        joblib's progress.
+    return_folds : bool, default=False
+        Whether to also return the per-fold table.
+    random_state : int, RandomState instance or None, default=0
+        Seeds the default models (ignored when ``regressors`` is given).
+
+    Returns
+    -------
+    summary : pandas.DataFrame
+        One row per model (index ``model``, in the order given): ``msd_before``,
+        ``msd_after`` (means over folds), ``msd_after_std``, ``reduction`` (ratio of the two
+        means), ``worst_fold_reduction``, ``fit_time`` and ``predict_time`` (mean seconds
+        per fold), ``n_folds``.
+    folds : pandas.DataFrame
+        Only with ``return_folds=True``: one row per (model, fold) with ``model``, ``fold``,
+        ``test`` (the units, azimuths and runs tested), ``n_train``, ``n_test``,
+        ``msd_before``, ``msd_after``, ``reduction``, ``fit_time``, ``predict_time``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pandas as pd
+    >>> from sklearn.dummy import DummyRegressor
+    >>> from sklearn_ifog.model_selection import compare_regressors
+    >>> X = pd.DataFrame({"run": np.repeat([0, 1, 2], 4), "temperature": 20.0})
+    >>> y = np.tile([0.1, 0.3, 0.1, 0.3], 3)
+    >>> summary = compare_regressors(
+    ...     X,
+    ...     y,
+    ...     regressors={
+    ...         "raw": DummyRegressor(strategy="constant", constant=0.0),
+    ...         "bias": DummyRegressor(),
+    ...     },
+    ... )
+    >>> summary[["msd_before", "msd_after", "reduction"]].round(3)
+          msd_before  msd_after  reduction
+    model
+    raw         0.05       0.05        1.0
+    bias        0.05       0.01        5.0
+    """
+    import pandas as pd
+
+    check_consistent_length(X, y)
+    if regressors is None:
+        regressors = default_regressors(features=features, random_state=random_state)
+    if not isinstance(regressors, dict) or not regressors:
+        raise TypeError(
+            "regressors must be a non-empty dict of name -> estimator, got "
+            f"{type(regressors).__name__}."
+        )
+    for name, estimator in regressors.items():
+        if not (hasattr(estimator, "fit") and hasattr(estimator, "predict")):
+            raise TypeError(f"regressors[{name!r}] has no fit/predict: {estimator!r}.")
+    if cv is None:
+        cv = LeaveOneRunOut(within_unit=_column_values(X, "unit") is not None)
+    elif isinstance(cv, numbers.Integral):
+        if groups is None:
+            groups = _column_values(X, "run")
+            if groups is None:
+                raise ValueError(
+                    f"cv={cv} splits runs with GroupKFold, but X has no 'run' column and "
+                    "groups is None; pass groups= (the run of each row)."
+                )
+        cv = GroupKFold(n_splits=cv)
+    splits = list(cv.split(X, y, groups)) if hasattr(cv, "split") else list(cv)
+    names = list(regressors)
+    if verbose:
+        print(
+            f"[compare_regressors] {len(names)} models x {len(splits)} folds = "
+            f"{len(names) * len(splits)} fits on {len(y)} rows",
+            file=sys.stderr,
+            flush=True,
+        )
+    tasks = (
+        delayed(_fit_and_evaluate)(name, regressors[name], X, y, train, test, fold)
+        for name in names
+        for fold, (train, test) in enumerate(splits)
+    )
+    parallel = Parallel(n_jobs=n_jobs, verbose=max(0, verbose - 1), return_as="generator")
+    rows = []
+    done = dict.fromkeys(names, 0)
+    for row in parallel(tasks):
+        rows.append(row)
+        done[row["model"]] += 1
+        if verbose and done[row["model"]] == len(splits):
+            print(
+                f"[compare_regressors] {row['model']}: done ({len(rows)}/"
+                f"{len(names) * len(splits)} fits)",
+                file=sys.stderr,
+                flush=True,
+            )
+    folds = pd.DataFrame(rows)
+    summary = _summarize(folds, names)
+    if return_folds:
+        return summary, folds
+    return summary

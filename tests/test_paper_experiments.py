@@ -1,0 +1,159 @@
+"""The reference paper's Tables 2-4 on a small simulated campaign.
+
+The campaign: the simulator's default (3 units, 5 runs per (unit, azimuth), azimuths
+0/45/90/135, 60 s samples, about 16 000 rows); each unit is trained on its five runs at 0° and
+tested on five runs at 90° (Table 2), 45° (Table 3) or 135° (Table 4).
+
+What the simulator shows (seeds 0-7 measured, see the report of issue 4):
+
+- the modified RBF model cuts the MSD 32-76x against the raw output (the paper: > 10x);
+- the traditional (T, ΔT) and modified (T, ΔT, T·ΔT) RBF networks tie: mean-MSD ratio
+  traditional/modified 0.89-1.29, the modified one winning 1-11 of the 15 test runs (trained on
+  ``rate - reference``); 0.91-1.49 and 6-12 of 15 when trained on the paper's error set Q. A
+  flexible network learns the T·ΔT product from (T, ΔT), so the paper's "modified beats
+  traditional in most experiments" is not asserted: it would hold or fail with the seed. The
+  tests assert parity instead.
+"""
+
+import numpy as np
+import pytest
+from sklearn.dummy import DummyRegressor
+
+from sklearn_ifog import ThermalFeatures
+from sklearn_ifog.datasets import make_thermal_campaign
+from sklearn_ifog.experiments import run_paper_experiments
+
+
+@pytest.fixture(scope="module")
+def campaign():
+    return make_thermal_campaign(n_runs=5, sampling_period=60.0, random_state=0)  # the default
+
+
+@pytest.fixture(scope="module")
+def result(campaign):
+    return run_paper_experiments(campaign)
+
+
+@pytest.fixture(scope="module")
+def error_set_result(campaign):
+    return run_paper_experiments(campaign, target="error_set")
+
+
+def _run_msd(frame, run, values=None):
+    rows = frame[frame["run"] == run]
+    error = (rows["rate"] - rows["reference"]).to_numpy()
+    if values is not None:
+        error = error - values
+    return np.mean(error**2)
+
+
+def test_tables_follow_the_paper_layout(campaign, result):
+    frame = campaign.frame
+    assert list(result.table2.columns) == ["run", "msd_before", "msd_after"]
+    for name in ("table3", "table4"):
+        assert list(result[name].columns) == ["run", "raw", "traditional", "modified"]
+    for name, (unit, azimuth) in zip(
+        ("table2", "table3", "table4"), [(0, 90.0), (1, 45.0), (2, 135.0)], strict=True
+    ):
+        table = result[name]
+        assert list(table.index) == [1, 2, 3, 4, 5]
+        expected_runs = frame.loc[
+            (frame["unit"] == unit) & (frame["azimuth"] == azimuth), "run"
+        ].unique()
+        assert sorted(table["run"]) == sorted(expected_runs)
+    assert len(result.runs) == 15
+    assert set(result.models) == {0, 1, 2}
+    modified = result.models[0]["modified"]
+    traditional = result.models[0]["traditional"]
+    assert tuple(modified.named_steps["features"].terms) == ("T", "dT", "TdT")
+    assert tuple(traditional.named_steps["features"].terms) == ("T", "dT")
+
+
+def test_msd_values_are_the_papers_eq_24(campaign, result):
+    frame = campaign.frame
+    for _, row in result.table2.iterrows():
+        run_frame = frame[frame["run"] == row["run"]]
+        drift = result.models[0]["modified"].predict(run_frame)
+        assert row["msd_before"] == pytest.approx(_run_msd(frame, row["run"]), rel=1e-12)
+        assert row["msd_after"] == pytest.approx(_run_msd(frame, row["run"], drift), rel=1e-9)
+    row = result.table4.iloc[2]
+    drift = result.models[2]["traditional"].predict(frame[frame["run"] == row["run"]])
+    assert row["traditional"] == pytest.approx(_run_msd(frame, row["run"], drift), rel=1e-9)
+
+
+def test_models_are_trained_on_the_training_azimuth_only(campaign):
+    frame = campaign.frame
+    result = run_paper_experiments(campaign, regressor=DummyRegressor())
+    for unit, table in zip((0, 1, 2), ("table2", "table3", "table4"), strict=True):
+        train = frame[(frame["unit"] == unit) & (frame["azimuth"] == 0.0)]
+        mean_drift = (train["rate"] - train["reference"]).mean()
+        first_run = result[table]["run"].iloc[0]
+        expected = _run_msd(frame, first_run, mean_drift)
+        column = "msd_after" if table == "table2" else "modified"
+        assert result[table][column].iloc[0] == pytest.approx(expected, rel=1e-12)
+
+
+def test_modified_model_cuts_msd_tenfold(result):
+    runs = result.runs
+    assert runs["raw"].mean() / runs["modified"].mean() >= 10.0  # 33.5 measured
+    per_table = runs.groupby("table")[["raw", "modified"]].mean()
+    assert (per_table["raw"] / per_table["modified"] >= 5.0).all()  # 14.0 at worst
+
+
+def test_modified_model_is_not_worse_than_traditional(result):
+    # A tie on this simulator (traditional/modified 0.997 for this seed, 0.89-1.29 over
+    # seeds 0-7): assert parity, not a win.
+    runs = result.runs
+    assert runs["modified"].mean() <= 1.25 * runs["traditional"].mean()
+
+
+def test_error_set_training(campaign, error_set_result):
+    runs = error_set_result.runs
+    # Error-set MSDs are those of the mean-removed outputs: check one against the frame.
+    first = runs.iloc[0]
+    rows = campaign.frame[campaign.frame["run"] == first["run"]]
+    error = (rows["rate"] - rows["reference"]).to_numpy()
+    assert first["raw"] == pytest.approx(np.var(error), rel=1e-12)
+    drift = error_set_result.models[0]["modified"].predict(rows)
+    assert first["modified"] == pytest.approx(np.var(error - drift), rel=1e-9)
+    # The mean-removed raw MSD is smaller, so is the cut: 10.0x here, 6.2-12.6x on seeds 0-7.
+    assert runs["raw"].mean() / runs["modified"].mean() >= 5.0
+    assert runs["modified"].mean() <= 1.25 * runs["traditional"].mean()
+
+
+def test_explicit_experiments_and_frame_input(campaign):
+    result = run_paper_experiments(
+        campaign.frame, experiments=[(1, 45.0, 135.0)], regressor=DummyRegressor()
+    )
+    assert set(result) >= {"table2", "runs", "models"}
+    assert "table3" not in result
+    assert (result.runs["test_azimuth"] == 135.0).all()
+    assert (result.runs["unit"] == 1).all()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"experiments": [(0, 0.0, 60.0)]}, ValueError, r"Unit 0 has no run at azimuth 60 deg"),
+        ({"experiments": [(0, 0.0)]}, ValueError, r"\(unit, train_azimuth, test_azimuth\)"),
+        ({"target": "mean"}, ValueError, "target must be"),
+        (
+            {"features": ThermalFeatures(terms=("T", "dT"))},
+            ValueError,
+            "has no 'TdT' term",
+        ),
+    ],
+)
+def test_bad_arguments_are_explained(campaign, kwargs, error, match):
+    with pytest.raises(error, match=match):
+        run_paper_experiments(campaign, regressor=DummyRegressor(), **kwargs)
+
+
+def test_too_few_units_or_columns(campaign):
+    frame = campaign.frame
+    with pytest.raises(ValueError, match=r"needs 3 units, the campaign has 2"):
+        run_paper_experiments(frame[frame["unit"] < 2], regressor=DummyRegressor())
+    with pytest.raises(ValueError, match=r"no column\(s\) \['reference'\]"):
+        run_paper_experiments(frame.drop(columns="reference"))
+    with pytest.raises(TypeError, match="campaign must be a DataFrame"):
+        run_paper_experiments(np.zeros((3, 3)))
