@@ -1,0 +1,552 @@
+"""Compensation reports in Markdown and HTML.
+
+:class:`Report` collects headings, paragraphs, tables and figures and renders them as
+Markdown (figures linked, for a repository or a wiki) and as one self-contained HTML file
+(figures embedded, to hand on). :func:`compensation_report` builds the report a gyro engineer
+hands on after a thermal test: MSD and bias stability before and after compensation per run,
+the raw and compensated rate with the temperature, and the Allan deviation before and after.
+"""
+
+import base64
+import datetime
+import html
+import mimetypes
+import numbers
+import os
+from pathlib import Path
+
+import numpy as np
+
+from sklearn_ifog.persistence import _atomic_path
+
+__all__ = ["Report", "compensation_report"]
+
+# Label of the whole-data row of the per-run table (parenthesised so no run label collides).
+_ALL_RUNS = "(all runs)"
+
+
+def _format_cell(value, float_format):
+    if value is None:
+        return ""
+    if isinstance(value, bool | np.bool_):
+        return str(bool(value))
+    if isinstance(value, numbers.Integral):
+        return str(int(value))
+    if isinstance(value, numbers.Real):
+        value = float(value)
+        if np.isnan(value):
+            return "n/a"
+        return float_format.format(value)
+    return str(value)
+
+
+def _table_rows(table, index):
+    """(header, rows) of a DataFrame, a dict of columns or a list of row dicts."""
+    if hasattr(table, "columns") and hasattr(table, "itertuples"):
+        if index:
+            names = [name for name in table.index.names if name is not None]
+            table = table.reset_index() if names else table
+        header = [str(column) for column in table.columns]
+        rows = [list(row) for row in table.itertuples(index=False, name=None)]
+        return header, rows
+    if isinstance(table, dict):
+        header = [str(column) for column in table]
+        columns = [list(values) for values in table.values()]
+        lengths = {len(values) for values in columns}
+        if len(lengths) > 1:
+            raise ValueError(f"Table columns differ in length: {sorted(lengths)}.")
+        return header, [list(row) for row in zip(*columns, strict=True)]
+    rows = list(table)
+    header = []
+    for row in rows:
+        header.extend(key for key in row if key not in header)
+    return [str(key) for key in header], [[row.get(key) for key in header] for row in rows]
+
+
+class Report:
+    """A document of headings, paragraphs, tables and figures, written as Markdown and HTML.
+
+    Parameters
+    ----------
+    title : str
+        The document's title.
+
+    Examples
+    --------
+    >>> from sklearn_ifog.report import Report
+    >>> report = Report("Thermal test")
+    >>> report.add_paragraph("Two runs.")
+    >>> report.add_table({"run": [0, 1], "msd": [1.234e-4, 5e-5]})
+    >>> print(report.to_markdown())
+    # Thermal test
+    <BLANKLINE>
+    Two runs.
+    <BLANKLINE>
+    | run | msd |
+    | --- | --- |
+    | 0 | 0.0001234 |
+    | 1 | 5e-05 |
+    <BLANKLINE>
+    """
+
+    def __init__(self, title):
+        self.title = title
+        self.blocks = []
+
+    def add_heading(self, text, level=2):
+        """Add a section heading.
+
+        Parameters
+        ----------
+        text : str
+            The heading.
+        level : {2, 3, 4}, default=2
+            Its level (the title is level 1).
+        """
+        if level not in (2, 3, 4):
+            raise ValueError(f"level must be 2, 3 or 4, got {level!r}.")
+        self.blocks.append(("heading", (str(text), level)))
+
+    def add_paragraph(self, text):
+        """Add a paragraph of plain text.
+
+        Parameters
+        ----------
+        text : str
+            The paragraph; HTML special characters are escaped in the HTML output.
+        """
+        self.blocks.append(("paragraph", str(text)))
+
+    def add_table(self, table, *, caption=None, index=True, float_format="{:.4g}"):
+        """Add a table.
+
+        Parameters
+        ----------
+        table : pandas.DataFrame, dict of str to list, or list of dict
+            The rows. A DataFrame's named index becomes its first column(s) when ``index``.
+        caption : str, default=None
+            Text under the table.
+        index : bool, default=True
+            Whether to show a DataFrame's named index.
+        float_format : str, default="{:.4g}"
+            Format of real numbers.
+        """
+        header, rows = _table_rows(table, index)
+        cells = [[_format_cell(value, float_format) for value in row] for row in rows]
+        self.blocks.append(("table", (header, cells, caption)))
+
+    def add_figure(self, path, caption):
+        """Add a figure already saved as a file.
+
+        Parameters
+        ----------
+        path : str or path-like
+            The image (PNG or SVG), usually in the directory the report is written to.
+        caption : str
+            Text under the figure (and its alternative text).
+        """
+        self.blocks.append(("figure", (Path(path), str(caption))))
+
+    def to_markdown(self, directory=None):
+        """Render the report as Markdown.
+
+        Parameters
+        ----------
+        directory : str or path-like, default=None
+            Directory the Markdown file will be in: figure links are made relative to it.
+            None links the figures by the paths they were added with.
+
+        Returns
+        -------
+        text : str
+            The Markdown document.
+        """
+        lines = [f"# {self.title}", ""]
+        for kind, content in self.blocks:
+            if kind == "heading":
+                text, level = content
+                lines += ["#" * level + " " + text, ""]
+            elif kind == "paragraph":
+                lines += [content, ""]
+            elif kind == "table":
+                header, cells, caption = content
+
+                def escape(cell):
+                    return cell.replace("|", "\\|")
+
+                lines.append("| " + " | ".join(map(escape, header)) + " |")
+                lines.append("|" + "|".join(" --- " for _ in header) + "|")
+                lines += ["| " + " | ".join(map(escape, row)) + " |" for row in cells]
+                lines.append("")
+                if caption:
+                    lines += [f"*{caption}*", ""]
+            else:
+                path, caption = content
+                link = _relative(path, directory)
+                lines += [f"![{caption}]({link})", "", f"*{caption}*", ""]
+        return "\n".join(lines)
+
+    def to_html(self, directory=None, *, embed_figures=True):
+        """Render the report as one HTML page.
+
+        Parameters
+        ----------
+        directory : str or path-like, default=None
+            Directory the HTML file will be in, for figure links (``embed_figures=False``).
+        embed_figures : bool, default=True
+            Embed the figures as base64 data URIs, so the page is one self-contained file;
+            False links them instead.
+
+        Returns
+        -------
+        text : str
+            The HTML document.
+        """
+        parts = [
+            "<!DOCTYPE html>",
+            '<html lang="en"><head><meta charset="utf-8">',
+            f"<title>{html.escape(self.title)}</title>",
+            "<style>body{font-family:sans-serif;max-width:60em;margin:2em auto;padding:0 1em}"
+            "table{border-collapse:collapse;margin:1em 0}"
+            "td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right}"
+            "th{background:#eee}figure{margin:1.5em 0}img{max-width:100%}"
+            "figcaption,.caption{color:#555;font-style:italic}</style>",
+            "</head><body>",
+            f"<h1>{html.escape(self.title)}</h1>",
+        ]
+        for kind, content in self.blocks:
+            if kind == "heading":
+                text, level = content
+                parts.append(f"<h{level}>{html.escape(text)}</h{level}>")
+            elif kind == "paragraph":
+                parts.append(f"<p>{html.escape(content)}</p>")
+            elif kind == "table":
+                header, cells, caption = content
+                parts.append("<table><thead><tr>")
+                parts += [f"<th>{html.escape(cell)}</th>" for cell in header]
+                parts.append("</tr></thead><tbody>")
+                for row in cells:
+                    parts.append(
+                        "<tr>" + "".join(f"<td>{html.escape(cell)}</td>" for cell in row) + "</tr>"
+                    )
+                parts.append("</tbody></table>")
+                if caption:
+                    parts.append(f'<p class="caption">{html.escape(caption)}</p>')
+            else:
+                path, caption = content
+                if embed_figures:
+                    mime = mimetypes.guess_type(path.name)[0] or "image/png"
+                    data = base64.b64encode(path.read_bytes()).decode("ascii")
+                    source = f"data:{mime};base64,{data}"
+                else:
+                    source = html.escape(_relative(path, directory))
+                parts.append(
+                    f'<figure><img src="{source}" alt="{html.escape(caption)}">'
+                    f"<figcaption>{html.escape(caption)}</figcaption></figure>"
+                )
+        parts.append("</body></html>")
+        return "\n".join(parts) + "\n"
+
+    def write(self, directory, name="report"):
+        """Write ``name.md`` (figures linked) and ``name.html`` (figures embedded), atomically.
+
+        Parameters
+        ----------
+        directory : str or path-like
+            An existing directory (the figures are usually saved there too).
+        name : str, default="report"
+            File name stem.
+
+        Returns
+        -------
+        paths : dict
+            ``{"markdown": Path, "html": Path}``.
+        """
+        directory = Path(directory)
+        paths = {"markdown": directory / f"{name}.md", "html": directory / f"{name}.html"}
+        texts = {
+            "markdown": self.to_markdown(directory),
+            "html": self.to_html(directory, embed_figures=True),
+        }
+        for kind, path in paths.items():
+            with _atomic_path(path) as temporary:
+                temporary.write_text(texts[kind], encoding="utf-8")
+        return paths
+
+
+def _relative(path, directory):
+    if directory is None:
+        return Path(path).as_posix()
+    return Path(os.path.relpath(Path(path), Path(directory))).as_posix()
+
+
+def _sample_period(time_values):
+    """Median sampling interval, and whether sampling is uniform (within 1 %)."""
+    if time_values is None or time_values.size < 2:
+        return 1.0, time_values is None
+    steps = np.diff(time_values)
+    period = float(np.median(steps))
+    uniform = period > 0 and bool(np.all(np.abs(steps - period) <= 0.01 * period))
+    return period, uniform
+
+
+def _run_segments(run, n_samples):
+    """{run label: row positions (in time order)} in order of first appearance."""
+    if run is None:
+        return {_ALL_RUNS: np.arange(n_samples)}
+    labels, first, inverse = np.unique(run, return_index=True, return_inverse=True)
+    inverse = inverse.ravel()
+    order = np.argsort(inverse, kind="stable")
+    bounds = np.searchsorted(inverse[order], np.arange(labels.size + 1))
+    segments = {labels[k]: order[bounds[k] : bounds[k + 1]] for k in range(labels.size)}
+    return {labels[k]: segments[labels[k]] for k in np.argsort(first, kind="stable")}
+
+
+def _safe_bias_stability(values, period, uniform, window):
+    from sklearn_ifog.metrics import bias_stability
+
+    if not uniform or window < period or values.size * period < 2 * window:
+        return np.nan
+    window = round(window / period) * period
+    return bias_stability(values, sample_period=period, window=window)
+
+
+def compensation_report(
+    directory,
+    *,
+    rate,
+    drift,
+    reference,
+    temperature,
+    time=None,
+    run=None,
+    title="Thermal compensation report",
+    model_metadata=None,
+    data_name=None,
+    max_runs=4,
+    bias_window=100.0,
+    report=None,
+    heading="Compensation",
+):
+    """Measure a compensation and write its report (Markdown and HTML) with figures.
+
+    For every run: the MSD of the raw and of the compensated rate from the reference (the
+    reference paper's Eq. 24), their ratio and the bias stability before and after
+    (``bias_window``-second averages, IEEE Std 952 practice; n/a where the run is too short
+    or not uniformly sampled); the raw and compensated rate with the temperature for the
+    first ``max_runs`` runs; and the Allan deviation of the error (output minus reference)
+    before and after compensation, for the longest run.
+
+    Parameters
+    ----------
+    directory : str or path-like
+        Existing directory for the report and its PNG figures.
+    rate, drift, reference, temperature : array-like of shape (n_samples,)
+        Gyro output (deg/h), predicted drift (deg/h), true input rate (deg/h), coil
+        temperature (deg C).
+    time : array-like of shape (n_samples,), default=None
+        Time, seconds (None: the sample index, at an assumed 1 s period).
+    run : array-like of shape (n_samples,), default=None
+        Run label of each row; None means one run. Rows of a run are in time order.
+    title : str, default="Thermal compensation report"
+        Report title (ignored when ``report`` is given).
+    model_metadata : dict, default=None
+        Metadata of the model (from :func:`~sklearn_ifog.persistence.load_model`), shown
+        in a "Model" section.
+    data_name : str, default=None
+        Name of the data set, shown in the summary.
+    max_runs : int, default=4
+        Number of runs drawn (the first ones, in order of appearance).
+    bias_window : float, default=100.0
+        Averaging window of the bias stability, seconds.
+    report : Report, default=None
+        A report to append the sections to (e.g. with sections of your own before); None
+        starts a new one.
+    heading : str, default="Compensation"
+        Heading of the section this function adds.
+
+    Returns
+    -------
+    result : sklearn.utils.Bunch
+        ``report`` (the :class:`Report`), ``table`` (DataFrame indexed by run, with a last
+        row ``"(all runs)"`` for all rows together; without ``run``, that row only),
+        ``figures`` (list of Path) and ``paths`` (``{"markdown": Path, "html":
+        Path}``).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import numpy as np
+    >>> from sklearn_ifog.report import compensation_report
+    >>> time = np.arange(0.0, 3600.0, 1.0)
+    >>> temperature = 20.0 + 10.0 * np.sin(time / 600.0)
+    >>> drift = 0.02 * (temperature - 20.0)
+    >>> noise = np.random.default_rng(0).normal(0.0, 0.001, time.size)
+    >>> rate = 7.5 + drift + noise
+    >>> with tempfile.TemporaryDirectory() as directory:
+    ...     result = compensation_report(
+    ...         directory,
+    ...         rate=rate,
+    ...         drift=drift,
+    ...         reference=7.5,
+    ...         temperature=temperature,
+    ...         time=time,
+    ...     )
+    ...     sorted(path.name for path in result.paths.values())
+    ['report.html', 'report.md']
+    >>> bool(result.table.loc["(all runs)", "reduction"] > 100)
+    True
+    """
+    import pandas as pd
+    from sklearn.utils import Bunch
+
+    from sklearn_ifog.metrics import allan_deviation, mean_squared_deviation
+    from sklearn_ifog.plotting import plot_allan_deviation, plot_compensation, save_figure
+
+    directory = Path(directory)
+    rate = np.asarray(rate, dtype=float)
+    n_samples = rate.shape[0]
+    drift = np.asarray(drift, dtype=float)
+    reference = np.broadcast_to(np.asarray(reference, dtype=float), rate.shape)
+    temperature = np.asarray(temperature, dtype=float)
+    time_values = (
+        np.arange(n_samples, dtype=float) if time is None else np.asarray(time, dtype=float)
+    )
+    for name, values in (("drift", drift), ("temperature", temperature), ("time", time_values)):
+        if values.shape != rate.shape:
+            raise ValueError(f"{name} has shape {values.shape}, rate has shape {rate.shape}.")
+    compensated = rate - drift
+    segments = _run_segments(None if run is None else np.asarray(run), n_samples)
+
+    rows = []
+    for label, rows_of_run in segments.items():
+        period, uniform = _sample_period(time_values[rows_of_run])
+        error_before = rate[rows_of_run] - reference[rows_of_run]
+        error_after = compensated[rows_of_run] - reference[rows_of_run]
+        msd_before = float(mean_squared_deviation(reference[rows_of_run], rate[rows_of_run]))
+        msd_after = float(mean_squared_deviation(reference[rows_of_run], compensated[rows_of_run]))
+        rows.append(
+            {
+                "run": label,
+                "samples": int(rows_of_run.size),
+                "hours": float(np.ptp(time_values[rows_of_run]) / 3600.0),
+                "T_min": float(temperature[rows_of_run].min()),
+                "T_max": float(temperature[rows_of_run].max()),
+                "msd_before": msd_before,
+                "msd_after": msd_after,
+                "reduction": msd_before / msd_after if msd_after > 0 else np.inf,
+                "bias_stab_before": _safe_bias_stability(
+                    error_before, period, uniform, bias_window
+                ),
+                "bias_stab_after": _safe_bias_stability(error_after, period, uniform, bias_window),
+            }
+        )
+    table = pd.DataFrame(rows).set_index("run")
+    overall_before = float(mean_squared_deviation(reference, rate))
+    overall_after = float(mean_squared_deviation(reference, compensated))
+    if run is not None:
+        table.loc[_ALL_RUNS] = {
+            "samples": n_samples,
+            "hours": float(table["hours"].sum()),
+            "T_min": float(temperature.min()),
+            "T_max": float(temperature.max()),
+            "msd_before": overall_before,
+            "msd_after": overall_after,
+            "reduction": overall_before / overall_after if overall_after > 0 else np.inf,
+            "bias_stab_before": np.nan,
+            "bias_stab_after": np.nan,
+        }
+    table["samples"] = table["samples"].astype(int)
+
+    if report is None:
+        report = Report(title)
+    stamp = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    report.add_heading(heading)
+    source = f" of {data_name}" if data_name else ""
+    report.add_paragraph(
+        f"{n_samples} samples{source} in {len(segments)} run(s), compensated with the model "
+        f"below (report made {stamp}). MSD is the mean squared deviation of the output from "
+        "the reference rate, (deg/h)^2 (the reference paper's Eq. 24); the bias stability is "
+        f"the standard deviation of {bias_window:g} s averages of the error, deg/h."
+    )
+    if time is None:
+        report.add_paragraph(
+            "No time was given: samples are numbered, and durations, bias stability and the "
+            "Allan deviation assume 1 s between samples."
+        )
+    report.add_paragraph(
+        f"Overall MSD: {overall_before:.3g} before, {overall_after:.3g} after compensation "
+        f"(reduction {table.loc[_ALL_RUNS, 'reduction']:.3g}x)."
+    )
+    report.add_table(table, caption="Per-run MSD and bias stability, before and after.")
+
+    figures = []
+    labels = list(segments)
+    shown = labels[:max_runs]
+    report.add_heading("Raw and compensated output", level=3)
+    if len(shown) < len(labels):
+        report.add_paragraph(f"The first {len(shown)} of {len(labels)} runs are drawn.")
+    for index, label in enumerate(shown):
+        rows_of_run = segments[label]
+        ax, _ = plot_compensation(
+            time_values[rows_of_run] - time_values[rows_of_run][0],
+            rate[rows_of_run],
+            compensated[rows_of_run],
+            temperature[rows_of_run],
+            reference=reference[rows_of_run],
+            title=f"run {label}" if run is not None else None,
+        )
+        path = save_figure(ax, directory / f"compensation_{index + 1}.png")
+        figures.append(path)
+        report.add_figure(
+            path,
+            f"Run {label}: raw (grey) and compensated output, reference (dashed) and "
+            "temperature (red, right axis).",
+        )
+
+    longest = max(labels, key=lambda label: segments[label].size)
+    rows_of_run = segments[longest]
+    period, uniform = _sample_period(time_values[rows_of_run])
+    report.add_heading("Allan deviation", level=3)
+    if uniform and rows_of_run.size >= 16:
+        curves = {}
+        for name, values in (("raw", rate), ("compensated", compensated)):
+            error = values[rows_of_run] - reference[rows_of_run]
+            curves[name] = allan_deviation(error, sample_period=period)
+        ax = plot_allan_deviation(curves, title=f"run {longest}" if run is not None else None)
+        path = save_figure(ax, directory / "allan_deviation.png")
+        figures.append(path)
+        report.add_figure(
+            path,
+            f"Overlapping Allan deviation of the error before and after compensation "
+            f"(run {longest}, the longest; sample period {period:g} s).",
+        )
+    else:
+        report.add_paragraph(f"Not computed: run {longest} is not uniformly sampled or too short.")
+
+    if model_metadata:
+        report.add_heading("Model")
+        extra = model_metadata.get("extra") or {}
+        details = {
+            "model class": model_metadata.get("model_class"),
+            "saved": model_metadata.get("created"),
+            "sklearn-ifog version": model_metadata.get("sklearn_ifog_version"),
+            "scikit-learn version": model_metadata.get("sklearn_version"),
+            "input columns": ", ".join(model_metadata.get("feature_columns") or []) or None,
+        }
+        training = extra.get("training") or {}
+        if training:
+            details["trained on"] = (
+                f"{training.get('file')} ({training.get('n_samples')} samples; training MSD "
+                f"{training.get('msd_before', np.nan):.3g} -> "
+                f"{training.get('msd_after', np.nan):.3g})"
+            )
+        report.add_table(
+            {
+                "property": list(details),
+                "value": ["n/a" if value is None else str(value) for value in details.values()],
+            },
+            index=False,
+        )
+    paths = report.write(directory)
+    return Bunch(report=report, table=table, figures=figures, paths=paths)
