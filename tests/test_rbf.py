@@ -1,0 +1,331 @@
+"""RBFNetRegressor: the network formula, selection choices, weights, robustness, persistence."""
+
+import io
+import warnings
+
+import joblib
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+from sklearn.exceptions import ConvergenceWarning
+
+from sklearn_ifog import RBFNetRegressor
+from sklearn_ifog.rbf._basis import gaussian_design
+
+
+def _smooth(n, seed=0, noise=0.05):
+    rng = np.random.default_rng(seed)
+    X = rng.uniform(-1, 1, size=(n, 3))
+    f = np.sin(3 * X[:, 0]) + X[:, 1] * X[:, 2] + 0.5 * np.cos(2 * X[:, 2])
+    return X, f + noise * rng.normal(size=n), f
+
+
+def _formula(model, X):
+    """The contract's prediction formula, written out from the fitted attributes."""
+    Z = (X - model.x_mean_) / model.x_scale_
+    D2 = ((Z[:, None, :] - model.centers_[None]) ** 2).sum(axis=2)
+    Phi = np.exp(-D2 / (2 * model.widths_**2))
+    return Phi @ model.coef_.T + Z @ model.tail_coef_.T + model.intercept_
+
+
+@pytest.fixture(scope="module")
+def smooth_model():
+    X, y, _ = _smooth(600)
+    return RBFNetRegressor(refine=None, random_state=0).fit(X, y), X, y
+
+
+def test_prediction_follows_contract_formula(smooth_model):
+    model, X, _ = smooth_model
+    X_new = np.random.default_rng(5).uniform(-2, 2, size=(50, 3))
+    assert_allclose(model.predict(X_new), _formula(model, X_new), rtol=1e-10, atol=1e-12)
+    assert model.centers_.shape == (model.widths_.shape[0], 3)
+    assert model.coef_.shape == model.widths_.shape
+    assert model.tail_coef_.shape == (3,)
+    assert isinstance(model.intercept_, float)
+    assert_allclose(model.x_mean_, X.mean(axis=0))
+    assert_allclose(model.x_scale_, X.std(axis=0))
+
+
+def test_fits_a_smooth_function_and_refinement_helps():
+    X, y, _ = _smooth(1000)
+    X_test, _, f_test = _smooth(2000, seed=1)
+    ols = RBFNetRegressor(refine=None, random_state=0).fit(X, y)
+    refined = RBFNetRegressor(random_state=0).fit(X, y)
+    mse_ols = np.mean((ols.predict(X_test) - f_test) ** 2)
+    mse_refined = np.mean((refined.predict(X_test) - f_test) ** 2)
+    # The function's variance is 0.7 and a linear model leaves 0.34; the noise variance is
+    # 0.0025: the OLS network is within a few noise variances, the refined one below one.
+    assert mse_ols < 1e-2
+    assert mse_refined < 2e-3
+    assert mse_refined < mse_ols
+    assert refined.selection_path_["refined"]
+    assert 0 < ols.centers_.shape[0] <= 40
+
+
+def test_output_weights_equal_lstsq_on_selected_columns():
+    X, y, _ = _smooth(300)
+    model = RBFNetRegressor(refine=None, alpha=0.0, random_state=0).fit(X, y)
+    Z = (X - model.x_mean_) / model.x_scale_
+    A = np.column_stack([np.ones(300), Z, gaussian_design(Z, model.centers_, model.widths_)])
+    weights = np.linalg.lstsq(A, y, rcond=None)[0]
+    assert_allclose(model.intercept_, weights[0], rtol=1e-7)
+    assert_allclose(model.tail_coef_, weights[1:4], rtol=1e-7, atol=1e-9)
+    assert_allclose(model.coef_, weights[4:], rtol=1e-6, atol=1e-8)
+
+
+def test_selection_path_is_recorded():
+    X, y, _ = _smooth(400)
+    model = RBFNetRegressor(refine=None, alpha=0.0, random_state=0).fit(X, y)
+    path = model.selection_path_
+    k = path["n_centers"]
+    assert k == model.centers_.shape[0]
+    assert path["criterion_name"] == "cv"
+    assert len(path["train_mse"]) == len(path["criterion"]) == len(path["err"]) + 1
+    # Without ridge, training error never rises along a least-squares path.
+    assert np.all(np.diff(path["train_mse"]) <= 1e-12)
+    assert np.all(path["err"] > 0)
+    assert np.all(np.isfinite(path["val_mse"]))
+    assert path["widths_tried"].shape == path["width_scores"].shape
+
+
+@pytest.mark.parametrize("criterion", ["gcv", "bic", "aicc"])
+def test_information_criteria_choose_their_minimum(criterion):
+    X, y, _ = _smooth(300)
+    model = RBFNetRegressor(refine=None, criterion=criterion, random_state=0).fit(X, y)
+    path = model.selection_path_
+    assert path["criterion_name"] == criterion
+    assert path["n_centers"] == int(np.argmin(path["criterion"]))
+    assert np.all(np.isnan(path["val_mse"]))
+
+
+def test_fixed_number_of_centres_and_width():
+    X, y, _ = _smooth(300)
+    model = RBFNetRegressor(
+        n_centers=7, criterion=None, width=0.9, refine=None, random_state=0
+    ).fit(X, y)
+    assert model.centers_.shape == (7, 3)
+    assert_array_equal(model.widths_, np.full(7, 0.9))
+    # Centres are training rows (standardised).
+    Z = (X - model.x_mean_) / model.x_scale_
+    assert all(np.any(np.all(np.isclose(c, Z), axis=1)) for c in model.centers_)
+
+
+def test_goal_stops_at_first_prefix_reaching_it():
+    X, y, _ = _smooth(300)
+    goal = 0.01
+    model = RBFNetRegressor(goal=goal, refine=None, random_state=0).fit(X, y)
+    path = model.selection_path_
+    k = path["n_centers"]
+    assert path["train_mse"][k] <= goal
+    assert np.all(path["train_mse"][:k] > goal)
+
+
+def test_linear_target_gives_exact_affine_model_and_extrapolates():
+    rng = np.random.default_rng(0)
+    X = rng.uniform(0, 1, size=(200, 2))
+    y = 3.0 * X[:, 0] - 2.0 * X[:, 1] + 1.0
+    model = RBFNetRegressor(refine=None, random_state=0).fit(X, y)
+    X_far = np.array([[10.0, -5.0], [-3.0, 4.0]])
+    assert_allclose(model.predict(X_far), 3.0 * X_far[:, 0] - 2.0 * X_far[:, 1] + 1.0, atol=1e-6)
+
+
+def test_tail_extrapolates_linearly_far_from_the_data():
+    X, y, _ = _smooth(400)
+    model = RBFNetRegressor(refine=None, random_state=0).fit(X, y)
+    X_far = np.array([[30.0, -30.0, 30.0], [-40.0, 0.0, 50.0]])
+    Z_far = (X_far - model.x_mean_) / model.x_scale_
+    # Far away every Gaussian unit is zero: the prediction is the affine tail.
+    assert_allclose(model.predict(X_far), Z_far @ model.tail_coef_ + model.intercept_)
+    no_tail = RBFNetRegressor(refine=None, tail=False, random_state=0).fit(X, y)
+    assert_array_equal(no_tail.tail_coef_, np.zeros(3))
+    assert_allclose(no_tail.predict(X_far), no_tail.intercept_)
+
+
+def test_same_seed_same_model_bit_for_bit():
+    X, y, _ = _smooth(1500)
+    params = dict(max_candidates=50, max_samples=500, random_state=3)
+    first = RBFNetRegressor(**params).fit(X, y)
+    second = RBFNetRegressor(**params).fit(X, y)
+    assert_array_equal(first.centers_, second.centers_)
+    assert_array_equal(first.predict(X), second.predict(X))
+    other = RBFNetRegressor(**{**params, "random_state": 4}).fit(X, y)
+    assert not np.array_equal(first.centers_, other.centers_)
+
+
+def test_joblib_round_trip_identical(smooth_model):
+    model, X, _ = smooth_model
+    buffer = io.BytesIO()
+    joblib.dump(model, buffer)
+    buffer.seek(0)
+    restored = joblib.load(buffer)
+    assert_array_equal(restored.predict(X), model.predict(X))
+
+
+def test_integer_weights_equal_repeated_rows():
+    X, y, _ = _smooth(60)
+    weights = np.random.default_rng(1).integers(0, 4, size=60)
+    # GCV ranks the path (no row-order dependence), so the two fits must agree.
+    params = dict(criterion="gcv", refine=None, random_state=0)
+    weighted = RBFNetRegressor(**params).fit(X, y, sample_weight=weights)
+    repeated = RBFNetRegressor(**params).fit(np.repeat(X, weights, axis=0), np.repeat(y, weights))
+    assert weighted.centers_.shape == repeated.centers_.shape
+    X_test = _smooth(100, seed=2)[0]
+    assert_allclose(weighted.predict(X_test), repeated.predict(X_test), rtol=1e-7, atol=1e-9)
+
+
+def test_zero_weight_rows_are_ignored():
+    X, y, _ = _smooth(80)
+    weights = np.ones(80)
+    weights[::4] = 0.0
+    y_corrupt = y.copy()
+    y_corrupt[::4] = 1e3
+    params = dict(criterion="gcv", refine=None, random_state=0)
+    weighted = RBFNetRegressor(**params).fit(X, y_corrupt, sample_weight=weights)
+    dropped = RBFNetRegressor(**params).fit(X[weights > 0], y[weights > 0])
+    assert_allclose(weighted.predict(X), dropped.predict(X), rtol=1e-7, atol=1e-9)
+
+
+def test_float32_input_is_computed_in_float64():
+    X, y, _ = _smooth(300)
+    model64 = RBFNetRegressor(refine=None, random_state=0).fit(X.astype(np.float32), y)
+    model32 = RBFNetRegressor(refine=None, random_state=0).fit(
+        X.astype(np.float32), y.astype(np.float32)
+    )
+    assert model64.centers_.dtype == np.float64
+    pred = model32.predict(X.astype(np.float32))
+    assert pred.dtype == np.float64
+    assert_allclose(pred, model64.predict(X.astype(np.float32)), rtol=1e-5, atol=1e-6)
+
+
+def test_multi_output_equals_single_output_fits_for_scaled_targets():
+    X, y, _ = _smooth(300)
+    Y = np.column_stack([y, -2.0 * y + 5.0])
+    multi = RBFNetRegressor(refine=None, random_state=0).fit(X, Y)
+    single = RBFNetRegressor(refine=None, random_state=0).fit(X, y)
+    assert multi.coef_.shape == (2, single.coef_.shape[0])
+    assert multi.tail_coef_.shape == (2, 3)
+    assert multi.intercept_.shape == (2,)
+    # Targets are standardised per output: an affine copy selects the same network.
+    assert_array_equal(multi.centers_, single.centers_)
+    pred = multi.predict(X)
+    assert pred.shape == (300, 2)
+    assert_allclose(pred[:, 0], single.predict(X), rtol=1e-8, atol=1e-10)
+    assert_allclose(pred[:, 1], -2.0 * single.predict(X) + 5.0, rtol=1e-8, atol=1e-9)
+
+
+def test_multi_output_shares_centres_across_outputs():
+    X, y, _ = _smooth(300)
+    Y = np.column_stack([y, np.cos(2 * X[:, 1])])
+    model = RBFNetRegressor(refine=None, random_state=0).fit(X, Y)
+    assert model.coef_.shape == (2, model.centers_.shape[0])
+    residual = Y - model.predict(X)
+    assert np.all(np.mean(residual**2, axis=0) < 0.1 * Y.var(axis=0))
+
+
+def test_column_vector_target_keeps_two_dimensions():
+    X, y, _ = _smooth(200)
+    model = RBFNetRegressor(refine=None, random_state=0).fit(X, y[:, None])
+    assert model.coef_.ndim == 2
+    assert model.predict(X).shape == (200, 1)
+
+
+@pytest.mark.parametrize(
+    "case",
+    ["duplicate_rows", "constant_feature", "constant_target", "tiny_width", "huge_width"],
+)
+def test_degenerate_inputs_give_finite_models(case):
+    X, y, _ = _smooth(120)
+    params = dict(refine=None, random_state=0)
+    if case == "duplicate_rows":
+        X, y = np.repeat(X[:30], 4, axis=0), np.repeat(y[:30], 4)
+    elif case == "constant_feature":
+        X[:, 1] = 7.0
+    elif case == "constant_target":
+        y = np.full(120, -2.5)
+    elif case == "tiny_width":
+        params["width"] = 1e-9
+    else:
+        params["width"] = 1e9
+    model = RBFNetRegressor(**params).fit(X, y)
+    X_test = np.vstack([X, 100 * np.random.default_rng(0).normal(size=(10, 3))])
+    pred = model.predict(X_test)
+    assert np.all(np.isfinite(pred))
+    for name in ("centers_", "widths_", "coef_", "tail_coef_", "intercept_"):
+        assert np.all(np.isfinite(getattr(model, name)))
+    if case == "constant_target":
+        assert_allclose(pred, -2.5, atol=1e-12)
+        assert model.centers_.shape[0] == 0
+    if case == "constant_feature":
+        assert model.x_scale_[1] == 1.0
+        assert abs(model.tail_coef_[1]) < 1e-12
+    if case == "huge_width":
+        # Units as wide as that are constant columns: collinear with the intercept.
+        assert model.centers_.shape[0] == 0
+
+
+def test_fewer_rows_than_centres_warns():
+    X, y, _ = _smooth(12)
+    with pytest.warns(UserWarning, match="only 12 distinct candidate rows"):
+        model = RBFNetRegressor(n_centers=50, refine=None, random_state=0).fit(X, y)
+    assert model.centers_.shape[0] <= 12
+    assert np.all(np.isfinite(model.predict(X)))
+
+
+def test_two_rows_fit():
+    model = RBFNetRegressor(refine=None).fit([[0.0], [1.0]], [1.0, 3.0])
+    assert_allclose(model.predict([[0.5], [2.0]]), [2.0, 5.0], atol=1e-8)
+
+
+def test_negative_weights_rejected():
+    X, y, _ = _smooth(30)
+    with pytest.raises(ValueError, match=r"[Nn]egative"):
+        RBFNetRegressor(refine=None).fit(X, y, sample_weight=-np.ones(30))
+
+
+@pytest.mark.parametrize("method", ["varpro", "lm", "gd"])
+def test_refinement_starts_from_ols_and_falls_back_cleanly(method):
+    X, y, _ = _smooth(800)
+    params = dict(max_iter=15, random_state=0, n_centers=8)
+    base = RBFNetRegressor(refine=None, **params).fit(X, y)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        refined = RBFNetRegressor(refine=method, **params).fit(X, y)
+    assert np.all(np.isfinite(refined.predict(X)))
+    assert refined.n_iter_ >= 1
+    assert base.n_iter_ == 0
+    # Refinement starts from the OLS network: same selection path either way.
+    assert_array_equal(refined.selection_path_["err"], base.selection_path_["err"])
+    if refined.selection_path_["refined"]:
+        assert not np.array_equal(refined.centers_, base.centers_)
+    else:
+        # Clean fallback: the OLS network's centres and widths, unchanged.
+        assert_array_equal(refined.centers_, base.centers_)
+        assert_array_equal(refined.widths_, base.widths_)
+
+
+def test_refinement_at_max_iter_warns():
+    X, y, _ = _smooth(600)
+    with pytest.warns(ConvergenceWarning, match="max_iter=1"):
+        model = RBFNetRegressor(refine="lm", max_iter=1, random_state=0).fit(X, y)
+    assert model.n_iter_ == 1
+
+
+def test_single_row_predict_matches_batch(smooth_model):
+    model, X, _ = smooth_model
+    batch = model.predict(X[:5])
+    rows = np.array([model.predict(X[i : i + 1])[0] for i in range(5)])
+    assert_allclose(rows, batch, rtol=1e-12)
+
+
+def test_holdout_criterion_and_its_fallback_on_few_rows():
+    X, y, _ = _smooth(400)
+    model = RBFNetRegressor(criterion="holdout", refine=None, random_state=0).fit(X, y)
+    path = model.selection_path_
+    assert path["criterion_name"] == "holdout"
+    assert_allclose(path["criterion"], path["val_mse"] / np.var(y), rtol=1e-6)
+    # 40 rows: 8 would be held out, fewer than the 10 a held-out error needs.
+    few = RBFNetRegressor(criterion="holdout", refine="varpro", random_state=0)
+    few.fit(X[:40], y[:40])
+    assert few.selection_path_["criterion_name"] == "gcv"
+    assert few.n_iter_ == 0
+    assert not few.selection_path_["refined"]
