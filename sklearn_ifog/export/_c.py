@@ -1,0 +1,457 @@
+"""Export of a fitted compensation Pipeline to self-contained C99 (header + source)."""
+
+import os
+import re
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from sklearn_ifog.export._spec import describe_pipeline
+from sklearn_ifog.export._templates import HEADER, SOURCE
+
+_IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+_VALUES_PER_LINE = 4
+
+
+def format_c_literal(value, precision="double"):
+    """A C floating literal that reads back to exactly ``value`` in the given precision.
+
+    ``double``: Python's shortest round-trip ``repr`` (at most 17 significant digits).
+    ``float``: the value rounded to single precision, written with 9 significant digits (the
+    round-trip count for IEEE single) and an ``f`` suffix; values below the smallest normal
+    float are written as zero so no compiler warns about an underflowing constant.
+
+    Parameters
+    ----------
+    value : float
+        A finite value.
+    precision : {"double", "float"}, default="double"
+        The C type the literal is for.
+
+    Returns
+    -------
+    literal : str
+        The C literal.
+
+    Examples
+    --------
+    >>> from sklearn_ifog.export._c import format_c_literal
+    >>> format_c_literal(0.1), format_c_literal(0.1, "float"), format_c_literal(2.0, "float")
+    ('0.1', '0.100000001f', '2.0f')
+    """
+    value = float(value)
+    if not np.isfinite(value):
+        raise ValueError(f"Cannot write {value!r} as a C literal: not finite.")
+    if precision == "double":
+        text = repr(value)
+        if "e" not in text and "." not in text:
+            text += ".0"
+        return text
+    if abs(value) > float(np.finfo(np.float32).max):
+        raise ValueError(f"Cannot write {value!r} as a C float: it overflows single precision.")
+    single = np.float32(value)
+    if abs(single) < np.finfo(np.float32).tiny:
+        single = np.float32(0.0)
+    text = f"{float(single):.9g}"
+    if "e" not in text and "." not in text:
+        text += ".0"
+    return text + "f"
+
+
+def _array(name, values, real, precision, index_type=None):
+    """A ``static const`` array definition (1-D or 2-D), values wrapped a few per line."""
+    array = np.asarray(values)
+    c_type = index_type or real
+    dims = "".join(f"[{n}]" for n in array.shape)
+    if index_type:
+        cells = [str(int(v)) for v in array.ravel()]
+    else:
+        cells = [format_c_literal(v, precision) for v in array.ravel()]
+    if array.ndim == 1:
+        rows = [cells]
+    else:
+        width = array.shape[1]
+        rows = [cells[i : i + width] for i in range(0, len(cells), width)]
+    lines = []
+    indent = "    " if array.ndim == 1 else "     "
+    for row in rows:
+        chunks = [
+            ", ".join(row[i : i + _VALUES_PER_LINE]) for i in range(0, len(row), _VALUES_PER_LINE)
+        ]
+        body = f",\n{indent}".join(chunks)
+        lines.append("    " + body if array.ndim == 1 else "    {" + body + "}")
+    joined = ",\n".join(lines)
+    return f"static const {c_type} {name}{dims} = {{\n{joined}\n}};\n"
+
+
+def _comment(text):
+    """User text (step and column names) made safe inside a C block comment."""
+    return str(text).replace("*/", "* /").replace("\n", " ")
+
+
+class _Writer:
+    """Collects parameter arrays and body lines of the generated source."""
+
+    def __init__(self, prefix, precision):
+        self.prefix = prefix
+        self.precision = precision
+        self.real = f"{prefix}_real"
+        self.exp = "exp" if precision == "double" else "expf"
+        self.parameters = []
+        self.lines = []
+
+    def array(self, name, values, index_type=None):
+        full = f"{self.prefix}_{name}"
+        self.parameters.append(_array(full, values, self.real, self.precision, index_type))
+        return full
+
+    def literal(self, value):
+        return format_c_literal(value, self.precision)
+
+    def emit(self, *lines):
+        self.lines.extend(lines)
+
+
+def _features_body(features, prefix, real):
+    terms = features["terms"]
+    needs_delta = any(term in ("dT", "TdT") for term in terms)
+    uses_time = needs_delta and features["time"] is not None
+    smooths = needs_delta and features["smoothing"] > 0
+    lines = ["    int sensor;", "    int column = 0;"]
+    if uses_time:
+        lines.append("    const double elapsed = time - state->last_time;")
+    else:
+        lines.append("    (void)time;")
+    lines.append(f"    for (sensor = 0; sensor < {prefix.upper()}_N_SENSORS; ++sensor) {{")
+    lines.append("        const double raw = temperature[sensor];")
+    if needs_delta:
+        lines += [
+            "        double smoothed = raw;",
+            "        double delta = 0.0;",
+            "        if (state->has_history) {",
+            "            const double previous = state->smoothed[sensor];",
+        ]
+        if smooths:
+            # The batch recursion's own form and constants (ema_smooth: lfilter with
+            # b = [alpha], a = [1, -(1 - alpha)]), so double agrees with it to the last bit.
+            alpha = features["alpha"]
+            gain, keep = format_c_literal(alpha), format_c_literal(1.0 - alpha)
+            lines.append(f"            smoothed = {gain} * raw + {keep} * previous;")
+        if uses_time:
+            per_unit = format_c_literal(features["seconds_per_unit"])
+            lines.append(f"            delta = (smoothed - previous) / elapsed * {per_unit};")
+        else:
+            lines.append("            delta = smoothed - previous;")
+        lines += ["        }", "        state->smoothed[sensor] = smoothed;"]
+    expressions = {
+        "T": "raw",
+        "dT": "delta",
+        "TdT": "raw * delta",
+        "T2": "raw * raw",
+        "gradient": "raw - temperature[0]",
+    }
+    for term in terms:
+        assignment = f"features[column++] = ({real})({expressions[term]});"
+        if term == "gradient":
+            # The first sensor has no gradient column (it would be identically zero).
+            lines += ["        if (sensor > 0) {", f"            {assignment}", "        }"]
+        else:
+            lines.append(f"        {assignment}")
+    lines.append("    }")
+    if uses_time:
+        lines.append("    state->last_time = time;")
+    lines.append("    state->has_history = 1;")
+    return "\n".join(lines)
+
+
+def _center_scale(writer, tag, spec, source, target):
+    center = writer.array(f"{tag}_center", spec["center"])
+    scale = writer.array(f"{tag}_scale", spec["scale"])
+    writer.emit(
+        f"    for (i = 0; i < {spec['n_inputs']}; ++i) {{",
+        f"        {target}[i] = ({source}[i] - {center}[i]) / {scale}[i];",
+        "    }",
+    )
+
+
+def _multiply_add(writer, tag, spec, source, target):
+    multiply = writer.array(f"{tag}_multiply", spec["multiply"])
+    add = writer.array(f"{tag}_add", spec["add"])
+    writer.emit(
+        f"    for (i = 0; i < {spec['n_inputs']}; ++i) {{",
+        f"        {target}[i] = {source}[i] * {multiply}[i] + {add}[i];",
+    )
+    if spec["clip"] is not None:
+        low, high = (writer.literal(v) for v in spec["clip"])
+        writer.emit(
+            f"        if ({target}[i] < {low}) {{",
+            f"            {target}[i] = {low};",
+            "        }",
+            f"        if ({target}[i] > {high}) {{",
+            f"            {target}[i] = {high};",
+            "        }",
+        )
+    writer.emit("    }")
+
+
+def _polynomial(writer, tag, spec, source, target):
+    powers = writer.array(f"{tag}_powers", spec["powers"], index_type="int")
+    one = writer.literal(1.0)
+    writer.emit(
+        f"    for (i = 0; i < {spec['n_outputs']}; ++i) {{",
+        f"        {writer.real} product = {one};",
+        f"        for (j = 0; j < {spec['n_inputs']}; ++j) {{",
+        "            int power;",
+        f"            for (power = 0; power < {powers}[i][j]; ++power) {{",
+        f"                product *= {source}[j];",
+        "            }",
+        "        }",
+        f"        {target}[i] = product;",
+        "    }",
+    )
+
+
+def _linear(writer, tag, spec, source, target):
+    coef = writer.array(f"{tag}_coef", spec["coef"])
+    intercept = writer.array(f"{tag}_intercept", spec["intercept"])
+    zero = writer.literal(0.0)
+    writer.emit(
+        f"    for (i = 0; i < {spec['n_outputs']}; ++i) {{",
+        f"        {writer.real} total = {zero};",
+        f"        for (j = 0; j < {spec['n_inputs']}; ++j) {{",
+        f"            total += {coef}[i][j] * {source}[j];",
+        "        }",
+        f"        {target}[i] = total + {intercept}[i];",
+        "    }",
+    )
+
+
+def _rbf_network(writer, tag, spec, source, target):
+    n_inputs, n_outputs = spec["n_inputs"], spec["n_outputs"]
+    n_centers = len(spec["widths"])
+    zero = writer.literal(0.0)
+    x_mean = writer.array(f"{tag}_x_mean", spec["x_mean"])
+    x_scale = writer.array(f"{tag}_x_scale", spec["x_scale"])
+    tail = np.asarray(spec["tail_coef"], dtype=np.float64)
+    has_tail = bool(np.any(tail != 0))
+    writer.emit(
+        f"    {writer.real} {tag}_z[{n_inputs}];",
+        f"    for (j = 0; j < {n_inputs}; ++j) {{",
+        f"        {tag}_z[j] = ({source}[j] - {x_mean}[j]) / {x_scale}[j];",
+        "    }",
+    )
+    if n_centers:
+        centers = writer.array(f"{tag}_centers", spec["centers"])
+        # Same constant as the Python network: -0.5 / widths**2, computed in float64.
+        gains = -0.5 / np.square(np.asarray(spec["widths"], dtype=np.float64))
+        gain = writer.array(f"{tag}_gain", gains)
+        coef = writer.array(f"{tag}_coef", spec["coef"])
+        writer.emit(
+            f"    {writer.real} {tag}_phi[{n_centers}];",
+            f"    for (i = 0; i < {n_centers}; ++i) {{",
+            f"        {writer.real} distance2 = {zero};",
+            f"        for (j = 0; j < {n_inputs}; ++j) {{",
+            f"            const {writer.real} difference = {tag}_z[j] - {centers}[i][j];",
+            "            distance2 += difference * difference;",
+            "        }",
+            f"        {tag}_phi[i] = {writer.exp}(distance2 * {gain}[i]);",
+            "    }",
+        )
+    intercept = writer.array(f"{tag}_intercept", spec["intercept"])
+    writer.emit(
+        f"    for (i = 0; i < {n_outputs}; ++i) {{",
+        f"        {writer.real} total = {zero};",
+    )
+    if n_centers:
+        writer.emit(
+            f"        for (j = 0; j < {n_centers}; ++j) {{",
+            f"            total += {coef}[i][j] * {tag}_phi[j];",
+            "        }",
+        )
+    if has_tail:
+        tail_name = writer.array(f"{tag}_tail_coef", tail)
+        writer.emit(
+            f"        for (j = 0; j < {n_inputs}; ++j) {{",
+            f"            total += {tail_name}[i][j] * {tag}_z[j];",
+            "        }",
+        )
+        if spec["tail_degree"] == 2:
+            # Then the monomials z[a] z[b], a <= b, row-major (PolynomialFeatures' order).
+            writer.emit(
+                "        {",
+                f"            int column = {n_inputs};",
+                "            int a;",
+                f"            for (a = 0; a < {n_inputs}; ++a) {{",
+                f"                for (j = a; j < {n_inputs}; ++j) {{",
+                f"                    total += {tail_name}[i][column++] * "
+                f"({tag}_z[a] * {tag}_z[j]);",
+                "                }",
+                "            }",
+                "        }",
+            )
+    writer.emit(f"        {target}[i] = total + {intercept}[i];", "    }")
+
+
+_RENDERERS = {
+    "center_scale": _center_scale,
+    "multiply_add": _multiply_add,
+    "polynomial": _polynomial,
+    "linear": _linear,
+    "rbf_network": _rbf_network,
+}
+
+
+def render_c(spec, prefix="ifog", precision="double"):
+    """Render the export schema's dict as C99 header and source text.
+
+    Parameters
+    ----------
+    spec : dict
+        The output of :func:`sklearn_ifog.export._spec.describe_pipeline`.
+    prefix : str, default="ifog"
+        Prefix of every public C name and of the file names.
+    precision : {"double", "float"}, default="double"
+        Type of the parameters and of the network arithmetic.
+
+    Returns
+    -------
+    header, source : str
+        The contents of ``{prefix}.h`` and ``{prefix}.c``.
+    """
+    writer = _Writer(prefix, precision)
+    steps = spec["steps"]
+    buffers = ["features"] + [f"x{k}" for k in range(1, len(steps))] + ["drift"]
+    for k, step in enumerate(steps[:-1], start=1):
+        writer.emit(f"    {writer.real} x{k}[{step['n_outputs']}];")
+    for k, step in enumerate(steps):
+        writer.emit(f"    /* {_comment(step['name'])}: {step['class']} */")
+        _RENDERERS[step["op"]](writer, f"step{k}", step, buffers[k], buffers[k + 1])
+    # The last step (linear or RBF network) always loops over both indices.
+    predict_lines = ["    int i;", "    int j;", *writer.lines]
+    features = spec["features"]
+    pipeline_lines = [" *   ThermalFeatures"] + [
+        f" *   -> {_comment(step['name'])} ({step['class']})" for step in steps
+    ]
+    time_column = features["time"]
+    fields = {
+        "prefix": prefix,
+        "PREFIX": prefix.upper(),
+        "guard": f"{prefix.upper()}_H",
+        "generator": spec["generator"],
+        "pipeline_lines": "\n".join(pipeline_lines),
+        "real": precision,
+        "n_sensors": len(features["temperature"]),
+        "n_features": spec["n_features"],
+        "n_outputs": spec["n_outputs"],
+        "sensor_list": _comment(", ".join(str(column) for column in features["temperature"])),
+        "feature_list": _comment(", ".join(features["feature_names"])),
+        "time_note": (
+            " (ignored: the model differences per sample)"
+            if time_column is None
+            else f" (column {_comment(str(time_column))})"
+        ),
+        "time_null": " (may be NULL)" if time_column is None else "",
+        "parameters": "\n".join(writer.parameters),
+        "features_body": _features_body(features, prefix, writer.real),
+        "predict_body": "\n".join(predict_lines),
+        "batch_time": "0.0" if time_column is None else "time[sample]",
+        "batch_prelude": "    (void)time; /* the model differences per sample */\n"
+        if time_column is None
+        else "",
+    }
+    return HEADER.substitute(fields), SOURCE.substitute(fields)
+
+
+def _write_atomically(files):
+    """Write ``{path: text}``: every file to a temporary sibling first, then rename them all."""
+    # mkstemp creates owner-only files; give the results the permissions of a plain open().
+    umask = os.umask(0o022)
+    os.umask(umask)
+    staged = []
+    try:
+        for path, text in files.items():
+            handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+            staged.append((temporary, path))
+            with os.fdopen(handle, "w", encoding="utf-8", newline="\n") as stream:
+                stream.write(text)
+            os.chmod(temporary, 0o666 & ~umask)
+        for temporary, path in staged:
+            os.replace(temporary, path)
+    finally:
+        for temporary, _ in staged:
+            if os.path.exists(temporary):
+                os.remove(temporary)
+
+
+def to_c(pipeline, directory, precision="double", prefix="ifog"):
+    """Write a fitted compensation Pipeline as a self-contained C99 header and source.
+
+    The generated ``{prefix}.h`` / ``{prefix}.c`` need nothing beyond ``<math.h>`` and
+    allocate no memory. They provide a state struct ``{prefix}_state`` with
+    ``{prefix}_init`` / ``{prefix}_reset`` (at the start of every run), the streaming
+    ``{prefix}_step`` (one sample in, the drift out) and ``{prefix}_compensate``, the batch
+    ``{prefix}_batch`` (one whole run), and ``{prefix}_predict_features`` (the stateless part
+    after ThermalFeatures). Parameters are written with round-trip precision. The causal front
+    end (smoothing, differences of time and temperature) is computed in double even for
+    ``precision="float"``: differencing 0.01 °C steps of a 30 °C reading in single precision
+    would alone cost about 1e-4 relative.
+
+    Parameters
+    ----------
+    pipeline : sklearn.pipeline.Pipeline
+        Fitted: :class:`~sklearn_ifog.ThermalFeatures`, then any of StandardScaler,
+        RobustScaler, MaxAbsScaler, MinMaxScaler, PolynomialFeatures (or "passthrough"), then
+        a :class:`~sklearn_ifog.RBFNetRegressor` or a linear regressor (LinearRegression,
+        Ridge, Lasso, ElasticNet, BayesianRidge, HuberRegressor, ... and their CV forms).
+    directory : str or path-like
+        Where to write the two files (created if missing).
+    precision : {"double", "float"}, default="double"
+        C type of the parameters and of the network arithmetic.
+    prefix : str, default="ifog"
+        A C identifier: prefix of every generated name and the files' base name.
+
+    Returns
+    -------
+    header, source : pathlib.Path
+        The paths written.
+
+    Raises
+    ------
+    TypeError
+        If a step is of a type the exporter does not know (the message names the step).
+    ValueError
+        On a bad ``precision`` or ``prefix``, a first step that is not ThermalFeatures, or a
+        parameter that is not finite.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import numpy as np
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn.pipeline import make_pipeline
+    >>> from sklearn_ifog import ThermalFeatures
+    >>> from sklearn_ifog.export import to_c
+    >>> X = np.column_stack([np.arange(6.0), 20 + np.arange(6.0) ** 2 / 10])
+    >>> model = make_pipeline(ThermalFeatures(temperature=1, time=0), LinearRegression())
+    >>> model = model.fit(X, X[:, 1] / 100)
+    >>> with tempfile.TemporaryDirectory() as directory:
+    ...     header, source = to_c(model, directory)
+    ...     print(header.name, source.name, "ifog_step" in source.read_text())
+    ifog.h ifog.c True
+    """
+    if precision not in ("double", "float"):
+        raise ValueError(f"precision must be 'double' or 'float', got {precision!r}.")
+    if not isinstance(prefix, str) or not _IDENTIFIER.match(prefix):
+        raise ValueError(
+            f"prefix must be a C identifier (a letter, then letters, digits or '_'), "
+            f"got {prefix!r}."
+        )
+    spec = describe_pipeline(pipeline)
+    header_text, source_text = render_c(spec, prefix=prefix, precision=precision)
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    header = directory / f"{prefix}.h"
+    source = directory / f"{prefix}.c"
+    _write_atomically({header: header_text, source: source_text})
+    return header, source

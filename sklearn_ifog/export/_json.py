@@ -1,0 +1,67 @@
+"""Export of a fitted compensation Pipeline to JSON, for firmware in other languages."""
+
+import json
+from pathlib import Path
+
+from sklearn_ifog.export._c import _write_atomically
+from sklearn_ifog.export._spec import describe_pipeline
+
+
+def to_json(pipeline, path):
+    """Write the parameters of a fitted compensation Pipeline to a JSON file.
+
+    The file holds exactly what :func:`to_c` compiles in, for implementations in other
+    languages: the ThermalFeatures rules (sensor columns, time column, terms, smoothing,
+    time unit), then every step in order with its operation and parameters, under a
+    ``"schema"`` name and a ``"schema_version"`` (currently 1). Floats are written with
+    round-trip precision (Python's ``repr``). The schema is documented in
+    ``sklearn_ifog/export/_spec.py``; in short, per step ``op``:
+
+    - ``"center_scale"``: ``y = (x - center) / scale``;
+    - ``"multiply_add"``: ``y = x * multiply + add``, clipped to ``clip`` when given;
+    - ``"polynomial"``: ``y[k] = prod_j x[j] ** powers[k][j]``;
+    - ``"linear"``: ``y = coef @ x + intercept``;
+    - ``"rbf_network"``: ``z = (x - x_mean) / x_scale``,
+      ``y = coef @ exp(-||z - centers||^2 / (2 widths^2)) + tail_coef @ z + intercept``.
+
+    Parameters
+    ----------
+    pipeline : sklearn.pipeline.Pipeline
+        Fitted; the same pipelines as :func:`to_c` accepts.
+    path : str or path-like
+        The file to write (atomically: a temporary file, then a rename).
+
+    Returns
+    -------
+    path : pathlib.Path
+        The path written.
+
+    Raises
+    ------
+    TypeError
+        If a step is of a type the exporter does not know (the message names the step).
+    ValueError
+        If the first step is not ThermalFeatures or a parameter is not finite.
+
+    Examples
+    --------
+    >>> import json, tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn.pipeline import make_pipeline
+    >>> from sklearn_ifog import ThermalFeatures
+    >>> from sklearn_ifog.export import to_json
+    >>> X = np.column_stack([np.arange(6.0), 20 + np.arange(6.0) ** 2 / 10])
+    >>> model = make_pipeline(ThermalFeatures(temperature=1, time=0), LinearRegression())
+    >>> model = model.fit(X, X[:, 1] / 100)
+    >>> with tempfile.TemporaryDirectory() as directory:
+    ...     spec = json.loads(to_json(model, Path(directory) / "model.json").read_text())
+    >>> spec["schema_version"], [step["op"] for step in spec["steps"]]
+    (1, ['linear'])
+    """
+    spec = describe_pipeline(pipeline)
+    path = Path(path)
+    text = json.dumps(spec, indent=2, allow_nan=False) + "\n"
+    _write_atomically({path: text})
+    return path

@@ -1,0 +1,353 @@
+"""A fitted compensation Pipeline described as plain parameters (the export schema).
+
+``describe_pipeline`` turns ``ThermalFeatures → [row-wise transformers] → regressor`` into a
+JSON-able dict; the C generator renders that dict and ``to_json`` writes it, so both exports
+carry exactly the same numbers. Every float goes through ``float(...)`` of a float64, so
+``json`` (which writes ``repr``) and the C generator (``repr`` / ``%.9g``) keep round-trip
+precision.
+
+Schema (version 1)::
+
+    {
+      "schema": "sklearn-ifog-pipeline",
+      "schema_version": 1,
+      "generator": "sklearn-ifog <version>",
+      "features": {
+        "op": "thermal_features",
+        "temperature": [<column name or position>, ...],   # one per sensor, in order
+        "time": <column> | null,
+        "run": <column> | null,
+        "terms": [...],              # among "T", "dT", "TdT", "T2", "gradient"
+        "smoothing": float,          # EMA time constant, in samples
+        "alpha": float,              # 1 / (1 + smoothing): s[i] = s[i-1] + alpha*(T[i]-s[i-1])
+        "seconds_per_unit": float | null,   # null when time is null (per-sample difference)
+        "feature_names": [...]       # output columns: for each sensor, for each term
+      },
+      "steps": [ <step>, ... ],      # after the features, applied in order, row by row
+      "n_features": int,             # features entering the first step
+      "n_outputs": int,
+      "single_output": bool          # the Pipeline predicts a 1-D array
+    }
+
+Each step is ``{"name", "class", "op", "n_inputs", "n_outputs", ...}`` with ``op``:
+
+- ``"center_scale"``: ``y = (x - center) / scale`` (StandardScaler, RobustScaler,
+  MaxAbsScaler); ``center``, ``scale``: lists of length ``n_inputs``.
+- ``"multiply_add"``: ``y = x * multiply + add``, then clipped to ``clip`` (``[low, high]``)
+  when ``clip`` is not null (MinMaxScaler).
+- ``"polynomial"``: ``y[k] = prod_j x[j] ** powers[k][j]`` (PolynomialFeatures).
+- ``"linear"`` (last step): ``y = coef @ x + intercept``; ``coef``: ``n_outputs`` lists of
+  ``n_inputs``.
+- ``"rbf_network"`` (last step): ``z = (x - x_mean) / x_scale``;
+  ``phi[k] = exp(-||z - centers[k]||^2 / (2 widths[k]^2))``;
+  ``y = coef @ phi + tail_coef @ t(z) + intercept``; ``centers``: K lists of ``n_inputs``,
+  ``coef``: ``n_outputs`` lists of K, ``tail_coef``: ``n_outputs`` lists of ``n_tail``.
+  The polynomial tail ``t(z)`` has degree ``tail_degree``: 1, ``t(z) = z``
+  (``n_tail = n_inputs``; a model without tail has an all-zero one); 2, ``z`` followed by
+  the monomials ``z[i] * z[j]`` for ``i <= j``, row-major (``z0², z0 z1, ..., z1², ...``,
+  the order of scikit-learn's ``PolynomialFeatures(degree=2, include_bias=False)``;
+  ``n_tail = n_inputs + n_inputs (n_inputs + 1) / 2``).
+
+The feature rules are those of :class:`sklearn_ifog.ThermalFeatures`: per sensor, ``s`` is the
+smoothed temperature (``s[0] = T[0]`` at a run's first row); the first row of a run has
+``dT = 0``, later rows ``dT = (s[i] - s[i-1]) / (t[i] - t[i-1]) * seconds_per_unit``, or
+``s[i] - s[i-1]`` without time. Terms: ``"T"`` the raw temperature, ``"dT"``, ``"TdT"`` =
+``T * dT``, ``"T2"`` = ``T * T``, ``"gradient"`` = ``T - T_first_sensor`` (no column for the
+first sensor). Columns: sensor by sensor, term by term within a sensor.
+"""
+
+import numbers
+
+import numpy as np
+from sklearn import linear_model, preprocessing
+from sklearn.pipeline import Pipeline
+from sklearn.utils.validation import check_is_fitted
+
+import sklearn_ifog
+from sklearn_ifog.features import SECONDS_PER_RATE_UNIT, ThermalFeatures
+from sklearn_ifog.rbf import RBFNetRegressor
+from sklearn_ifog.rbf._basis import tail_degree_from_size
+
+SCHEMA_NAME = "sklearn-ifog-pipeline"
+SCHEMA_VERSION = 1
+
+# Feature terms the exporters compute (see sklearn_ifog.features.assemble_terms).
+KNOWN_TERMS = ("T", "dT", "TdT", "T2", "gradient")
+
+# Regressors whose predict is exactly ``X @ coef_.T + intercept_``.
+LINEAR_REGRESSORS = (
+    linear_model.LinearRegression,
+    linear_model.Ridge,
+    linear_model.RidgeCV,
+    linear_model.Lasso,
+    linear_model.LassoCV,
+    linear_model.ElasticNet,
+    linear_model.ElasticNetCV,
+    linear_model.Lars,
+    linear_model.LassoLars,
+    linear_model.BayesianRidge,
+    linear_model.ARDRegression,
+    linear_model.HuberRegressor,
+    linear_model.SGDRegressor,
+    linear_model.QuantileRegressor,
+    linear_model.TheilSenRegressor,
+)
+
+
+def _floats(values):
+    """Nested lists of Python floats from an array (exact float64 values)."""
+    return np.asarray(values, dtype=np.float64).tolist()
+
+
+def _class_path(step):
+    cls = type(step)
+    return f"{cls.__module__}.{cls.__qualname__}"
+
+
+def _step_label(name, step):
+    return f"step {name!r} ({_class_path(step)})"
+
+
+def _known_names():
+    transformers = ", ".join(cls.__name__ for cls in TRANSFORMER_CONVERTERS)
+    regressors = ", ".join(cls.__name__ for cls in (RBFNetRegressor, *LINEAR_REGRESSORS))
+    return f"transformers: {transformers}; final regressors: {regressors}"
+
+
+def _column(value):
+    """A column reference as JSON can hold it (name or position)."""
+    if value is None:
+        return None
+    if isinstance(value, numbers.Integral):
+        return int(value)
+    return str(value)
+
+
+def seconds_per_unit(rate_unit):
+    """Seconds in one ``rate_unit`` of :class:`ThermalFeatures` ("s", "min", "h" or seconds).
+
+    Parameters
+    ----------
+    rate_unit : {"s", "min", "h"} or float
+        The unit of ΔT's time base.
+
+    Returns
+    -------
+    seconds : float
+        Seconds per unit.
+    """
+    if isinstance(rate_unit, str):
+        return SECONDS_PER_RATE_UNIT[rate_unit]
+    return float(rate_unit)
+
+
+def describe_features(step, name="thermalfeatures"):
+    """The ThermalFeatures part of the schema (see the module docstring)."""
+    check_is_fitted(step)
+    temperature = step.temperature
+    sensors = list(temperature) if isinstance(temperature, list | tuple) else [temperature]
+    terms = [str(term) for term in step.terms]
+    unknown = [term for term in terms if term not in KNOWN_TERMS]
+    if unknown:
+        raise ValueError(
+            f"Cannot export {_step_label(name, step)}: unknown feature term(s) {unknown}; "
+            f"the exporters compute {list(KNOWN_TERMS)}."
+        )
+    smoothing = float(step.smoothing)
+    return {
+        "op": "thermal_features",
+        "temperature": [_column(sensor) for sensor in sensors],
+        "time": _column(step.time),
+        "run": _column(step.run),
+        "terms": terms,
+        "smoothing": smoothing,
+        "alpha": 1.0 / (1.0 + smoothing),
+        "seconds_per_unit": None if step.time is None else seconds_per_unit(step.rate_unit),
+        "feature_names": [str(name) for name in step.get_feature_names_out()],
+    }
+
+
+def _standard_scaler(step, n_inputs):
+    center = step.mean_ if step.with_mean else np.zeros(n_inputs)
+    scale = step.scale_ if step.with_std else np.ones(n_inputs)
+    return {"op": "center_scale", "center": _floats(center), "scale": _floats(scale)}
+
+
+def _robust_scaler(step, n_inputs):
+    center = step.center_ if step.with_centering else np.zeros(n_inputs)
+    scale = step.scale_ if step.with_scaling else np.ones(n_inputs)
+    return {"op": "center_scale", "center": _floats(center), "scale": _floats(scale)}
+
+
+def _max_abs_scaler(step, n_inputs):
+    return {
+        "op": "center_scale",
+        "center": _floats(np.zeros(n_inputs)),
+        "scale": _floats(step.scale_),
+    }
+
+
+def _min_max_scaler(step, n_inputs):
+    clip = _floats(step.feature_range) if step.clip else None
+    return {
+        "op": "multiply_add",
+        "multiply": _floats(step.scale_),
+        "add": _floats(step.min_),
+        "clip": clip,
+    }
+
+
+def _polynomial(step, n_inputs):
+    return {"op": "polynomial", "powers": np.asarray(step.powers_, dtype=int).tolist()}
+
+
+TRANSFORMER_CONVERTERS = {
+    preprocessing.StandardScaler: _standard_scaler,
+    preprocessing.RobustScaler: _robust_scaler,
+    preprocessing.MaxAbsScaler: _max_abs_scaler,
+    preprocessing.MinMaxScaler: _min_max_scaler,
+    preprocessing.PolynomialFeatures: _polynomial,
+}
+
+
+def _linear(step):
+    coef = np.asarray(step.coef_, dtype=np.float64)
+    single_output = coef.ndim == 1
+    coef = np.atleast_2d(coef)
+    intercept = np.broadcast_to(np.asarray(step.intercept_, dtype=np.float64), coef.shape[:1])
+    return {"op": "linear", "coef": _floats(coef), "intercept": _floats(intercept)}, single_output
+
+
+def _rbf_network(step):
+    coef = np.asarray(step.coef_, dtype=np.float64)
+    single_output = coef.ndim == 1
+    coef = np.atleast_2d(coef)
+    n_outputs = coef.shape[0]
+    n_inputs = np.asarray(step.x_mean_).shape[0]
+    tail = np.asarray(step.tail_coef_, dtype=np.float64).reshape(n_outputs, -1)
+    tail_degree = tail_degree_from_size(tail.shape[1], n_inputs)
+    if tail_degree == 0 or not np.any(tail):
+        # No tail, or an all-zero one: written as a zero linear tail (one schema shape).
+        tail_degree, tail = 1, np.zeros((n_outputs, n_inputs))
+    intercept = np.broadcast_to(np.asarray(step.intercept_, dtype=np.float64), (n_outputs,))
+    spec = {
+        "op": "rbf_network",
+        "x_mean": _floats(step.x_mean_),
+        "x_scale": _floats(step.x_scale_),
+        "centers": _floats(np.asarray(step.centers_).reshape(-1, n_inputs)),
+        "widths": _floats(np.broadcast_to(step.widths_, (coef.shape[1],))),
+        "coef": _floats(coef),
+        "tail_degree": tail_degree,
+        "tail_coef": _floats(tail),
+        "intercept": _floats(intercept),
+    }
+    return spec, single_output
+
+
+def _check_finite(spec, label):
+    for key, value in spec.items():
+        if key in {"name", "class", "op", "n_inputs", "n_outputs", "clip", "tail_degree"} or (
+            value is None
+        ):
+            continue
+        array = np.asarray(value, dtype=np.float64)
+        if not np.all(np.isfinite(array)):
+            raise ValueError(f"Cannot export {label}: parameter {key!r} holds NaN or inf.")
+
+
+def describe_pipeline(pipeline):
+    """Describe a fitted compensation Pipeline as the export schema's dict.
+
+    Parameters
+    ----------
+    pipeline : sklearn.pipeline.Pipeline
+        Fitted; its first step is a :class:`~sklearn_ifog.ThermalFeatures`, its last a known
+        regressor, with known row-wise transformers (or ``"passthrough"``) in between.
+
+    Returns
+    -------
+    spec : dict
+        JSON-able description (see the module docstring for the schema).
+
+    Raises
+    ------
+    TypeError
+        If ``pipeline`` is not a Pipeline, or a step is of a type the exporters do not know
+        (the message names the step and its class).
+    ValueError
+        If the first step is not a ThermalFeatures, a parameter is not finite, or the steps'
+        widths do not chain.
+    """
+    if not isinstance(pipeline, Pipeline):
+        raise TypeError(
+            "Expected a fitted sklearn.pipeline.Pipeline (ThermalFeatures → ... → regressor), "
+            f"got {_class_path(pipeline)}."
+        )
+    check_is_fitted(pipeline)
+    steps = [(name, step) for name, step in pipeline.steps if step not in (None, "passthrough")]
+    if len(steps) < 2:
+        raise ValueError("Cannot export: the Pipeline needs ThermalFeatures and a regressor.")
+    first_name, first = steps[0]
+    if type(first) is not ThermalFeatures:
+        raise ValueError(
+            f"Cannot export: the first step must be a sklearn_ifog.ThermalFeatures, got "
+            f"{_step_label(first_name, first)}."
+        )
+    features = describe_features(first, first_name)
+    n_features = len(features["feature_names"])
+    width = n_features
+    described = []
+    for name, step in steps[1:-1]:
+        converter = TRANSFORMER_CONVERTERS.get(type(step))
+        if converter is None:
+            raise TypeError(
+                f"Cannot export {_step_label(name, step)}: the exporters do not know this "
+                f"estimator ({_known_names()})."
+            )
+        spec = {"name": name, "class": _class_path(step), **converter(step, width)}
+        n_out = len(spec["powers"]) if spec["op"] == "polynomial" else width
+        _check_chain(name, step, width)
+        spec["n_inputs"], spec["n_outputs"] = width, n_out
+        _check_finite(spec, _step_label(name, step))
+        described.append(spec)
+        width = n_out
+    name, regressor = steps[-1]
+    if type(regressor) is RBFNetRegressor:
+        spec, single_output = _rbf_network(regressor)
+    elif type(regressor) in LINEAR_REGRESSORS:
+        spec, single_output = _linear(regressor)
+    else:
+        raise TypeError(
+            f"Cannot export {_step_label(name, regressor)}: the exporters do not know this "
+            f"estimator ({_known_names()})."
+        )
+    _check_chain(name, regressor, width)
+    n_outputs = len(spec["intercept"])
+    spec = {
+        "name": name,
+        "class": _class_path(regressor),
+        **spec,
+        "n_inputs": width,
+        "n_outputs": n_outputs,
+    }
+    _check_finite(spec, _step_label(name, regressor))
+    described.append(spec)
+    return {
+        "schema": SCHEMA_NAME,
+        "schema_version": SCHEMA_VERSION,
+        "generator": f"sklearn-ifog {sklearn_ifog.__version__}",
+        "features": features,
+        "steps": described,
+        "n_features": n_features,
+        "n_outputs": n_outputs,
+        "single_output": single_output,
+    }
+
+
+def _check_chain(name, step, width):
+    expected = getattr(step, "n_features_in_", width)
+    if expected != width:
+        raise ValueError(
+            f"Cannot export {_step_label(name, step)}: it was fitted on {expected} features "
+            f"but the previous step gives {width}."
+        )

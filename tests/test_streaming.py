@@ -1,0 +1,293 @@
+"""StreamingCompensator: online compensation equal to the batch Pipeline.
+
+"Equal to 1e-12 relative", sample by sample, for the drift and the compensated rate, with an
+absolute floor of 1e-12 times the largest value on the run (a value near zero has no
+meaningful ratio). The features are bit for bit the batch ones; the rows after ThermalFeatures
+go through the same fitted steps, but BLAS may sum a 1-row product in another order than a
+1,500-row one, hence a tolerance rather than equality (equality is asserted where the shapes
+are the same).
+"""
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+from sklearn.linear_model import Ridge
+from sklearn.pipeline import Pipeline, make_pipeline
+from sklearn.preprocessing import PolynomialFeatures, StandardScaler
+
+from sklearn_ifog import RBFNetRegressor, ThermalFeatures
+from sklearn_ifog.datasets import make_thermal_campaign
+from sklearn_ifog.features import compute_thermal_features
+from sklearn_ifog.streaming import StreamingCompensator, advance_features
+
+RTOL = 1e-12
+
+
+@pytest.fixture(scope="module")
+def campaign():
+    frame = make_thermal_campaign(n_units=1, n_runs=1, sampling_period=10.0, random_state=0).frame
+    runs = frame["run"].unique()[:2]
+    frame = frame[frame["run"].isin(runs)]
+    # Keep the module fast: the first 1,500 samples of each of two runs (a run's prefix is a
+    # run: the features are causal).
+    frame = frame.groupby("run", sort=False).head(1500).reset_index(drop=True)
+    frame["temperature_2"] = frame["temperature"].rolling(20, min_periods=1).mean()
+    return frame
+
+
+def _rbf(**params):
+    params = {"n_centers": 15, "max_candidates": 100, "max_samples": 1000, **params}
+    return RBFNetRegressor(random_state=0, **params)
+
+
+def _features(**params):
+    return ThermalFeatures(temperature="temperature", time="time", run="run", **params)
+
+
+@pytest.fixture(scope="module")
+def models(campaign):
+    y = campaign["drift"]
+    return {
+        # The default (quadratic) tail, with exactly 15 Gaussian units.
+        "rbf": make_pipeline(_features(smoothing=2.0), StandardScaler(), _rbf(criterion=None)).fit(
+            campaign, y
+        ),
+        "poly-ridge": make_pipeline(
+            _features(), StandardScaler(), PolynomialFeatures(2), Ridge(alpha=1e-3)
+        ).fit(campaign, y),
+    }
+
+
+@pytest.fixture(scope="module", params=["rbf", "poly-ridge"])
+def model(request, models):
+    return models[request.param]
+
+
+def _one_run(campaign, n_samples=None):
+    run = campaign[campaign["run"] == campaign["run"].iloc[0]]
+    return run if n_samples is None else run.iloc[:n_samples]
+
+
+def _stream(compensator, frame, chunk, rate=None):
+    compensated, drift = [], []
+    rate = frame["rate"].to_numpy() if rate is None else rate
+    for start in range(0, len(frame), chunk):
+        out = compensator.update(frame.iloc[start : start + chunk], rate[start : start + chunk])
+        compensated.append(out[0])
+        drift.append(out[1])
+    return np.concatenate(compensated), np.concatenate(drift)
+
+
+def _assert_close(actual, expected):
+    expected = np.asarray(expected)
+    floor = RTOL * np.max(np.abs(expected))
+    np.testing.assert_allclose(actual, expected, rtol=RTOL, atol=floor)
+
+
+def _assert_equal_to_batch(model, frame, compensated, drift):
+    expected_drift = model.predict(frame)
+    _assert_close(compensated, frame["rate"].to_numpy() - expected_drift)
+    _assert_close(drift, expected_drift)
+
+
+@pytest.mark.parametrize("chunk", [1, 7, None], ids=["1", "7", "whole-run"])
+def test_streaming_equals_batch_for_any_chunking(model, campaign, chunk):
+    # Chunks of one sample cost a Pipeline call each: a 600-sample run is enough there.
+    run = _one_run(campaign, 600 if chunk == 1 else None)
+    compensated, drift = _stream(StreamingCompensator(model), run, chunk or len(run))
+    _assert_equal_to_batch(model, run, compensated, drift)
+
+
+def test_whole_run_chunk_is_bitwise_batch(model, campaign):
+    run = _one_run(campaign)
+    _, drift = StreamingCompensator(model).update(run, run["rate"])
+    np.testing.assert_array_equal(drift, model.predict(run))
+
+
+def test_save_and_restore_mid_run(model, campaign):
+    run = _one_run(campaign)
+    half = len(run) // 2 + 3
+    first = StreamingCompensator(model)
+    head = first.update(run.iloc[:half], run["rate"].iloc[:half])
+    saved = json.loads(json.dumps(first.get_state()))
+    # The first compensator goes on with other rows: the saved state must not move with it.
+    first.update(run.iloc[half : half + 10], run["rate"].iloc[half : half + 10])
+    second = StreamingCompensator(model).set_state(saved)
+    tail = _stream(second, run.iloc[half:], 7)
+    compensated = np.concatenate([head[0], tail[0]])
+    drift = np.concatenate([head[1], tail[1]])
+    _assert_equal_to_batch(model, run, compensated, drift)
+    assert saved["has_history"] is True
+    assert len(saved["smoothed"]) == 1
+
+
+def test_step_equals_update(models, campaign):
+    model = models["rbf"]
+    run = _one_run(campaign, 50)
+    compensator = StreamingCompensator(model)
+    by_step = [
+        compensator.step(t, temperature, rate)
+        for t, temperature, rate in zip(run["time"], run["temperature"], run["rate"], strict=True)
+    ]
+    _assert_equal_to_batch(model, run, [c for c, _ in by_step], [d for _, d in by_step])
+    assert isinstance(by_step[0][1], float)
+
+
+def test_run_change_inside_a_chunk_starts_a_new_run(models, campaign):
+    model = models["poly-ridge"]
+    compensated, drift = _stream(StreamingCompensator(model), campaign, 1100)
+    assert campaign["run"].nunique() == 2
+    assert len(campaign) % 1100 != 0
+    _assert_equal_to_batch(model, campaign, compensated, drift)
+
+
+def test_returning_to_a_finished_run_is_refused(models, campaign):
+    model = models["poly-ridge"]
+    first_run, second_run = campaign["run"].unique().tolist()
+    compensator = StreamingCompensator(model)
+    compensator.update(campaign[campaign["run"] == first_run].iloc[:10])
+    compensator.update(campaign[campaign["run"] == second_run].iloc[:10])
+    before = compensator.get_state()
+    with pytest.raises(ValueError, match=f"Run {first_run!r} already ended"):
+        compensator.update(campaign[campaign["run"] == first_run].iloc[10:20])
+    assert compensator.get_state() == before, "a refused chunk must leave the state alone"
+    assert before["finished_runs"] == [first_run]
+    compensator.reset()
+    compensator.update(campaign[campaign["run"] == first_run].iloc[:5])
+
+
+def test_reset_starts_a_new_run_without_run_column(campaign):
+    run = _one_run(campaign, 200)
+    model = make_pipeline(
+        ThermalFeatures(temperature="temperature", time="time"), StandardScaler(), Ridge()
+    ).fit(run, run["drift"])
+    compensator = StreamingCompensator(model)
+    compensator.update(run)
+    again = compensator.reset().update(run)[1]
+    np.testing.assert_array_equal(again, model.predict(run))
+    continued = compensator.update(run.assign(time=run["time"] + 1e6))[1]
+    # Without reset the first row of the second pass has a dT from the last row: it differs.
+    assert continued[0] != again[0]
+    np.testing.assert_array_equal(continued[1:], again[1:])
+
+
+def test_time_must_increase_across_chunks(models, campaign):
+    run = _one_run(campaign, 30)
+    compensator = StreamingCompensator(models["rbf"])
+    compensator.update(run.iloc[:20])
+    with pytest.raises(ValueError, match=r"time must increase strictly within run .*row 0"):
+        compensator.update(run.iloc[15:25])
+    with pytest.raises(ValueError, match=r"time must increase strictly .*row 3"):
+        compensator.update(
+            run.iloc[20:30].assign(time=run["time"].to_numpy()[[20, 21, 22] * 3 + [29]])
+        )
+
+
+def test_bad_inputs_are_named(models, campaign):
+    compensator = StreamingCompensator(models["rbf"])
+    with pytest.raises(ValueError, match="Feature names seen at fit time, yet now missing"):
+        compensator.update(campaign[["time", "run"]])
+    with pytest.raises(ValueError, match="Column 'temperature' holds NaN"):
+        compensator.step(0.0, np.nan, 1.0, run=0)
+    with pytest.raises(ValueError, match=r"Expected 1 temperature value\(s\)"):
+        compensator.step(0.0, [20.0, 21.0], 1.0)
+    with pytest.raises(ValueError, match="needs the time column 'time'"):
+        compensator.step(None, 20.0, 1.0)
+    with pytest.raises(TypeError, match=r"needs a fitted sklearn\.pipeline\.Pipeline"):
+        StreamingCompensator(Ridge())
+    scaler_first = Pipeline([("scale", StandardScaler()), ("ridge", Ridge())]).fit(
+        campaign[["temperature"]], campaign["drift"]
+    )
+    with pytest.raises(ValueError, match=r"ThermalFeatures as the Pipeline's first step.*scale"):
+        StreamingCompensator(scaler_first)
+
+
+def test_set_state_validates(models):
+    compensator = StreamingCompensator(models["rbf"])
+    state = compensator.get_state()
+    with pytest.raises(ValueError, match="state must be a dict with keys"):
+        compensator.set_state({"run": 0})
+    with pytest.raises(ValueError, match="sensor"):
+        compensator.set_state({**state, "n_sensors": 2})
+    with pytest.raises(ValueError, match="smoothed"):
+        compensator.set_state({**state, "has_history": True})
+
+
+def test_several_sensors_and_outputs(campaign):
+    features = ThermalFeatures(
+        temperature=["temperature", "temperature_2"],
+        time="time",
+        run="run",
+        terms=("T", "dT", "TdT", "T2", "gradient"),
+        smoothing=1.0,
+    )
+    y = np.column_stack([campaign["drift"], 0.5 * campaign["drift"] + 0.01])
+    # A linear tail: an unpenalised quadratic one on these ten nearly collinear features sums
+    # terms ~900 times the drift, which amplifies the last-bit differences of BLAS too.
+    model = make_pipeline(features, StandardScaler(), _rbf(tail="linear"))
+    model.fit(campaign, y)
+    rate = np.column_stack([campaign["rate"], campaign["rate"]])
+    compensator = StreamingCompensator(model)
+    out = [
+        compensator.update(campaign.iloc[s : s + 7], rate[s : s + 7])
+        for s in range(0, len(campaign), 7)
+    ]
+    drift = np.concatenate([d for _, d in out])
+    expected = model.predict(campaign)
+    assert drift.shape == expected.shape == (len(campaign), 2)
+    _assert_close(drift, expected)
+    _assert_close(np.concatenate([c for c, _ in out]), rate - expected)
+    compensated, drift_one = compensator.reset().step(0.0, [20.0, 20.0], [1.0, 2.0], run=99)
+    assert drift_one.shape == compensated.shape == (2,)
+    with pytest.raises(ValueError, match=r"one rate per output"):
+        compensator.update(campaign.iloc[:2], campaign["rate"].iloc[:2])
+
+
+def test_array_input_by_position(campaign):
+    data = campaign[["time", "temperature", "run"]].to_numpy()
+    model = make_pipeline(
+        ThermalFeatures(temperature=1, time=0, run=2), StandardScaler(), Ridge()
+    ).fit(data, campaign["drift"])
+    rate = campaign["rate"].to_numpy()
+    compensator = StreamingCompensator(model)
+    chunks = [
+        compensator.update(data[s : s + 13], rate[s : s + 13]) for s in range(0, len(data), 13)
+    ]
+    drift = np.concatenate([d for _, d in chunks])
+    expected = model.predict(data)
+    _assert_close(drift, expected)
+    _assert_close(np.concatenate([c for c, _ in chunks]), rate - expected)
+
+
+def test_advance_features_continues_exactly():
+    rng = np.random.default_rng(0)
+    temperature = 20 + np.cumsum(rng.normal(0, 0.01, (50, 2)), axis=0)
+    time = np.cumsum(rng.uniform(0.5, 1.5, 50))
+    params = {"terms": ("T", "dT", "TdT"), "smoothing": 3.0, "seconds_per_unit": 60.0}
+    start = {"has_history": False, "smoothed": None, "last_time": None}
+    whole, _ = advance_features(temperature, time, start, **params)
+    head, state = advance_features(temperature[:17], time[:17], start, **params)
+    tail, _ = advance_features(temperature[17:], time[17:], state, **params)
+    np.testing.assert_array_equal(np.vstack([head, tail]), whole)
+    batch = compute_thermal_features(temperature, time=time, **params)
+    np.testing.assert_array_equal(whole, batch)
+    # First row: dT = 0; second: the smoothed step over the elapsed minutes.
+    np.testing.assert_array_equal(whole[0, [1, 4]], 0.0)
+    smoothed = temperature[0] + 0.25 * (temperature[1] - temperature[0])
+    expected = (smoothed - temperature[0]) / (time[1] - time[0]) * 60.0
+    np.testing.assert_allclose(whole[1, [1, 4]], expected, rtol=1e-9)
+
+
+def test_pandas_output_pipeline_gets_named_features(campaign):
+    run = _one_run(campaign, 300)
+    model = make_pipeline(_features(), StandardScaler(), Ridge()).set_output(transform="pandas")
+    model.fit(run, run["drift"])
+    assert list(model[1].feature_names_in_) == ["T", "dT", "T_dT"]
+    compensator = StreamingCompensator(model)
+    with warnings.catch_warnings():
+        # A missing-feature-names warning here would mean the rows lost their names.
+        warnings.simplefilter("error")
+        _, drift = _stream(compensator, run, 7)
+    _assert_close(drift, model.predict(run))
