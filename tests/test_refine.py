@@ -7,7 +7,13 @@ import pytest
 from sklearn.utils import check_random_state
 
 from sklearn_ifog.rbf import _refine
-from sklearn_ifog.rbf._basis import gaussian_design, predict_network, solve_output_weights
+from sklearn_ifog.rbf._basis import (
+    gaussian_design,
+    n_tail_features,
+    predict_network,
+    solve_output_weights,
+    tail_features,
+)
 from sklearn_ifog.rbf._refine import (
     WIDTH_LIMITS,
     WIDTH_RANGE,
@@ -83,7 +89,7 @@ def jacobian_problem():
 
 
 @pytest.mark.parametrize("alpha", [0.0, 0.3])
-@pytest.mark.parametrize("tail", [True, False])
+@pytest.mark.parametrize("tail", [0, 1, 2])
 def test_varpro_jacobian_matches_finite_differences(jacobian_problem, alpha, tail):
     Z, Y, sw, centers, widths = jacobian_problem
     K, d = centers.shape
@@ -122,13 +128,13 @@ def test_kaufman_equals_golub_pereyra_at_zero_residual(jacobian_problem):
 
 
 @pytest.mark.parametrize("alpha", [0.0, 0.3])
-@pytest.mark.parametrize("tail", [True, False])
+@pytest.mark.parametrize("tail", [0, 1, 2])
 def test_full_jacobian_matches_finite_differences(jacobian_problem, alpha, tail):
     Z, Y, sw, centers, widths = jacobian_problem
     K, d = centers.shape
     m = Y.shape[1]
     rng = np.random.default_rng(4)
-    n_tail = d if tail else 0
+    n_tail = n_tail_features(d, tail)
     coef = rng.normal(size=(m, K))
     tail_coef = rng.normal(size=(m, n_tail))
     intercept = rng.normal(size=m)
@@ -193,11 +199,28 @@ def test_varpro_with_subspace_trust_region_steps(monkeypatch):
     # Large problems take least_squares' LSMR steps instead of exact ones: force that path.
     Z, Y = smooth_problem()
     start = starting_network(Z, Y, width=0.3)
-    exact = refine_network(Z, Y, *start, method="varpro", max_iter=30)
+    exact = refine_network(Z, Y, *start, method="varpro", max_iter=30, random_state=0)
     monkeypatch.setattr(_refine, "EXACT_TRUST_REGION_MAX_ENTRIES", 0)
-    subspace = refine_network(Z, Y, *start, method="varpro", max_iter=30)
+    subspace = refine_network(Z, Y, *start, method="varpro", max_iter=30, random_state=0)
     assert not np.array_equal(subspace.centers, exact.centers)
     assert loss(Z, Y, as_network(subspace)) < 0.5 * loss(Z, Y, start)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_quadratic_tail(method):
+    Z, Y = smooth_problem()
+    centers, widths = starting_network(Z, Y, width=0.3)[:2]
+    coef, tail_coef, intercept = solve_output_weights(
+        gaussian_design(Z, centers, widths), tail_features(Z, 2), Y
+    )
+    start = (centers, widths, coef, tail_coef, intercept)
+    # The quadratic columns are larger than the inputs: "gd" needs a smaller step.
+    result = refine_network(
+        Z, Y, *start, method=method, max_iter=30, learning_rate=0.1, random_state=0
+    )
+    assert result.tail_coef.shape == (1, 9)
+    assert result.improved
+    assert loss(Z, Y, as_network(result)) < loss(Z, Y, start)
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -245,7 +268,7 @@ def test_converged_false_when_stopped_by_max_iter():
     Z, Y = smooth_problem()
     start = starting_network(Z, Y, width=3.0)
     for method in METHODS:
-        result = refine_network(Z, Y, *start, method=method, max_iter=2, tol=0.0)
+        result = refine_network(Z, Y, *start, method=method, max_iter=2, tol=0.0, random_state=0)
         assert result.n_iter == 2
         assert not result.converged
 
@@ -274,7 +297,13 @@ def test_multi_output(method):
     Z, Y = smooth_problem(n_outputs=2)
     start = starting_network(Z, Y, width=0.3)
     result = refine_network(
-        Z, Y, *start, method=method, max_iter=30, learning_rate=LEARNING_RATE[method]
+        Z,
+        Y,
+        *start,
+        method=method,
+        max_iter=30,
+        learning_rate=LEARNING_RATE[method],
+        random_state=0,
     )
     assert result.coef.shape == (2, 8)
     assert result.tail_coef.shape == (2, 3)
@@ -287,7 +316,7 @@ def test_identical_outputs_get_identical_weights():
     Y2 = np.hstack([Y, Y])
     start = starting_network(Z, Y2, width=3.0)
     for method in ("varpro", "lm"):
-        result = refine_network(Z, Y2, *start, method=method, max_iter=10)
+        result = refine_network(Z, Y2, *start, method=method, max_iter=10, random_state=0)
         np.testing.assert_allclose(result.coef[0], result.coef[1], rtol=1e-7, atol=1e-9)
 
 
@@ -296,9 +325,13 @@ def test_integer_weights_equal_duplicated_rows(method):
     Z, Y = smooth_problem(n=200)
     sw = np.tile([1.0, 2.0], 100)
     start = starting_network(Z, Y, width=2.0)
-    weighted = refine_network(Z, Y, *start, method=method, sample_weight=sw, max_iter=3)
+    weighted = refine_network(
+        Z, Y, *start, method=method, sample_weight=sw, max_iter=3, random_state=0
+    )
     rows = np.repeat(np.arange(200), sw.astype(int))
-    duplicated = refine_network(Z[rows], Y[rows], *start, method=method, max_iter=3)
+    duplicated = refine_network(
+        Z[rows], Y[rows], *start, method=method, max_iter=3, random_state=0
+    )
     for a, b in zip(as_network(weighted), as_network(duplicated), strict=True):
         np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-8)
 
@@ -317,7 +350,13 @@ def test_widths_stay_within_bounds(method):
     Z, Y = smooth_problem()
     start = starting_network(Z, Y, width=5e-3)
     result = refine_network(
-        Z, Y, *start, method=method, max_iter=20, learning_rate=LEARNING_RATE[method]
+        Z,
+        Y,
+        *start,
+        method=method,
+        max_iter=20,
+        learning_rate=LEARNING_RATE[method],
+        random_state=0,
     )
     assert np.all(result.widths >= WIDTH_LIMITS[0] * (1 - 1e-12))
     assert np.all(result.widths <= 5e-3 * WIDTH_RANGE * (1 + 1e-12))
@@ -405,6 +444,7 @@ def test_network_without_gaussian_units(method):
         Y_val=Y[:50],
         max_iter=5,
         learning_rate=LEARNING_RATE[method],
+        random_state=0,
     )
     assert result.centers.shape == (0, 3)
     assert result.coef.shape == (1, 0)
@@ -415,8 +455,8 @@ def test_network_without_gaussian_units(method):
 def test_one_dimensional_target_is_accepted():
     Z, Y = smooth_problem(n=200)
     start = starting_network(Z, Y)
-    one_d = refine_network(Z, Y[:, 0], *start, method="varpro", max_iter=3)
-    two_d = refine_network(Z, Y, *start, method="varpro", max_iter=3)
+    one_d = refine_network(Z, Y[:, 0], *start, method="varpro", max_iter=3, random_state=0)
+    two_d = refine_network(Z, Y, *start, method="varpro", max_iter=3, random_state=0)
     np.testing.assert_array_equal(one_d.centers, two_d.centers)
     assert one_d.coef.shape == (1, 8)
 

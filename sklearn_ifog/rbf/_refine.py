@@ -2,10 +2,12 @@
 
 The network, on standardised inputs ``Z`` (see ``_basis``)::
 
-    f(Z) = Phi(Z; centers, widths) @ coef.T + Z @ tail_coef.T + intercept
+    f(Z) = Phi(Z; centers, widths) @ coef.T + tail_features(Z, degree) @ tail_coef.T + intercept
     Phi_ij = exp(-||z_i - c_j||² / (2 σ_j²))
 
-and the loss every method decreases (``s`` the sample weights, summed over the outputs)::
+with the tail degree (0, 1 or 2) given by the number of tail columns (``_basis.tail_features``);
+the tail weights enter linearly, so the degree only changes which tail design is used. The loss
+every method decreases (``s`` the sample weights, summed over the outputs)::
 
     L = Σ_i s_i ||y_i - f(z_i)||² + alpha ||coef||²
 
@@ -68,7 +70,12 @@ from scipy.optimize import least_squares
 from sklearn.utils import check_random_state
 from threadpoolctl import threadpool_limits
 
-from sklearn_ifog.rbf._basis import predict_network, squared_distances
+from sklearn_ifog.rbf._basis import (
+    predict_network,
+    squared_distances,
+    tail_degree_from_size,
+    tail_features,
+)
 
 #: Absolute limits on the widths during refinement, in standardised input units.
 WIDTH_LIMITS = (1e-3, 1e3)
@@ -109,7 +116,8 @@ class RefineResult:
     coef : ndarray of shape (n_outputs, n_centers)
         Gaussian output weights.
     tail_coef : ndarray of shape (n_outputs, n_tail)
-        Affine-tail weights (``n_tail`` is 0 without a tail).
+        Polynomial-tail weights (``n_tail`` is 0 without a tail, ``d`` for the inputs,
+        ``d + d (d + 1) / 2`` with their degree-2 monomials).
     intercept : ndarray of shape (n_outputs,)
         Intercepts.
     n_iter : int
@@ -249,21 +257,22 @@ def _as_2d_float(a, name, ndim=2):
 class _Projection:
     """Linear output layer solved for given centres and log-widths, with its SVD.
 
-    The weighted design is ``A = [√s Phi, √s Z_tail, √s]`` stacked over ``[√alpha I, 0, 0]``
+    The weighted design is ``A = [√s Phi, √s T, √s]`` stacked over ``[√alpha I, 0, 0]``
     (ridge rows, when alpha > 0), the target ``[√s Y; 0]``; ``beta = A⁺ target`` and the
-    residual ``A beta - target`` (one column per output).
+    residual ``A beta - target`` (one column per output). ``T`` is the tail regressors,
+    ``tail_features(Z, degree)``, computed once by the caller.
     """
 
-    def __init__(self, Z, Yw, root_w, tail, alpha, centers, log_widths):
-        n, d = Z.shape
+    def __init__(self, Z, Yw, root_w, T, alpha, centers, log_widths):
+        n = Z.shape[0]
         K = centers.shape[0]
         self.D2, self.Phi, self.inv_var = _activations(Z, centers, log_widths)
-        n_tail = d if tail else 0
+        n_tail = T.shape[1]
         n_pen = K if alpha > 0 else 0
         A = np.zeros((n + n_pen, K + n_tail + 1))
         np.multiply(self.Phi, root_w[:, None], out=A[:n, :K])
-        if tail:
-            np.multiply(Z, root_w[:, None], out=A[:n, K : K + d])
+        if n_tail:
+            np.multiply(T, root_w[:, None], out=A[:n, K : K + n_tail])
         A[:n, -1] = root_w
         if n_pen:
             A[n:, :K] = np.sqrt(alpha) * np.eye(K)
@@ -341,8 +350,10 @@ def varpro_residuals(Z, Y, centers, widths, *, tail=True, sample_weight=None, al
         Centres.
     widths : ndarray of shape (n_centers,)
         Widths (positive).
-    tail : bool, default=True
-        Whether the affine tail (the columns of ``Z``) is part of the linear layer.
+    tail : {0, 1, 2} or bool, default=True
+        Degree of the polynomial tail in the linear layer (:func:`~sklearn_ifog.rbf._basis.
+        tail_features`): ``True``/1 the columns of ``Z``, 2 also their degree-2 monomials,
+        ``False``/0 none.
     sample_weight : ndarray of shape (n_samples,), default=None
         Non-negative sample weights.
     alpha : float, default=0.0
@@ -364,7 +375,8 @@ def varpro_residuals(Z, Y, centers, widths, *, tail=True, sample_weight=None, al
     True
     """
     Yw, root_w = _varpro_setup(Z, Y, sample_weight)
-    proj = _Projection(Z, Yw, root_w, tail, alpha, centers, np.log(widths))
+    T = tail_features(Z, int(tail))
+    proj = _Projection(Z, Yw, root_w, T, alpha, centers, np.log(widths))
     return proj.residual.T.ravel()
 
 
@@ -383,8 +395,8 @@ def varpro_jacobian(
         Centres.
     widths : ndarray of shape (n_centers,)
         Widths (positive).
-    tail : bool, default=True
-        Whether the affine tail is part of the linear layer.
+    tail : {0, 1, 2} or bool, default=True
+        Degree of the polynomial tail in the linear layer, as in :func:`varpro_residuals`.
     sample_weight : ndarray of shape (n_samples,), default=None
         Non-negative sample weights.
     alpha : float, default=0.0
@@ -407,7 +419,8 @@ def varpro_jacobian(
     (9, 4)
     """
     Yw, root_w = _varpro_setup(Z, Y, sample_weight)
-    proj = _Projection(Z, Yw, root_w, tail, alpha, centers, np.log(widths))
+    T = tail_features(Z, int(tail))
+    proj = _Projection(Z, Yw, root_w, T, alpha, centers, np.log(widths))
     return proj.jacobian(Z, centers, root_w, kaufman=kaufman)
 
 
@@ -428,8 +441,8 @@ def full_residuals(
     Y : ndarray of shape (n_samples, n_outputs)
         Targets.
     centers, widths, coef, tail_coef, intercept : ndarray
-        The network (shapes as in :class:`RefineResult`); a tail is present iff
-        ``tail_coef.shape[1] > 0``.
+        The network (shapes as in :class:`RefineResult`); the tail's degree follows from
+        ``tail_coef.shape[1]`` (0, ``d`` or ``d + d (d + 1) / 2``).
     sample_weight : ndarray of shape (n_samples,), default=None
         Non-negative sample weights.
     alpha : float, default=0.0
@@ -471,7 +484,9 @@ def _full_jacobian_rows(Z, root_w, centers, log_widths, coef, n_tail, alpha, act
     n_aug = n + n_pen
     J = np.zeros((m * n_aug, n_nl + m * (K + n_tail + 1)))
     weighted_phi = Phi * root_w[:, None]
-    weighted_tail = Z * root_w[:, None] if n_tail else None
+    weighted_tail = (
+        tail_features(Z, tail_degree_from_size(n_tail, d)) * root_w[:, None] if n_tail else None
+    )
     for out in range(m):
         rows = slice(out * n_aug, out * n_aug + n)
         np.multiply(deriv, coef[out][unit], out=J[rows, :n_nl])
@@ -586,7 +601,7 @@ class _Data(NamedTuple):
     sw_val: np.ndarray | None
     total_val: float
     alpha: float
-    tail: bool
+    T: np.ndarray  # tail regressors of the training rows, (n, n_tail)
 
     def val_loss(self, network):
         if self.Z_val is None:
@@ -598,7 +613,7 @@ class _Data(NamedTuple):
 
 
 def _refine_varpro(data, start, tracker, max_iter, tol):
-    Z, total, alpha, tail = data.Z, data.total, data.alpha, data.tail
+    Z, total, alpha, T = data.Z, data.total, data.alpha, data.T
     K, d = start[0].shape
     root_w = np.sqrt(data.sw)
     Yw = data.Y * root_w[:, None]
@@ -616,7 +631,7 @@ def _refine_varpro(data, start, tracker, max_iter, tol):
             if len(cache) >= 2:
                 del cache[next(iter(cache))]
             centers = x[: K * d].reshape(K, d)
-            cache[key] = (centers, _Projection(Z, Yw, root_w, tail, alpha, centers, x[K * d :]))
+            cache[key] = (centers, _Projection(Z, Yw, root_w, T, alpha, centers, x[K * d :]))
         return cache[key]
 
     def network(x):
@@ -719,7 +734,7 @@ def _normal_equations(Z, Y, root_w, theta, shape, alpha):
         )
         pred = activations[1] @ coef.T + intercept
         if n_tail:
-            pred += Z[rows] @ tail_coef.T
+            pred += tail_features(Z[rows], tail_degree_from_size(n_tail, d)) @ tail_coef.T
         r = ((pred - Y[rows]) * root_w[rows, None]).T.ravel()
         JtJ += J.T @ J
         Jtr += J.T @ r
@@ -812,7 +827,7 @@ def _refine_lm(data, start, tracker, max_iter, tol):
 
 
 def _refine_gd(data, start, tracker, max_iter, tol, learning_rate, rng):
-    Z, Y, sw, total = data.Z, data.Y, data.sw, data.total
+    Z, Y, sw, total, T = data.Z, data.Y, data.sw, data.total, data.T
     n, d = Z.shape
     K = start[0].shape[0]
     mean_y = sw @ Y / total
@@ -851,14 +866,14 @@ def _refine_gd(data, start, tracker, max_iter, tol, learning_rate, rng):
         order = rng.permutation(n)
         for begin in range(0, n, batch):
             idx = order[begin : begin + batch]
-            Zb, sb = Z[idx], sw[idx]
+            Zb, Tb, sb = Z[idx], T[idx], sw[idx]
             weight_sum = sb.sum()
             if weight_sum <= 0:
                 continue
             D2, Phi, inv_var = _activations(Zb, C, lw)
             pred = Phi @ W.T + b
             if A.shape[1]:
-                pred += Zb @ A.T
+                pred += Tb @ A.T
             E = (Ys[idx] - pred) * (sb / weight_sum)[:, None]  # (d - y), weighted mean
             Q = (E @ W) * Phi
             grad_W = E.T @ Phi - penalty * W  # Eq. 17
@@ -867,7 +882,7 @@ def _refine_gd(data, start, tracker, max_iter, tol, learning_rate, rng):
             W += eta * grad_W
             b += eta * E.sum(axis=0)
             if A.shape[1]:
-                A += eta * (E.T @ Zb)
+                A += eta * (E.T @ Tb)
             C += eta * grad_C
             np.clip(C, c_lo, c_hi, out=C)
             lw += eta * grad_lw
@@ -876,7 +891,8 @@ def _refine_gd(data, start, tracker, max_iter, tol, learning_rate, rng):
         net = network(params)
         train = data.train_loss(net)
         if not np.isfinite(train) or train > 2.0 * previous:
-            # Diverging: undo the epoch and halve the learning rate.
+            # Diverging: undo the epoch and halve the learning rate. (Undoing every epoch that
+            # raises the loss, the "bold driver", stalls on mini-batch noise: measured.)
             params[:] = saved
             eta *= 0.5
             net = network(params)
@@ -931,7 +947,8 @@ def refine_network(
     coef : ndarray of shape (n_outputs, n_centers)
         Starting Gaussian weights.
     tail_coef : ndarray of shape (n_outputs, n_tail)
-        Starting tail weights; ``n_tail`` is ``n_features`` with an affine tail, 0 without.
+        Starting tail weights; ``n_tail`` is 0 (no tail), ``n_features`` (linear tail) or
+        ``d + d (d + 1) / 2`` (quadratic tail, see ``_basis.tail_features``).
     intercept : ndarray of shape (n_outputs,)
         Starting intercepts.
     method : {"varpro", "lm", "gd"}
@@ -999,10 +1016,13 @@ def refine_network(
     if coef.shape != (m, K):
         raise ValueError(f"coef must have shape ({m}, {K}), got {coef.shape}.")
     tail_coef = _as_2d_float(tail_coef, "tail_coef")
-    if tail_coef.shape not in ((m, d), (m, 0)):
+    n_quadratic = d + d * (d + 1) // 2
+    if tail_coef.shape not in ((m, 0), (m, d), (m, n_quadratic)):
         raise ValueError(
-            f"tail_coef must have shape ({m}, {d}) or ({m}, 0), got {tail_coef.shape}."
+            f"tail_coef must have shape ({m}, 0), ({m}, {d}) or ({m}, {n_quadratic}) (no, "
+            f"linear or quadratic tail), got {tail_coef.shape}."
         )
+    tail_degree = tail_degree_from_size(tail_coef.shape[1], d)
     intercept = _as_2d_float(np.reshape(intercept, -1), "intercept", ndim=1)
     if intercept.shape != (m,):
         raise ValueError(f"intercept must have shape ({m},), got {intercept.shape}.")
@@ -1063,7 +1083,8 @@ def refine_network(
     val0 = _loss(Zv, Yv, swv, totalv, *start, 0.0) if has_val else None
     patience = PATIENCE_GD if method == "gd" else PATIENCE
     tracker = _Tracker(start, train0, val0, has_val, tol, patience)
-    data = _Data(Z, Y, sw, total, Zv, Yv, swv, totalv, float(alpha), tail_coef.shape[1] > 0)
+    T = tail_features(Z, tail_degree)
+    data = _Data(Z, Y, sw, total, Zv, Yv, swv, totalv, float(alpha), T)
     max_iter = int(max_iter)
     # Single-threaded BLAS: the tall, skinny SVD/QR/Cholesky calls here gain nothing from
     # threads, and OpenBLAS threads on shared cores made them 50x slower (measured).

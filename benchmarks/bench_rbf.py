@@ -1,0 +1,845 @@
+"""Benchmark of RBFNetRegressor against scikit-learn peers (issue 3, item 5).
+
+Run from the repository root::
+
+    .venv/bin/python benchmarks/bench_rbf.py            # full run, about 4 min
+    .venv/bin/python benchmarks/bench_rbf.py --quick    # smoke run, about 1 min
+
+Writes ``benchmarks/results/bench_rbf.md`` (the tables) and ``benchmarks/results/bench_rbf.json``
+(every measurement), each atomically (temporary file in the same directory, then os.replace);
+``--quick`` writes ``bench_rbf_quick.*`` instead.
+
+What is measured
+----------------
+Data sets (targets of the test sets are noise-free, so "test MSE" is the error against the true
+function):
+
+- ``smooth``: the issue's y = sin 3x₀ + x₁x₂ + 0.5 cos 2x₂ + N(0, 0.05²), x uniform in
+  [-1, 1]³; N = 1e3, 1e4, 1e5, 1e6 training rows, 1e4 test rows.
+- ``friedman1``: :func:`sklearn.datasets.make_friedman1` with 5 features (noise 1.0);
+  N = 1e3, 1e4, 1e5; test targets from the same function with ``noise=0``.
+- ``thermal``: :func:`sklearn_ifog.datasets.make_thermal_campaign` (3 units, 4 azimuths,
+  3 runs each, one sample a minute) through ``ThermalFeatures(time="time", run="run")`` (T, dT,
+  T·dT); leave-one-azimuth-out within each unit (12 folds); the score is the MSD of the
+  compensated rate, ``mean((rate - prediction - reference)²)`` on the held-out runs. Folds whose
+  held-out runs reach temperatures outside the training runs' range are reported separately.
+
+Models: ``RBFNetRegressor`` with each ``refine`` mode (None, "varpro", "lm", "gd"; all other
+parameters at their defaults except ``learning_rate=GD_LEARNING_RATE`` for "gd") and the peers,
+each in a Pipeline with StandardScaler and with the target standardised
+(TransformedTargetRegressor), only up to the sizes where they fit in time and memory:
+KernelRidge (rbf kernel, gamma = 1/n_features, alpha=1e-2; N ≤ 1e4), SVR (C=10,
+epsilon=0.05 in standardised target units; N ≤ 1e4), GaussianProcessRegressor (constant × ARD
+RBF + white noise, hyperparameters optimised; N ≤ 1e3: at 1e4 its gradient needs one 1e4²
+matrix per hyperparameter, several GB), MLPRegressor(hidden_layer_sizes=(20,), other parameters
+at their defaults; N ≤ 1e5), Nystroem(300 components) + Ridge (N ≤ 1e5) and degree-3
+polynomial Ridge (all N). On the thermal folds KernelRidge and SVR see at most 5000 rows.
+
+Per fit: fit time (wall clock; one fit, the best of two at N ≥ 1e5), peak memory (first fit),
+test MSE, batch predict throughput on the test rows (best of 3) and, for the RBF default and
+LinearRegression, single-row ``predict`` latency (median of 1000 calls on a numpy row, both
+paying scikit-learn's validation).
+
+Peak memory is the process's peak resident set size during that one fit: each (data set, N)
+runs in a fresh worker process, and the kernel's peak-RSS counter (VmHWM) is reset before every
+fit by writing 5 to /proc/self/clear_refs; "peak RSS" is VmHWM after the fit (everything the
+process holds: interpreter, libraries, the data set), "fit increment" is VmHWM minus the RSS just
+before the fit. Where the counter cannot be reset, the worker's ru_maxrss is reported instead.
+
+Predict floor: the same network computed by bare numpy on the same rows: one matrix product
+[z, ||z||², 1] @ W gives -||z - c_j||² / (2σ_j²) directly (z standardised as the estimator
+does), then an in-place ``exp`` over the N×K activations and one matrix-vector product with the
+weights (plus the polynomial tail, ``tail_features(z) @ tail_coef``, and the intercept), in row
+blocks of 65536 or all at once, whichever is faster. It matches ``predict`` to 1e-9. The
+estimator's ``predict`` and the floor are timed on all N training rows, interleaved, best of 5
+(best of 3 at 1e6 rows).
+
+BLAS runs single-threaded in every worker (``--threads`` to change): the machine is shared and
+multi-threaded OpenBLAS factorisations slow down badly under contention. The targets are ratios
+between models measured in the same run.
+"""
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+RESULTS_DIR = Path(__file__).resolve().parent / "results"
+GD_LEARNING_RATE = 0.3
+REFINE_MODES = (None, "varpro", "lm", "gd")
+N_TEST = 10_000
+WORKER_TIMEOUT = 420  # seconds per (data set, N) worker
+
+FULL_PLAN = {
+    "smooth": (1_000, 10_000, 100_000, 1_000_000),
+    "friedman1": (1_000, 10_000, 100_000),
+    "thermal": (None,),
+}
+QUICK_PLAN = {
+    "smooth": (1_000, 10_000),
+    "friedman1": (1_000,),
+    "thermal": (None,),
+}
+# Largest training size at which each peer runs.
+PEER_LIMITS = {
+    "KernelRidge": 10_000,
+    "SVR": 10_000,
+    "GaussianProcess": 1_000,
+    "MLP(20)": 100_000,
+    "Nystroem+Ridge": 100_000,
+    "Poly3+Ridge": 10**9,
+}
+# --quick keeps the O(N²)-memory peers to the smallest size.
+QUICK_PEER_LIMITS = {"KernelRidge": 1_000, "SVR": 1_000}
+THERMAL_KERNEL_ROWS = 5_000
+
+
+# --------------------------------------------------------------------------------------------
+# Memory and timing helpers (worker side)
+# --------------------------------------------------------------------------------------------
+
+
+def _status_kib(field):
+    with open("/proc/self/status") as status:
+        for line in status:
+            if line.startswith(field + ":"):
+                return int(line.split()[1])
+    raise OSError(field)
+
+
+def _reset_peak():
+    """Reset the kernel's peak-RSS counter; return the RSS now (MiB) and whether it worked."""
+    try:
+        with open("/proc/self/clear_refs", "w") as clear:
+            clear.write("5")
+        return _status_kib("VmRSS") / 1024, True
+    except OSError:
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, False
+
+
+def _peak_mib(resettable):
+    if resettable:
+        return _status_kib("VmHWM") / 1024
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def _best_time(fn, repeats=3):
+    best = np.inf
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def _latency(model, row, calls=1000):
+    for _ in range(20):
+        model.predict(row)
+    times = np.empty(calls)
+    for i in range(calls):
+        start = time.perf_counter()
+        model.predict(row)
+        times[i] = time.perf_counter() - start
+    return float(np.median(times))
+
+
+# --------------------------------------------------------------------------------------------
+# Data
+# --------------------------------------------------------------------------------------------
+
+
+def smooth_function(X):
+    return np.sin(3 * X[:, 0]) + X[:, 1] * X[:, 2] + 0.5 * np.cos(2 * X[:, 2])
+
+
+def make_regression_data(name, n, seed=0):
+    rng = np.random.default_rng(seed)
+    if name == "smooth":
+        X = rng.uniform(-1, 1, size=(n + N_TEST, 3))
+        y = smooth_function(X)
+        y_train = y[:n] + 0.05 * rng.normal(size=n)
+        return X[:n], y_train, X[n:], y[n:]
+    if name == "friedman1":
+        from sklearn.datasets import make_friedman1
+
+        X, y = make_friedman1(n_samples=n, n_features=5, noise=1.0, random_state=seed)
+        X_test, y_test = make_friedman1(
+            n_samples=N_TEST, n_features=5, noise=0.0, random_state=seed + 1
+        )
+        return X, y, X_test, y_test
+    raise ValueError(f"unknown data set {name!r}")
+
+
+# --------------------------------------------------------------------------------------------
+# Models
+# --------------------------------------------------------------------------------------------
+
+
+def _scaled(regressor):
+    from sklearn.compose import TransformedTargetRegressor
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import StandardScaler
+
+    return TransformedTargetRegressor(
+        regressor=make_pipeline(StandardScaler(), regressor), transformer=StandardScaler()
+    )
+
+
+def rbf_model(refine):
+    from sklearn_ifog import RBFNetRegressor
+
+    params = {"refine": refine, "random_state": 0}
+    if refine == "gd":
+        params["learning_rate"] = GD_LEARNING_RATE
+    return RBFNetRegressor(**params)
+
+
+def rbf_name(refine):
+    return f"RBF(refine={refine})" if refine is not None else "RBF(refine=None)"
+
+
+def peer_models(n_features, n_rows, seed=0, quick=False):
+    from sklearn.gaussian_process import GaussianProcessRegressor
+    from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
+    from sklearn.kernel_approximation import Nystroem
+    from sklearn.kernel_ridge import KernelRidge
+    from sklearn.linear_model import Ridge
+    from sklearn.neural_network import MLPRegressor
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import PolynomialFeatures
+    from sklearn.svm import SVR
+
+    gamma = 1.0 / n_features
+    builders = {
+        "KernelRidge": lambda: KernelRidge(kernel="rbf", gamma=gamma, alpha=1e-2),
+        "SVR": lambda: SVR(C=10.0, epsilon=0.05, gamma=gamma),
+        "GaussianProcess": lambda: GaussianProcessRegressor(
+            ConstantKernel() * RBF(np.ones(n_features)) + WhiteKernel(1e-2),
+            random_state=seed,
+        ),
+        "MLP(20)": lambda: MLPRegressor(hidden_layer_sizes=(20,), random_state=seed),
+        "Nystroem+Ridge": lambda: make_pipeline(
+            Nystroem(gamma=gamma, n_components=300, random_state=seed), Ridge(alpha=1e-3)
+        ),
+        "Poly3+Ridge": lambda: make_pipeline(PolynomialFeatures(3), Ridge(alpha=1e-3)),
+    }
+    return {
+        name: (lambda build=build: _scaled(build()))
+        for name, build in builders.items()
+        if n_rows is None
+        or n_rows <= (QUICK_PEER_LIMITS if quick else PEER_LIMITS).get(name, PEER_LIMITS[name])
+    }
+
+
+# --------------------------------------------------------------------------------------------
+# Predict floor
+# --------------------------------------------------------------------------------------------
+
+
+def floor_predict(model, X, chunk_rows=None):
+    """The fitted RBF network by bare numpy (see the module docstring)."""
+    from sklearn_ifog.rbf._basis import tail_degree_from_size, tail_features
+
+    Z = (X - model.x_mean_) / model.x_scale_
+    inv = 1.0 / np.square(model.widths_)
+    C = model.centers_
+    W = np.vstack([C.T * inv, -0.5 * inv, -0.5 * inv * np.einsum("ij,ij->i", C, C)])
+    coef = np.reshape(model.coef_, (-1, C.shape[0])).T
+    n_outputs = 1 if np.ndim(model.coef_) == 1 else model.coef_.shape[0]
+    tail = np.reshape(model.tail_coef_, (n_outputs, -1)).T
+    degree = tail_degree_from_size(tail.shape[0], X.shape[1])
+    intercept = np.reshape(model.intercept_, -1)
+    n = Z.shape[0]
+    chunk_rows = n if chunk_rows is None else chunk_rows
+    out = np.empty((n, coef.shape[1]))
+    for start in range(0, n, chunk_rows):
+        Zb = Z[start : start + chunk_rows]
+        augmented = np.empty((Zb.shape[0], Zb.shape[1] + 2))
+        augmented[:, :-2] = Zb
+        np.einsum("ij,ij->i", Zb, Zb, out=augmented[:, -2])
+        augmented[:, -1] = 1.0
+        activations = augmented @ W
+        np.exp(activations, out=activations)
+        block = activations @ coef
+        if degree:
+            block += tail_features(Zb, degree) @ tail
+        block += intercept
+        out[start : start + chunk_rows] = block
+    return out[:, 0] if np.ndim(model.coef_) == 1 else out
+
+
+# --------------------------------------------------------------------------------------------
+# Workers
+# --------------------------------------------------------------------------------------------
+
+
+def _measure_fit(name, build, X, y, X_test, y_test, repeats=1):
+    import gc
+
+    fit_times = []
+    for repeat in range(repeats):
+        gc.collect()
+        model = build()
+        rss_before, resettable = _reset_peak()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            start = time.perf_counter()
+            model.fit(X, y)
+            fit_times.append(time.perf_counter() - start)
+        if repeat == 0:
+            peak = _peak_mib(resettable)
+            peak_increment = peak - rss_before if resettable else None
+    fit_time = min(fit_times)
+    prediction = model.predict(X_test)
+    predict_time = _best_time(lambda: model.predict(X_test))
+    record = {
+        "model": name,
+        "fit_s": fit_time,
+        "fit_s_all": fit_times,
+        "peak_rss_mib": peak,
+        "fit_increment_mib": peak_increment,
+        "memory_method": "VmHWM reset" if resettable else "ru_maxrss",
+        "test_mse": float(np.mean(np.square(prediction - y_test))),
+        "predict_rows_per_s": X_test.shape[0] / predict_time,
+        "warnings": sorted({type(w.message).__name__ for w in caught}),
+    }
+    if name.startswith("RBF"):
+        record["n_centers"] = int(model.centers_.shape[0])
+        record["n_iter"] = int(model.n_iter_)
+        record["refined"] = bool(model.selection_path_.get("refined", False))
+    return model, record
+
+
+def regression_worker(dataset, n, quick):
+    from sklearn.linear_model import LinearRegression
+
+    from sklearn_ifog import RBFNetRegressor
+
+    X, y, X_test, y_test = make_regression_data(dataset, n)
+    default_refine = RBFNetRegressor().refine
+    # The timing targets sit at 1e5 and 1e6 rows: there, the fit time is the best of two fits
+    # (the same seed gives the same model, so only the clock differs).
+    repeats = 2 if n >= 100_000 and not quick else 1
+    records, default_model = [], None
+    for refine in REFINE_MODES:
+        model, record = _measure_fit(
+            rbf_name(refine), lambda r=refine: rbf_model(r), X, y, X_test, y_test, repeats
+        )
+        record["default"] = refine == default_refine
+        records.append(record)
+        if refine == default_refine:
+            default_model = model
+        print(f"  {dataset} N={n} {record['model']}: {record['fit_s']:.2f}s", file=sys.stderr)
+    for name, build in peer_models(X.shape[1], n, quick=quick).items():
+        _, record = _measure_fit(name, build, X, y, X_test, y_test, repeats)
+        records.append(record)
+        print(f"  {dataset} N={n} {name}: {record['fit_s']:.2f}s", file=sys.stderr)
+
+    # Batch predict on all N training rows against the bare-numpy floor (same network).
+    reference = floor_predict(default_model, X[:1000])
+    np.testing.assert_allclose(reference, default_model.predict(X[:1000]), rtol=1e-9, atol=1e-9)
+    # Interleaved repeats, best of each: the machine is shared, so one slow repeat of either
+    # side must not decide the ratio.
+    predict_time = floor_time = np.inf
+    for _ in range(3 if n >= 1_000_000 else 5):
+        predict_time = min(predict_time, _best_time(lambda: default_model.predict(X), 1))
+        floor_time = min(
+            floor_time,
+            _best_time(lambda: floor_predict(default_model, X), 1),
+            _best_time(lambda: floor_predict(default_model, X, 65536), 1),
+        )
+    linear = LinearRegression().fit(X, y)
+    row = X_test[:1].copy()
+    extra = {
+        "predict_all_rows_s": predict_time,
+        "floor_all_rows_s": floor_time,
+        "predict_over_floor": predict_time / floor_time,
+        "latency_rbf_s": _latency(default_model, row),
+        "latency_linear_s": _latency(linear, row),
+        "default_refine": default_refine,
+        "n_centers_default": int(default_model.centers_.shape[0]),
+    }
+    extra["latency_ratio"] = extra["latency_rbf_s"] / extra["latency_linear_s"]
+    return {"dataset": dataset, "n": n, "records": records, "extra": extra}
+
+
+def thermal_worker(quick):
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import StandardScaler
+
+    from sklearn_ifog import RBFNetRegressor, ThermalFeatures
+    from sklearn_ifog.datasets import make_thermal_campaign
+
+    campaign = make_thermal_campaign(
+        n_units=3, n_runs=2 if quick else 3, sampling_period=60.0, random_state=0
+    )
+    frame, X_all, y_all = campaign.frame, campaign.data, campaign.target.to_numpy()
+    features = ThermalFeatures(temperature="temperature", time="time", run="run")
+    default_refine = RBFNetRegressor().refine
+    models = {rbf_name(r): (lambda r=r: rbf_model(r)) for r in REFINE_MODES}
+    n_features = 3
+    peers = peer_models(n_features, None)
+    for name in ("KernelRidge", "SVR", "MLP(20)", "Nystroem+Ridge", "Poly3+Ridge"):
+        models[name] = peers[name]
+    # ThermalFeatures is causal within each run and learns nothing from the rows, so the
+    # features of the whole campaign serve every fold of the kernel peers.
+    features_all = features.fit_transform(X_all)
+    temperature = frame["temperature"].to_numpy()
+    folds = []
+    rng = np.random.default_rng(0)
+    for unit in np.unique(frame["unit"]):
+        for azimuth in np.unique(frame["azimuth"]):
+            in_unit = (frame["unit"] == unit).to_numpy()
+            test = in_unit & (frame["azimuth"] == azimuth).to_numpy()
+            train = in_unit & ~test
+            extrapolates = bool(
+                temperature[test].min() < temperature[train].min()
+                or temperature[test].max() > temperature[train].max()
+            )
+            fold = {
+                "unit": int(unit),
+                "azimuth": float(azimuth),
+                "extrapolates": extrapolates,
+                "n_train": int(train.sum()),
+                "msd": {},
+                "fit_s": {},
+            }
+            train_rows = np.flatnonzero(train)
+            kernel_rows = train_rows
+            if train_rows.size > THERMAL_KERNEL_ROWS:
+                kernel_rows = np.sort(rng.choice(train_rows, THERMAL_KERNEL_ROWS, replace=False))
+            for name, build in models.items():
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    start = time.perf_counter()
+                    if name in ("KernelRidge", "SVR"):
+                        pipe = make_pipeline(StandardScaler(), build())
+                        pipe.fit(features_all[kernel_rows], y_all[kernel_rows])
+                        prediction = pipe.predict(features_all[test])
+                    else:
+                        pipe = make_pipeline(features, StandardScaler(), build())
+                        pipe.fit(X_all[train], y_all[train])
+                        prediction = pipe.predict(X_all[test])
+                    fold["fit_s"][name] = time.perf_counter() - start
+                fold["msd"][name] = float(np.mean(np.square(y_all[test] - prediction)))
+            folds.append(fold)
+            print(f"  thermal unit {unit} azimuth {azimuth}", file=sys.stderr)
+    return {"dataset": "thermal", "folds": folds, "default_refine": default_refine}
+
+
+def run_worker(spec):
+    import threadpoolctl
+
+    threadpoolctl.threadpool_limits(spec["threads"])
+    if spec["dataset"] == "thermal":
+        return thermal_worker(spec["quick"])
+    return regression_worker(spec["dataset"], spec["n"], spec["quick"])
+
+
+# --------------------------------------------------------------------------------------------
+# Driver: one worker process per (data set, N), then the report
+# --------------------------------------------------------------------------------------------
+
+
+def launch(spec, threads):
+    env = dict(os.environ)
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        env[var] = str(threads)
+    command = [sys.executable, __file__, "--worker", json.dumps(spec)]
+    start = time.perf_counter()
+    try:
+        done = subprocess.run(
+            command, env=env, capture_output=True, text=True, timeout=WORKER_TIMEOUT
+        )
+    except subprocess.TimeoutExpired:
+        return {**spec, "error": f"timed out after {WORKER_TIMEOUT} s"}
+    sys.stderr.write(done.stderr)
+    if done.returncode != 0:
+        return {**spec, "error": done.stderr.strip().splitlines()[-1:]}
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    result["worker_s"] = time.perf_counter() - start
+    return result
+
+
+def _find(results, dataset, n, model):
+    for result in results:
+        if result.get("dataset") == dataset and result.get("n") == n and "records" in result:
+            for record in result["records"]:
+                if record["model"] == model:
+                    return record
+    return None
+
+
+def _extra(results, dataset, n):
+    for result in results:
+        if result.get("dataset") == dataset and result.get("n") == n and "extra" in result:
+            return result["extra"]
+    return None
+
+
+def evaluate_targets(results):
+    """The issue's targets, each with its measured value, threshold and verdict."""
+    targets = []
+    default = None
+    for result in results:
+        if "extra" in result:
+            default = result["extra"]["default_refine"]
+            break
+    rbf = rbf_name(default)
+
+    def add(name, value, threshold, strict=False):
+        target = {"target": name, "value": None, "threshold": threshold, "strict": strict}
+        if value is not None and np.isfinite(value):
+            target["value"] = float(value)
+        ok = None
+        if target["value"] is not None:
+            ok = value < threshold if strict else value <= threshold
+        target["ok"] = None if ok is None else bool(ok)
+        targets.append(target)
+
+    mlp, rbf_1e5 = (
+        _find(results, "smooth", 100_000, "MLP(20)"),
+        _find(results, "smooth", 100_000, rbf),
+    )
+    add(
+        "smooth 1e5: RBF test MSE / MLP(20) test MSE",
+        rbf_1e5["test_mse"] / mlp["test_mse"] if mlp and rbf_1e5 else None,
+        0.5,
+    )
+    add(
+        "smooth 1e5: RBF fit time / MLP(20) fit time",
+        rbf_1e5["fit_s"] / mlp["fit_s"] if mlp and rbf_1e5 else None,
+        1.0,
+    )
+    poly, rbf_1e6 = (
+        _find(results, "smooth", 1_000_000, "Poly3+Ridge"),
+        _find(results, "smooth", 1_000_000, rbf),
+    )
+    add(
+        "smooth 1e6: RBF fit time / Poly3 Ridge fit time",
+        rbf_1e6["fit_s"] / poly["fit_s"] if poly and rbf_1e6 else None,
+        15.0,
+    )
+    add(
+        "smooth: log-log slope of RBF fit time, 1e5 -> 1e6",
+        np.log10(rbf_1e6["fit_s"] / rbf_1e5["fit_s"]) if rbf_1e6 and rbf_1e5 else None,
+        0.6,
+    )
+    add(
+        "smooth 1e6: peak process RSS during RBF fit (MiB)",
+        rbf_1e6["peak_rss_mib"] if rbf_1e6 else None,
+        1536.0,
+    )
+    extra_1e6 = _extra(results, "smooth", 1_000_000)
+    add(
+        "smooth 1e6: RBF batch predict time / bare-numpy floor",
+        extra_1e6["predict_over_floor"] if extra_1e6 else None,
+        2.0,
+    )
+    latency = [
+        r["extra"]["latency_ratio"] for r in results if "extra" in r and r["dataset"] == "smooth"
+    ]
+    add(
+        "single-row predict latency: RBF / LinearRegression (median over smooth runs)",
+        float(np.median(latency)) if latency else None,
+        1.5,
+    )
+    thermal = next((r for r in results if r.get("dataset") == "thermal" and "folds" in r), None)
+    if thermal is not None:
+        summary = thermal_summary(thermal)
+        baselines = ("Poly3+Ridge", "MLP(20)", "KernelRidge")
+        ours = summary[rbf]
+        worst_ratio = max(ours["mean_msd"] / summary[b]["mean_msd"] for b in baselines)
+        add(
+            "thermal LOAO: RBF mean MSD / best baseline's (all folds)",
+            worst_ratio,
+            1.0,
+            strict=True,
+        )
+        if ours["mean_msd_extrapolating"] is not None:
+            ratio = max(
+                ours["mean_msd_extrapolating"] / summary[b]["mean_msd_extrapolating"]
+                for b in baselines
+            )
+            add("thermal LOAO: same, folds reaching new temperatures", ratio, 1.0, strict=True)
+    return targets
+
+
+def thermal_summary(thermal):
+    names = list(thermal["folds"][0]["msd"])
+    summary = {}
+    for name in names:
+        msd = np.array([fold["msd"][name] for fold in thermal["folds"]])
+        extrap = np.array([fold["extrapolates"] for fold in thermal["folds"]])
+        wins = sum(fold["msd"][name] == min(fold["msd"].values()) for fold in thermal["folds"])
+        summary[name] = {
+            "mean_msd": float(msd.mean()),
+            "mean_msd_extrapolating": float(msd[extrap].mean()) if extrap.any() else None,
+            "folds_best": int(wins),
+            "mean_fit_s": float(np.mean([fold["fit_s"][name] for fold in thermal["folds"]])),
+        }
+    return summary
+
+
+def refine_summary(results):
+    """Accuracy per second of each refine mode: decades of test-MSE reduction over the
+    unrefined network per second of total fit time."""
+    rows = []
+    for result in results:
+        if "records" not in result:
+            continue
+        base = _find(results, result["dataset"], result["n"], rbf_name(None))
+        for refine in REFINE_MODES[1:]:
+            record = _find(results, result["dataset"], result["n"], rbf_name(refine))
+            if base is None or record is None:
+                continue
+            gain = np.log10(base["test_mse"] / record["test_mse"])
+            rows.append(
+                {
+                    "dataset": result["dataset"],
+                    "n": result["n"],
+                    "refine": refine,
+                    "test_mse": record["test_mse"],
+                    "fit_s": record["fit_s"],
+                    "extra_fit_s": record["fit_s"] - base["fit_s"],
+                    "decades_gained": float(gain),
+                    "decades_per_s": float(gain / record["fit_s"]),
+                }
+            )
+    return rows
+
+
+def refine_verdict(results):
+    """Per refine mode: wins on test MSE and on decades per second over the (data, N) cases."""
+    rows = refine_summary(results)
+    cases = sorted({(row["dataset"], row["n"]) for row in rows})
+    verdict = {
+        mode: {"cases": len(cases), "lowest_mse": 0, "most_decades_per_s": 0}
+        for mode in REFINE_MODES[1:]
+    }
+    for case in cases:
+        in_case = [row for row in rows if (row["dataset"], row["n"]) == case]
+        verdict[min(in_case, key=lambda row: row["test_mse"])["refine"]]["lowest_mse"] += 1
+        best = max(in_case, key=lambda row: row["decades_per_s"])
+        verdict[best["refine"]]["most_decades_per_s"] += 1
+    for mode, row in verdict.items():
+        per_s = [r["decades_per_s"] for r in rows if r["refine"] == mode]
+        row["median_decades_per_s"] = float(np.median(per_s)) if per_s else None
+    return verdict
+
+
+def _size(n):
+    return f"{n:.0e}".replace("e+0", "e")
+
+
+def _fmt(value, digits=3):
+    if value is None:
+        return "–"
+    if isinstance(value, str):
+        return value
+    if value == 0 or 1e-2 <= abs(value) < 1e5:
+        return f"{value:.{digits}g}"
+    return f"{value:.{digits - 1}e}"
+
+
+def markdown(results, targets, elapsed, args):
+    lines = [
+        "# RBFNetRegressor benchmark",
+        "",
+        f"Command: `python benchmarks/bench_rbf.py{' --quick' if args.quick else ''}`; "
+        f"BLAS threads per worker: {args.threads}; total wall time {elapsed:.0f} s; "
+        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}. "
+        "Definitions: see the docstring of benchmarks/bench_rbf.py.",
+        "",
+        "## Targets (issue 3)",
+        "",
+        "| target | measured | threshold | verdict |",
+        "|---|---|---|---|",
+    ]
+    for target in targets:
+        verdict = "n/a" if target["ok"] is None else ("PASS" if target["ok"] else "FAIL")
+        lines.append(
+            f"| {target['target']} | {_fmt(target['value'])} "
+            f"| {'<' if target.get('strict') else '≤'} {_fmt(target['threshold'])} "
+            f"| {verdict} |"
+        )
+    lines += [
+        "",
+        "## Fits",
+        "",
+        "Peak RSS: process peak resident memory during the fit (MiB); increment: above the RSS "
+        "just before it. Predict: rows/s on the 1e4 test rows. `*` marks the estimator's "
+        "default refine mode.",
+        "",
+        "| data | N | model | fit (s) | peak RSS (MiB) | increment (MiB) | predict (rows/s) "
+        "| test MSE | notes |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for result in results:
+        if "error" in result:
+            lines.append(
+                f"| {result['dataset']} | {result.get('n')} | (worker failed) | | | | | | "
+                f"{result['error']} |"
+            )
+            continue
+        if "records" not in result:
+            continue
+        for record in result["records"]:
+            notes = []
+            if "n_centers" in record:
+                notes.append(f"K={record['n_centers']}, iter={record['n_iter']}")
+                if record["refined"]:
+                    notes.append("refinement kept")
+            notes += record["warnings"]
+            star = "*" if record.get("default") else ""
+            lines.append(
+                f"| {result['dataset']} | {_size(result['n'])} | {record['model']}{star} "
+                f"| {_fmt(record['fit_s'])} | {_fmt(record['peak_rss_mib'], 4)} "
+                f"| {_fmt(record['fit_increment_mib'], 3)} "
+                f"| {_fmt(record['predict_rows_per_s'])} | {_fmt(record['test_mse'])} "
+                f"| {'; '.join(notes)} |"
+            )
+    lines += [
+        "",
+        "## Predict: all N training rows, against the bare-numpy floor; single-row latency",
+        "",
+        "| data | N | K | RBF predict (s) | floor (s) | ratio | RBF latency (µs) "
+        "| LinearRegression latency (µs) | ratio |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for result in results:
+        if "extra" not in result:
+            continue
+        extra = result["extra"]
+        lines.append(
+            f"| {result['dataset']} | {_size(result['n'])} | {extra['n_centers_default']} "
+            f"| {_fmt(extra['predict_all_rows_s'])} | {_fmt(extra['floor_all_rows_s'])} "
+            f"| {_fmt(extra['predict_over_floor'])} | {_fmt(extra['latency_rbf_s'] * 1e6)} "
+            f"| {_fmt(extra['latency_linear_s'] * 1e6)} | {_fmt(extra['latency_ratio'])} |"
+        )
+    lines += [
+        "",
+        "## Refine modes: accuracy per second",
+        "",
+        "Decades gained: log10(test MSE without refinement / with it); per second: divided by "
+        "the mode's whole fit time.",
+        "",
+        "| data | N | refine | test MSE | fit (s) | extra fit (s) | decades gained "
+        "| decades / s |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for row in refine_summary(results):
+        lines.append(
+            f"| {row['dataset']} | {_size(row['n'])} | {row['refine']} | {_fmt(row['test_mse'])} "
+            f"| {_fmt(row['fit_s'])} | {_fmt(row['extra_fit_s'])} "
+            f"| {_fmt(row['decades_gained'])} | {_fmt(row['decades_per_s'])} |"
+        )
+    lines += [
+        "",
+        "Per mode, over the (data, N) cases above: cases where it has the lowest test MSE, cases "
+        "where it has the most decades per second, and its median decades per second.",
+        "",
+        "| refine | lowest test MSE | most decades / s | median decades / s |",
+        "|---|---|---|---|",
+    ]
+    for mode, row in refine_verdict(results).items():
+        lines.append(
+            f"| {mode} | {row['lowest_mse']} of {row['cases']} "
+            f"| {row['most_decades_per_s']} of {row['cases']} "
+            f"| {_fmt(row['median_decades_per_s'])} |"
+        )
+    thermal = next((r for r in results if r.get("dataset") == "thermal" and "folds" in r), None)
+    if thermal is not None:
+        folds = thermal["folds"]
+        n_extrap = sum(fold["extrapolates"] for fold in folds)
+        lines += [
+            "",
+            "## Thermal campaign: leave one azimuth out within each unit",
+            "",
+            f"{len(folds)} folds, {n_extrap} of them with held-out temperatures outside the "
+            "training range. MSD in (deg/h)². KernelRidge and SVR see at most "
+            f"{THERMAL_KERNEL_ROWS} training rows.",
+            "",
+            "| model | mean MSD | mean MSD, extrapolating folds | folds best | mean fit (s) |",
+            "|---|---|---|---|---|",
+        ]
+        for name, row in thermal_summary(thermal).items():
+            lines.append(
+                f"| {name} | {_fmt(row['mean_msd'])} | {_fmt(row['mean_msd_extrapolating'])} "
+                f"| {row['folds_best']} | {_fmt(row['mean_fit_s'])} |"
+            )
+    return "\n".join(lines) + "\n"
+
+
+def _json_default(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+def write_atomic(path, text):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+    try:
+        with os.fdopen(descriptor, "w") as handle:
+            handle.write(text)
+        os.replace(temporary, path)
+    except BaseException:
+        os.unlink(temporary)
+        raise
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="small sizes, about a minute")
+    parser.add_argument("--threads", type=int, default=1, help="BLAS threads per worker")
+    parser.add_argument("--output-dir", type=Path, default=RESULTS_DIR)
+    parser.add_argument(
+        "--report-only",
+        action="store_true",
+        help="rebuild the Markdown report from the saved JSON without running anything",
+    )
+    parser.add_argument("--worker", help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.worker:
+        print(json.dumps(run_worker(json.loads(args.worker)), default=_json_default))
+        return
+    stem = "bench_rbf_quick" if args.quick else "bench_rbf"
+    raw_path = args.output_dir / f"{stem}.json"
+    if args.report_only:
+        payload = json.loads(raw_path.read_text())
+        results, elapsed = payload["results"], payload["elapsed_s"]
+    else:
+        plan = QUICK_PLAN if args.quick else FULL_PLAN
+        start = time.perf_counter()
+        results = []
+        for dataset, sizes in plan.items():
+            for n in sizes:
+                spec = {"dataset": dataset, "n": n, "quick": args.quick, "threads": args.threads}
+                print(f"running {dataset} N={n}", file=sys.stderr)
+                results.append(launch(spec, args.threads))
+        elapsed = time.perf_counter() - start
+        payload = {"command": sys.argv, "threads": args.threads, "elapsed_s": elapsed}
+        payload["results"] = results
+        # The measurements are saved before any summary is computed from them.
+        write_atomic(raw_path, json.dumps(payload, indent=1, default=_json_default) + "\n")
+    targets = evaluate_targets(results)
+    payload["targets"] = targets
+    payload["refine_summary"] = refine_summary(results)
+    payload["refine_verdict"] = refine_verdict(results)
+    report = markdown(results, targets, elapsed, args)
+    write_atomic(raw_path, json.dumps(payload, indent=1, default=_json_default) + "\n")
+    write_atomic(args.output_dir / f"{stem}.md", report)
+    print(report)
+
+
+if __name__ == "__main__":
+    main()
