@@ -35,9 +35,9 @@ from sklearn.preprocessing import StandardScaler
 from threadpoolctl import threadpool_limits
 
 from sklearn_ifog import RBFNetRegressor, ThermalFeatures
+from sklearn_ifog._io import write_text_files
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.export import to_c
-from sklearn_ifog.export._c import _write_atomically
 from sklearn_ifog.streaming import StreamingCompensator
 
 RESULTS = Path(__file__).parent / "results"
@@ -243,7 +243,7 @@ def main(argv=None):
     }
     args.output.mkdir(parents=True, exist_ok=True)
     markdown = _markdown(results, meta)
-    _write_atomically(
+    write_text_files(
         {
             args.output / "bench_export.md": markdown,
             args.output / "bench_export.json": json.dumps({**meta, "results": results}, indent=1),

@@ -577,9 +577,9 @@ def _command_compensate(args):
     output = _read_csv(data_path, as_text=True)
     output[args.drift_column] = drift
     output[args.compensated_column] = rate - drift
-    from sklearn_ifog.persistence import _atomic_path
+    from sklearn_ifog._io import atomic_path
 
-    with _atomic_path(args.output) as temporary:
+    with atomic_path(args.output) as temporary:
         output.to_csv(temporary, index=False)
     print(
         f"Compensated {len(output)} rows of {data_path}; wrote {args.output} with columns "
@@ -1006,9 +1006,9 @@ def run_demo(out, *, quick=False, size=None, n_jobs=None, stream=None):
             )
 
         with progress.step("writing the campaign as CSV"):
-            from sklearn_ifog.persistence import _atomic_path
+            from sklearn_ifog._io import atomic_path
 
-            with _atomic_path(staging / "campaign.csv") as temporary:
+            with atomic_path(staging / "campaign.csv") as temporary:
                 frame.to_csv(temporary, index=False)
 
     written = {

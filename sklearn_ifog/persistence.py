@@ -15,12 +15,10 @@ never leaves a half-written model behind. Loading a model saved under another sk
 scikit-learn version emits a :class:`ModelVersionWarning` naming both versions.
 """
 
-import contextlib
 import datetime
 import json
 import os
 import platform
-import tempfile
 import warnings
 import zipfile
 from pathlib import Path
@@ -28,6 +26,8 @@ from pathlib import Path
 import joblib
 import numpy as np
 import sklearn
+
+from sklearn_ifog._io import atomic_path
 
 __all__ = ["TRUSTED_TYPES", "ModelVersionWarning", "load_model", "save_model"]
 
@@ -54,11 +54,6 @@ _FORMAT_NAME = "sklearn-ifog-model"
 _FORMAT_VERSION = 1
 _FORMATS = ("joblib", "skops")
 
-# Read once: mkstemp creates files with mode 0600, and a saved model should get the same
-# permissions as any other file the user writes.
-_UMASK = os.umask(0)
-os.umask(_UMASK)
-
 
 class ModelVersionWarning(UserWarning):
     """A model file was saved under another version of sklearn-ifog or scikit-learn.
@@ -84,28 +79,6 @@ class ModelVersionWarning(UserWarning):
     def __init__(self, message, mismatches):
         super().__init__(message)
         self.mismatches = dict(mismatches)
-
-
-@contextlib.contextmanager
-def _atomic_path(path):
-    """Yield a temporary path next to ``path``; rename it to ``path`` only on success.
-
-    On any exception the temporary file is removed and ``path`` is left untouched.
-    """
-    path = Path(path)
-    descriptor, temporary = tempfile.mkstemp(
-        dir=path.parent, prefix=f".{path.name}.", suffix=".tmp"
-    )
-    os.close(descriptor)
-    temporary = Path(temporary)
-    try:
-        yield temporary
-        os.chmod(temporary, 0o666 & ~_UMASK)
-        os.replace(temporary, path)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            temporary.unlink()
-        raise
 
 
 def _package_version():
@@ -215,7 +188,7 @@ def save_model(model, path, *, format=None, metadata=None):
         "extra": extra,
     }
     payload = {"metadata": stored, "model": model}
-    with _atomic_path(path) as temporary:
+    with atomic_path(path) as temporary:
         if format == "skops":
             _import_skops().dump(payload, temporary)
         else:

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sklearn_ifog.persistence import _atomic_path
+from sklearn_ifog._io import atomic_path
 
 __all__ = [
     "new_figure",
@@ -360,6 +360,6 @@ def save_figure(figure, path, *, dpi=120):
     if not file_format:
         raise ValueError(f"Cannot tell the figure format of {os.fspath(path)!r}: no suffix.")
     figure = getattr(figure, "figure", figure)
-    with _atomic_path(path) as temporary:
+    with atomic_path(path) as temporary:
         figure.savefig(temporary, format=file_format, dpi=dpi)
     return path

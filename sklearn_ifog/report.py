@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sklearn_ifog.persistence import _atomic_path
+from sklearn_ifog._io import atomic_path
 
 __all__ = ["Report", "compensation_report"]
 
@@ -269,7 +269,7 @@ class Report:
             "html": self.to_html(directory, embed_figures=True),
         }
         for kind, path in paths.items():
-            with _atomic_path(path) as temporary:
+            with atomic_path(path) as temporary:
                 temporary.write_text(texts[kind], encoding="utf-8")
         return paths
 

@@ -1,12 +1,11 @@
 """Export of a fitted compensation Pipeline to self-contained C99 (header + source)."""
 
-import os
 import re
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from sklearn_ifog._io import write_text_files
 from sklearn_ifog.export._spec import describe_pipeline
 from sklearn_ifog.export._templates import HEADER, SOURCE
 
@@ -363,27 +362,6 @@ def render_c(spec, prefix="ifog", precision="double"):
     return HEADER.substitute(fields), SOURCE.substitute(fields)
 
 
-def _write_atomically(files):
-    """Write ``{path: text}``: every file to a temporary sibling first, then rename them all."""
-    # mkstemp creates owner-only files; give the results the permissions of a plain open().
-    umask = os.umask(0o022)
-    os.umask(umask)
-    staged = []
-    try:
-        for path, text in files.items():
-            handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-            staged.append((temporary, path))
-            with os.fdopen(handle, "w", encoding="utf-8", newline="\n") as stream:
-                stream.write(text)
-            os.chmod(temporary, 0o666 & ~umask)
-        for temporary, path in staged:
-            os.replace(temporary, path)
-    finally:
-        for temporary, _ in staged:
-            if os.path.exists(temporary):
-                os.remove(temporary)
-
-
 def to_c(pipeline, directory, precision="double", prefix="ifog"):
     """Write a fitted compensation Pipeline as a self-contained C99 header and source.
 
@@ -453,5 +431,5 @@ def to_c(pipeline, directory, precision="double", prefix="ifog"):
     directory.mkdir(parents=True, exist_ok=True)
     header = directory / f"{prefix}.h"
     source = directory / f"{prefix}.c"
-    _write_atomically({header: header_text, source: source_text})
+    write_text_files({header: header_text, source: source_text})
     return header, source

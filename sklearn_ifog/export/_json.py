@@ -3,7 +3,7 @@
 import json
 from pathlib import Path
 
-from sklearn_ifog.export._c import _write_atomically
+from sklearn_ifog._io import write_text_files
 from sklearn_ifog.export._spec import describe_pipeline
 
 
@@ -63,5 +63,5 @@ def to_json(pipeline, path):
     spec = describe_pipeline(pipeline)
     path = Path(path)
     text = json.dumps(spec, indent=2, allow_nan=False) + "\n"
-    _write_atomically({path: text})
+    write_text_files({path: text})
     return path
