@@ -68,6 +68,7 @@ def predict_timings():
     from sklearn.linear_model import LinearRegression
 
     from sklearn_ifog import RBFNetRegressor
+    from sklearn_ifog.rbf._basis import tail_features
 
     X, y, _ = smooth(20000, 0)
     rbf = RBFNetRegressor(random_state=0).fit(X, y)
@@ -95,7 +96,8 @@ def predict_timings():
         # then one in-place exp and one matrix-vector product (no validation, no blocks).
         activations = augmented @ W
         np.exp(activations, out=activations)
-        return activations @ rbf.coef_ + Z @ rbf.tail_coef_ + rbf.intercept_
+        tail = tail_features(Z, rbf.tail_degree_) @ rbf.tail_coef_ if rbf.tail_degree_ else 0.0
+        return activations @ rbf.coef_ + tail + rbf.intercept_
 
     return {
         "n_centers": int(centers.shape[0]),

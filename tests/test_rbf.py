@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 from sklearn.exceptions import ConvergenceWarning
+from sklearn.preprocessing import PolynomialFeatures
 
 from sklearn_ifog import RBFNetRegressor
-from sklearn_ifog.rbf._basis import gaussian_design
+from sklearn_ifog.rbf._basis import gaussian_design, n_tail_features, tail_features
 
 
 def _smooth(n, seed=0, noise=0.05):
@@ -25,7 +26,13 @@ def _formula(model, X):
     Z = (X - model.x_mean_) / model.x_scale_
     D2 = ((Z[:, None, :] - model.centers_[None]) ** 2).sum(axis=2)
     Phi = np.exp(-D2 / (2 * model.widths_**2))
-    return Phi @ model.coef_.T + Z @ model.tail_coef_.T + model.intercept_
+    # Degree 0 keeps a zero linear tail (the export contract); degree 2 is sklearn's ordering.
+    T = (
+        PolynomialFeatures(2, include_bias=False).fit_transform(Z)
+        if model.tail_degree_ == 2
+        else Z
+    )
+    return Phi @ model.coef_.T + T @ model.tail_coef_.T + model.intercept_
 
 
 @pytest.fixture(scope="module")
@@ -40,7 +47,7 @@ def test_prediction_follows_contract_formula(smooth_model):
     assert_allclose(model.predict(X_new), _formula(model, X_new), rtol=1e-10, atol=1e-12)
     assert model.centers_.shape == (model.widths_.shape[0], 3)
     assert model.coef_.shape == model.widths_.shape
-    assert model.tail_coef_.shape == (3,)
+    assert model.tail_coef_.shape == (n_tail_features(3, model.tail_degree_),)
     assert isinstance(model.intercept_, float)
     assert_allclose(model.x_mean_, X.mean(axis=0))
     assert_allclose(model.x_scale_, X.std(axis=0))
@@ -64,13 +71,20 @@ def test_fits_a_smooth_function_and_refinement_helps():
 
 def test_output_weights_equal_lstsq_on_selected_columns():
     X, y, _ = _smooth(300)
-    model = RBFNetRegressor(refine=None, alpha=0.0, random_state=0).fit(X, y)
-    Z = (X - model.x_mean_) / model.x_scale_
-    A = np.column_stack([np.ones(300), Z, gaussian_design(Z, model.centers_, model.widths_)])
-    weights = np.linalg.lstsq(A, y, rcond=None)[0]
-    assert_allclose(model.intercept_, weights[0], rtol=1e-7)
-    assert_allclose(model.tail_coef_, weights[1:4], rtol=1e-7, atol=1e-9)
-    assert_allclose(model.coef_, weights[4:], rtol=1e-6, atol=1e-8)
+    for tail, n_tail in (("linear", 3), ("quadratic", 9)):
+        model = RBFNetRegressor(refine=None, alpha=0.0, tail=tail, random_state=0).fit(X, y)
+        Z = (X - model.x_mean_) / model.x_scale_
+        A = np.column_stack(
+            [
+                np.ones(300),
+                tail_features(Z, model.tail_degree_),
+                gaussian_design(Z, model.centers_, model.widths_),
+            ]
+        )
+        weights = np.linalg.lstsq(A, y, rcond=None)[0]
+        assert_allclose(model.intercept_, weights[0], rtol=1e-7)
+        assert_allclose(model.tail_coef_, weights[1 : 1 + n_tail], rtol=1e-7, atol=1e-9)
+        assert_allclose(model.coef_, weights[1 + n_tail :], rtol=1e-6, atol=1e-8)
 
 
 def test_selection_path_is_recorded():
@@ -131,12 +145,14 @@ def test_linear_target_gives_exact_affine_model_and_extrapolates():
 
 def test_tail_extrapolates_linearly_far_from_the_data():
     X, y, _ = _smooth(400)
-    model = RBFNetRegressor(refine=None, random_state=0).fit(X, y)
+    model = RBFNetRegressor(refine=None, tail="linear", random_state=0).fit(X, y)
+    assert model.tail_degree_ == 1
     X_far = np.array([[30.0, -30.0, 30.0], [-40.0, 0.0, 50.0]])
     Z_far = (X_far - model.x_mean_) / model.x_scale_
     # Far away every Gaussian unit is zero: the prediction is the affine tail.
     assert_allclose(model.predict(X_far), Z_far @ model.tail_coef_ + model.intercept_)
     no_tail = RBFNetRegressor(refine=None, tail=False, random_state=0).fit(X, y)
+    assert no_tail.tail_degree_ == 0
     assert_array_equal(no_tail.tail_coef_, np.zeros(3))
     assert_allclose(no_tail.predict(X_far), no_tail.intercept_)
 
@@ -203,7 +219,7 @@ def test_multi_output_equals_single_output_fits_for_scaled_targets():
     multi = RBFNetRegressor(refine=None, random_state=0).fit(X, Y)
     single = RBFNetRegressor(refine=None, random_state=0).fit(X, y)
     assert multi.coef_.shape == (2, single.coef_.shape[0])
-    assert multi.tail_coef_.shape == (2, 3)
+    assert multi.tail_coef_.shape == (2, n_tail_features(3, multi.tail_degree_))
     assert multi.intercept_.shape == (2,)
     # Targets are standardised per output: an affine copy selects the same network.
     assert_array_equal(multi.centers_, single.centers_)
@@ -257,7 +273,13 @@ def test_degenerate_inputs_give_finite_models(case):
         assert model.centers_.shape[0] == 0
     if case == "constant_feature":
         assert model.x_scale_[1] == 1.0
-        assert abs(model.tail_coef_[1]) < 1e-12
+        # Every tail column with feature 1 in it is zero: minimum-norm weights are zero.
+        probe = np.ones((2, 3))
+        probe[1, 1] = 2.0
+        T = tail_features(probe, model.tail_degree_)
+        touches_feature_1 = T[0] != T[1]
+        assert touches_feature_1.sum() == (1 if model.tail_degree_ == 1 else 4)
+        assert_allclose(model.tail_coef_[touches_feature_1], 0.0, atol=1e-12)
     if case == "huge_width":
         # Units as wide as that are constant columns: collinear with the intercept.
         assert model.centers_.shape[0] == 0
@@ -329,3 +351,82 @@ def test_holdout_criterion_and_its_fallback_on_few_rows():
     assert few.selection_path_["criterion_name"] == "gcv"
     assert few.n_iter_ == 0
     assert not few.selection_path_["refined"]
+
+
+def test_tail_features_order_equals_polynomial_features():
+    Z = np.random.default_rng(3).normal(size=(7, 4))
+    expected = PolynomialFeatures(2, include_bias=False).fit_transform(Z)
+    assert_array_equal(tail_features(Z, 2), expected)
+    assert tail_features(Z, 1) is Z
+    assert tail_features(Z, 0).shape == (7, 0)
+    assert [n_tail_features(4, degree) for degree in (0, 1, 2)] == [0, 4, 14]
+    with pytest.raises(ValueError, match="tail degree must be 0, 1 or 2"):
+        tail_features(Z, 3)
+
+
+def _quadratic_and_linear_targets(n=500, seed=0):
+    rng = np.random.default_rng(seed)
+    X = rng.normal(loc=[20.0, 0.0, 5.0], scale=[10.0, 0.3, 4.0], size=(n, 3))
+    quadratic = 0.3 + 0.02 * X[:, 0] - 0.004 * X[:, 0] ** 2 + 0.5 * X[:, 0] * X[:, 1]
+    linear = 0.3 + 0.02 * X[:, 0] - 1.5 * X[:, 1] + 0.1 * X[:, 2]
+    return X, quadratic, linear + 0.01 * rng.normal(size=n)
+
+
+def test_quadratic_tail_fits_a_quadratic_target_exactly_without_centres():
+    X, y, _ = _quadratic_and_linear_targets()
+    model = RBFNetRegressor(tail="quadratic", random_state=0).fit(X, y)
+    assert model.tail_degree_ == 2
+    assert model.centers_.shape[0] == 0
+    assert model.tail_coef_.shape == (9,)
+    # Far outside the data the quadratic is still reproduced (no Gaussian unit is left).
+    X_far = np.array([[80.0, 3.0, -40.0], [-60.0, -2.0, 30.0]])
+    expected = (
+        0.3 + 0.02 * X_far[:, 0] - 0.004 * X_far[:, 0] ** 2 + 0.5 * X_far[:, 0] * X_far[:, 1]
+    )
+    assert_allclose(model.predict(X), y, rtol=0, atol=1e-10)
+    assert_allclose(model.predict(X_far), expected, rtol=1e-9)
+    # The same target needs many units and still misses with a linear tail.
+    linear = RBFNetRegressor(tail="linear", refine=None, random_state=0).fit(X, y)
+    assert linear.tail_degree_ == 1
+    assert np.mean((linear.predict(X) - y) ** 2) > 1e-6 * np.var(y)
+
+
+def test_auto_tail_picks_quadratic_on_quadratic_data_and_linear_on_linear_data():
+    X, quadratic, linear = _quadratic_and_linear_targets()
+    on_quadratic = RBFNetRegressor(tail="auto", refine=None, random_state=0).fit(X, quadratic)
+    on_linear = RBFNetRegressor(tail="auto", refine=None, random_state=0).fit(X, linear)
+    assert on_quadratic.tail_degree_ == 2
+    assert on_quadratic.tail_coef_.shape == (9,)
+    assert on_linear.tail_degree_ == 1
+    assert on_linear.tail_coef_.shape == (3,)
+    for model in (on_quadratic, on_linear):
+        scores = model.selection_path_["tail_scores"]
+        assert set(scores) == {1, 2}
+        assert model.selection_path_["tail_degree"] == min(scores, key=scores.get)
+        assert np.all(np.isfinite(model.predict(X)))
+    # The linear fit's selection is the same as tail="linear" with the same seed.
+    explicit = RBFNetRegressor(tail="linear", refine=None, random_state=0).fit(X, linear)
+    assert_array_equal(on_linear.predict(X), explicit.predict(X))
+
+
+def test_quadratic_tail_single_row_and_batch_predictions_agree():
+    X, y, _ = _smooth(400)
+    model = RBFNetRegressor(tail="quadratic", refine=None, random_state=0).fit(X, y)
+    X_new = np.random.default_rng(7).uniform(-3, 3, size=(40, 3))
+    batch = model.predict(X_new)
+    rows = np.array([model.predict(x[None])[0] for x in X_new])
+    assert np.all(np.isfinite(batch))
+    assert_allclose(rows, batch, rtol=1e-12, atol=1e-12)
+    assert_allclose(batch, _formula(model, X_new), rtol=1e-10, atol=1e-12)
+
+
+def test_quadratic_tail_falls_back_to_linear_on_too_few_rows():
+    X, y, _ = _smooth(60)
+    with pytest.warns(UserWarning, match="needs at least 100 selection rows .* linear tail"):
+        model = RBFNetRegressor(tail="quadratic", refine=None, random_state=0).fit(X, y)
+    assert model.tail_degree_ == 1
+    assert model.tail_coef_.shape == (3,)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        linear = RBFNetRegressor(tail="linear", refine=None, random_state=0).fit(X, y)
+    assert_array_equal(model.predict(X), linear.predict(X))

@@ -22,7 +22,9 @@ def to_json(pipeline, path):
     - ``"polynomial"``: ``y[k] = prod_j x[j] ** powers[k][j]``;
     - ``"linear"``: ``y = coef @ x + intercept``;
     - ``"rbf_network"``: ``z = (x - x_mean) / x_scale``,
-      ``y = coef @ exp(-||z - centers||^2 / (2 widths^2)) + tail_coef @ z + intercept``.
+      ``y = coef @ exp(-||z - centers||^2 / (2 widths^2)) + tail_coef @ t(z) + intercept``,
+      with ``t(z)`` the polynomial tail of degree ``tail_degree`` (``z``, then for degree 2
+      the monomials ``z[i] * z[j]``, ``i <= j``, in ``PolynomialFeatures`` order).
 
     Parameters
     ----------

@@ -2,11 +2,16 @@
 
 The network, on inputs already standardised to ``Z``::
 
-    f(Z) = gaussian_design(Z, centers, widths) @ coef.T + Z @ tail_coef.T + intercept
+    f(Z) = (gaussian_design(Z, centers, widths) @ coef.T
+            + tail_features(Z, tail_degree) @ tail_coef.T + intercept)
 
-``coef`` has shape (n_outputs, n_centers), ``tail_coef`` (n_outputs, n_features) (zero-width
-when there is no affine tail) and ``intercept`` (n_outputs,). Plain numpy in, numpy out.
+``coef`` has shape (n_outputs, n_centers), ``tail_coef`` (n_outputs, n_tail) and ``intercept``
+(n_outputs,). The polynomial tail has degree 0 (no tail, ``n_tail = 0``), 1 (the inputs,
+``n_tail = d``) or 2 (the inputs then their degree-2 monomials, ``n_tail = d + d (d + 1) / 2``);
+the degree follows from ``n_tail`` (:func:`tail_degree_from_size`). Plain numpy in, numpy out.
 """
+
+from functools import lru_cache
 
 import numpy as np
 import scipy.linalg
@@ -14,9 +19,112 @@ import scipy.linalg
 # Rows per block when a design would not fit comfortably in memory: 2**16 rows times a few
 # hundred centres stays in the tens of megabytes.
 DEFAULT_CHUNK_ROWS = 65536
+# Largest block (rows x columns) of the blocked output-weight solve: with a wide design (a
+# quadratic tail on many features) the block gets fewer rows, so memory stays bounded.
+MAX_BLOCK_ENTRIES = 2**23
 # Up to this many rows, predictions use explicit differences (fewer numpy calls, exact for
 # points at a centre): the single-row latency of an embedded compensator.
 SMALL_BATCH_ROWS = 16
+
+
+def n_tail_features(n_features, degree):
+    """Number of columns of :func:`tail_features` for ``n_features`` inputs.
+
+    Parameters
+    ----------
+    n_features : int
+        Number of inputs ``d``.
+    degree : {0, 1, 2}
+        Degree of the polynomial tail.
+
+    Returns
+    -------
+    n_tail : int
+        0, ``d`` or ``d + d (d + 1) / 2``.
+
+    Examples
+    --------
+    >>> n_tail_features(3, 0), n_tail_features(3, 1), n_tail_features(3, 2)
+    (0, 3, 9)
+    """
+    if degree not in (0, 1, 2):
+        raise ValueError(f"The tail degree must be 0, 1 or 2, got {degree!r}.")
+    return (0, n_features, n_features + n_features * (n_features + 1) // 2)[degree]
+
+
+def tail_degree_from_size(n_tail, n_features):
+    """Degree of the polynomial tail that has ``n_tail`` columns on ``n_features`` inputs.
+
+    Parameters
+    ----------
+    n_tail : int
+        Number of tail columns (``tail_coef.shape[-1]``).
+    n_features : int
+        Number of inputs ``d``.
+
+    Returns
+    -------
+    degree : {0, 1, 2}
+        The degree; the three sizes are distinct for every ``d >= 1``.
+
+    Examples
+    --------
+    >>> tail_degree_from_size(9, 3)
+    2
+    """
+    for degree in (0, 1, 2):
+        if n_tail == n_tail_features(n_features, degree):
+            return degree
+    raise ValueError(
+        f"A tail on {n_features} inputs has 0, {n_tail_features(n_features, 1)} or "
+        f"{n_tail_features(n_features, 2)} columns, got {n_tail}."
+    )
+
+
+@lru_cache(maxsize=32)
+def _monomial_pairs(n_features):
+    # Row-major upper triangle: (0, 0), (0, 1), ..., (0, d-1), (1, 1), ... which is the order
+    # of sklearn's PolynomialFeatures(degree=2).
+    return np.triu_indices(n_features)
+
+
+def tail_features(Z, degree):
+    """Regressors of the polynomial tail: none, the inputs, or the inputs and their squares.
+
+    Degree 2 gives the inputs followed by every degree-2 monomial ``z_i z_j`` (``i <= j``) in
+    the order of ``sklearn.preprocessing.PolynomialFeatures(degree=2, include_bias=False)``:
+    ``z0, z1, ..., z0², z0 z1, ..., z1², ...``. The intercept is never a tail column.
+
+    Parameters
+    ----------
+    Z : ndarray of shape (n_samples, n_features)
+        Standardised inputs.
+    degree : {0, 1, 2}
+        Degree of the tail.
+
+    Returns
+    -------
+    T : ndarray of shape (n_samples, n_tail)
+        ``n_tail`` is :func:`n_tail_features` ``(n_features, degree)``; for degree 1 this is
+        ``Z`` itself (no copy).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> tail_features(np.array([[2.0, 3.0]]), 2)
+    array([[2., 3., 4., 6., 9.]])
+    """
+    n_samples, n_features = Z.shape
+    if degree == 1:
+        return Z
+    if degree == 0:
+        return Z[:, :0]
+    n_tail_features(n_features, degree)  # validates the degree
+    first, second = _monomial_pairs(n_features)
+    T = np.empty((n_samples, n_tail_features(n_features, 2)), dtype=np.result_type(Z, float))
+    T[:, :n_features] = Z
+    np.multiply(Z.take(first, axis=1), Z.take(second, axis=1), out=T[:, n_features:])
+    return T
 
 
 def squared_distances(Z, centers):
@@ -105,8 +213,9 @@ def predict_network(Z, centers, widths, coef, tail_coef, intercept, *, chunk_row
         Widths.
     coef : ndarray of shape (n_outputs, n_centers)
         Output weights of the Gaussian units.
-    tail_coef : ndarray of shape (n_outputs, n_features) or (n_outputs, 0)
-        Weights of the affine tail.
+    tail_coef : ndarray of shape (n_outputs, n_tail)
+        Weights of the polynomial tail; ``n_tail`` (0, ``d`` or ``d + d (d + 1) / 2``) sets
+        its degree (0, 1 or 2), see :func:`tail_features`.
     intercept : ndarray of shape (n_outputs,)
         Intercepts.
     chunk_rows : int, default=None
@@ -132,22 +241,23 @@ def predict_network(Z, centers, widths, coef, tail_coef, intercept, *, chunk_row
     array([[1.    ],
            [0.6065]])
     """
-    n_samples = Z.shape[0]
+    n_samples, n_features = Z.shape
+    degree = tail_degree_from_size(tail_coef.shape[1], n_features)
     if n_samples <= SMALL_BATCH_ROWS:
-        return _predict_small(Z, centers, widths, coef, tail_coef, intercept)
+        return _predict_small(Z, centers, widths, coef, tail_coef, intercept, degree)
     chunk_rows = DEFAULT_CHUNK_ROWS if chunk_rows is None else int(chunk_rows)
     Y = np.empty((n_samples, coef.shape[0]), dtype=np.float64)
     for start in range(0, n_samples, chunk_rows):
         block = Z[start : start + chunk_rows]
         out = gaussian_design(block, centers, widths) @ coef.T
-        if tail_coef.shape[1]:
-            out += block @ tail_coef.T
+        if degree:
+            out += tail_features(block, degree) @ tail_coef.T
         out += intercept
         Y[start : start + chunk_rows] = out
     return Y
 
 
-def _predict_small(Z, centers, widths, coef, tail_coef, intercept):
+def _predict_small(Z, centers, widths, coef, tail_coef, intercept, degree):
     """Few rows (single-row latency): explicit differences, fewest numpy calls."""
     diff = Z[:, None, :] - centers
     diff *= diff
@@ -155,8 +265,15 @@ def _predict_small(Z, centers, widths, coef, tail_coef, intercept):
     D2 *= -0.5 / np.square(widths)
     np.exp(D2, out=D2)
     out = D2 @ coef.T
-    if tail_coef.shape[1]:
-        out += Z @ tail_coef.T
+    if degree:
+        n_features = Z.shape[1]
+        out += Z @ tail_coef[:, :n_features].T
+        if degree == 2:
+            # The monomials straight into the product: no (n, n_tail) array is assembled.
+            first, second = _monomial_pairs(n_features)
+            monomials = Z.take(first, axis=1)
+            monomials *= Z.take(second, axis=1)
+            out += monomials @ tail_coef[:, n_features:].T
     out += intercept
     return out
 
@@ -165,7 +282,8 @@ def solve_output_weights(Phi, T, Y, *, sample_weight=None, alpha=0.0):
     """Weighted ridge solve of the linear output layer.
 
     Minimises ``Σ_i s_i ||y_i - Phi_i W - T_i A - b||² + alpha ||W||²``: the ridge penalty
-    falls on the Gaussian weights only; the affine tail ``A`` and the intercept ``b`` are free.
+    falls on the Gaussian weights only; the polynomial tail ``A`` and the intercept ``b`` are
+    free.
     Solved by a least-squares solve of the augmented system (not the normal equations), so
     near-collinear columns cost accuracy in the weights, never a ``LinAlgError`` or a NaN.
 
@@ -174,7 +292,7 @@ def solve_output_weights(Phi, T, Y, *, sample_weight=None, alpha=0.0):
     Phi : ndarray of shape (n_samples, n_centers)
         Gaussian activations.
     T : ndarray of shape (n_samples, n_tail)
-        Tail regressors (the standardised inputs, or ``n_tail=0``).
+        Tail regressors (:func:`tail_features` of the standardised inputs, or ``n_tail=0``).
     Y : ndarray of shape (n_samples, n_outputs)
         Targets.
     sample_weight : ndarray of shape (n_samples,), default=None
@@ -223,12 +341,12 @@ def solve_output_weights(Phi, T, Y, *, sample_weight=None, alpha=0.0):
 
 
 def solve_output_weights_chunked(
-    Z, Y, centers, widths, *, tail=True, sample_weight=None, alpha=0.0, chunk_rows=None
+    Z, Y, centers, widths, *, tail=1, sample_weight=None, alpha=0.0, chunk_rows=None
 ):
     """Weighted ridge solve of the output layer over all rows, in row blocks.
 
     Same problem as :func:`solve_output_weights` (ridge on the Gaussian weights only, free
-    affine tail and intercept) but the design is never held whole: each block of rows is
+    polynomial tail and intercept) but the design is never held whole: each block of rows is
     stacked under the running triangular factor and re-factorised (a tall-skinny QR), so
     memory stays at one block and the accuracy is that of a least-squares solve on the full
     design, not of the normal equations. The intercept is a weighted constant column rather
@@ -247,20 +365,22 @@ def solve_output_weights_chunked(
         Centres.
     widths : ndarray of shape (n_centers,)
         Widths.
-    tail : bool, default=True
-        Whether the inputs are regressors beside the Gaussian units.
+    tail : {0, 1, 2} or bool, default=1
+        Degree of the polynomial tail beside the Gaussian units (:func:`tail_features`);
+        ``True`` means 1 (the inputs), ``False`` 0 (none).
     sample_weight : ndarray of shape (n_samples,), default=None
         Non-negative weights.
     alpha : float, default=0.0
         Ridge penalty on the Gaussian weights (absolute, as in
         :func:`solve_output_weights`).
     chunk_rows : int, default=None
-        Rows per block; ``None`` uses ``DEFAULT_CHUNK_ROWS``.
+        Rows per block; ``None`` uses ``DEFAULT_CHUNK_ROWS``, fewer for a design wider than
+        ``MAX_BLOCK_ENTRIES / DEFAULT_CHUNK_ROWS`` columns.
 
     Returns
     -------
     coef : ndarray of shape (n_outputs, n_centers)
-    tail_coef : ndarray of shape (n_outputs, n_features) or (n_outputs, 0)
+    tail_coef : ndarray of shape (n_outputs, n_tail)
     intercept : ndarray of shape (n_outputs,)
 
     Examples
@@ -273,11 +393,15 @@ def solve_output_weights_chunked(
     >>> tail.round(6), b.round(6)
     (array([[3.]]), array([-1.]))
     """
-    chunk_rows = DEFAULT_CHUNK_ROWS if chunk_rows is None else int(chunk_rows)
     n_samples, n_features = Z.shape
     n_centers, n_outputs = centers.shape[0], Y.shape[1]
-    n_tail = n_features if tail else 0
+    degree = int(tail)
+    n_tail = n_tail_features(n_features, degree)
     n_params = 1 + n_tail + n_centers
+    if chunk_rows is None:
+        widest = MAX_BLOCK_ENTRIES // (n_params + n_outputs)
+        chunk_rows = min(DEFAULT_CHUNK_ROWS, max(1024, widest))
+    chunk_rows = int(chunk_rows)
     if sample_weight is not None and np.sum(sample_weight) <= 0:
         raise ValueError("sample_weight must have a positive sum.")
     # The penalty rows start the factor: sqrt(alpha) on each Gaussian weight.
@@ -288,7 +412,7 @@ def solve_output_weights_chunked(
         stop = min(start + chunk_rows, n_samples)
         block = np.empty((stop - start, n_params + n_outputs))
         block[:, 0] = 1.0
-        block[:, 1 : 1 + n_tail] = Z[start:stop, :n_tail]
+        block[:, 1 : 1 + n_tail] = tail_features(Z[start:stop], degree)
         block[:, 1 + n_tail : n_params] = gaussian_design(Z[start:stop], centers, widths)
         block[:, n_params:] = Y[start:stop]
         if sample_weight is not None:

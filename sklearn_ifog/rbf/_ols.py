@@ -39,7 +39,7 @@ class OLSPath:
         (Regularised) error-reduction ratio of each chosen column: the fraction of the
         centred target's weighted sum of squares it explains, summed over outputs.
     tail_err : float
-        Fraction explained by the always-in regressors (the affine tail).
+        Fraction explained by the always-in regressors (the polynomial tail).
     sse : ndarray of shape (n_selected + 1,)
         Weighted residual sum of squares (summed over outputs) of the least-squares fit on
         the intercept, the tail and the first ``k`` chosen columns, ``k = 0 .. n_selected``.
@@ -72,7 +72,7 @@ def ols_forward_select(
 ):
     """Greedy forward selection of candidate columns by the error-reduction ratio.
 
-    The intercept and the columns of ``T`` (the affine tail) are always in the model and
+    The intercept and the columns of ``T`` (the polynomial tail) are always in the model and
     are projected out first; the target is centred. At each step the candidate whose
     component orthogonal to the columns already chosen explains most of the remaining
     target, ``(wᵀy)² / (wᵀw + alpha)`` summed over outputs (the regularised ratio of Chen,

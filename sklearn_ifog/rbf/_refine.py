@@ -15,7 +15,7 @@ Three methods, all on log-parametrised widths ``log σ_j`` (so a width can never
 change sign):
 
 ``"varpro"``
-    Variable projection (Golub & Pereyra 1973): the output weights (Gaussian weights, affine
+    Variable projection (Golub & Pereyra 1973): the output weights (Gaussian weights, polynomial
     tail, intercept) are the ridge solution for the current centres and widths, so the
     optimiser only sees the nonlinear parameters. ``scipy.optimize.least_squares`` (trust-region
     reflective, bounded; exact trust-region steps up to ``EXACT_TRUST_REGION_MAX_ENTRIES``
