@@ -5,9 +5,9 @@ Public names only; see DESIGN.md for the contract.
 
 __version__ = "0.1.0.dev0"
 
-from sklearn_ifog.features import ThermalFeatures  # noqa: E402
-from sklearn_ifog.persistence import TRUSTED_TYPES, load_model, save_model  # noqa: E402
-from sklearn_ifog.rbf import RBFNetRegressor  # noqa: E402
+from sklearn_ifog.features import ThermalFeatures
+from sklearn_ifog.persistence import TRUSTED_TYPES, load_model, save_model
+from sklearn_ifog.rbf import RBFNetRegressor
 
 __all__ = [
     "TRUSTED_TYPES",
