@@ -146,7 +146,11 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
         ``criterion`` is kept, the linear one on a tie. ``False``: no tail. The tail weights
         are not penalised by ``alpha`` (see Notes), so a quadratic tail needs at least
         ``10 (d (d + 3) / 2 + 1)`` selection rows for ``d`` features; with fewer, the linear
-        tail is used, with a warning. The default is ``"quadratic"`` (see Notes).
+        tail is used, with a warning. The default is ``"quadratic"`` (see Notes). Outside
+        the calibrated range the network follows its tail: a quadratic tail extrapolates as
+        a parabola and can bend away far beyond the training temperatures (the real
+        recording's warm-to-cold split in the gallery shows it); when a calibration must
+        extrapolate far, prefer ``"linear"`` and check on held-out colder or warmer runs.
     max_candidates : int, default=300
         Largest pool of candidate centres, drawn from the distinct selection rows by
         ``candidates`` when there are more.
