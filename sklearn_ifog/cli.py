@@ -660,12 +660,12 @@ def _command_export(args):
 # --------------------------------------------------------------------------------------------
 
 
-# Sizes of the demo. "full" is the main job (about two minutes on two cores); "quick" keeps
-# every step on a smaller campaign and drops the two slowest baselines; "tiny" (hidden) is for
-# the test suite.
+# Sizes of the demo. "full" is the main job, on the simulator's default campaign (one-minute
+# samples, the usual resolution of thermal modelling); "quick" keeps every step on a smaller
+# campaign and drops the two slowest baselines; "tiny" (hidden) is for the test suite.
 _DEMO_SIZES = {
     "full": {
-        "campaign": {"n_runs": 5, "sampling_period": 10.0},
+        "campaign": {"n_runs": 5, "sampling_period": 60.0},
         "models": None,
         "max_kernel_samples": 400,
     },
