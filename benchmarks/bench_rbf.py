@@ -65,7 +65,6 @@ import os
 import resource
 import subprocess
 import sys
-import tempfile
 import time
 import warnings
 from pathlib import Path
@@ -785,19 +784,9 @@ def _json_default(value):
     raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
-def write_atomic(path, text):
-    path.parent.mkdir(parents=True, exist_ok=True)
-    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    try:
-        with os.fdopen(descriptor, "w") as handle:
-            handle.write(text)
-        os.replace(temporary, path)
-    except BaseException:
-        os.unlink(temporary)
-        raise
-
-
 def main(argv=None):
+    from sklearn_ifog._io import write_text_files
+
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes, about a minute")
     parser.add_argument("--threads", type=int, default=1, help="BLAS threads per worker")
@@ -813,6 +802,7 @@ def main(argv=None):
         print(json.dumps(run_worker(json.loads(args.worker)), default=_json_default))
         return
     stem = "bench_rbf_quick" if args.quick else "bench_rbf"
+    args.output_dir.mkdir(parents=True, exist_ok=True)
     raw_path = args.output_dir / f"{stem}.json"
     if args.report_only:
         payload = json.loads(raw_path.read_text())
@@ -830,14 +820,18 @@ def main(argv=None):
         payload = {"command": sys.argv, "threads": args.threads, "elapsed_s": elapsed}
         payload["results"] = results
         # The measurements are saved before any summary is computed from them.
-        write_atomic(raw_path, json.dumps(payload, indent=1, default=_json_default) + "\n")
+        write_text_files({raw_path: json.dumps(payload, indent=1, default=_json_default) + "\n"})
     targets = evaluate_targets(results)
     payload["targets"] = targets
     payload["refine_summary"] = refine_summary(results)
     payload["refine_verdict"] = refine_verdict(results)
     report = markdown(results, targets, elapsed, args)
-    write_atomic(raw_path, json.dumps(payload, indent=1, default=_json_default) + "\n")
-    write_atomic(args.output_dir / f"{stem}.md", report)
+    write_text_files(
+        {
+            raw_path: json.dumps(payload, indent=1, default=_json_default) + "\n",
+            args.output_dir / f"{stem}.md": report,
+        }
+    )
     print(report)
 
 

@@ -18,8 +18,6 @@ Writes ``benchmarks/results/thermal_accuracy.md`` and ``thermal_accuracy.json``.
 
 import argparse
 import json
-import os
-import tempfile
 import time
 import warnings
 from pathlib import Path
@@ -35,6 +33,7 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
 from sklearn_ifog import RBFNetRegressor, ThermalFeatures
+from sklearn_ifog._io import write_text_files
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.metrics import mean_squared_deviation
 
@@ -99,13 +98,6 @@ def models(seed):
             _Strided(KernelRidge(kernel="rbf", alpha=1e-2, gamma=0.5), KERNEL_RIDGE_ROWS),
         ),
     }
-
-
-def _write_atomic(path, text):
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    with os.fdopen(fd, "w") as handle:
-        handle.write(text)
-    os.replace(tmp, path)
 
 
 BASELINES = ("poly3 Ridge", "poly2 Ridge", "MLP (20,)", "KernelRidge rbf")
@@ -246,9 +238,9 @@ def main():
     )
     RESULTS.mkdir(exist_ok=True)
     stem = "thermal_accuracy" + (f"_{args.tag}" if args.tag else "")
-    _write_atomic(RESULTS / f"{stem}.json", json.dumps({"command": command, "folds": rows}))
+    write_text_files({RESULTS / f"{stem}.json": json.dumps({"command": command, "folds": rows})})
     text = markdown(rows, command)
-    _write_atomic(RESULTS / f"{stem}.md", text)
+    write_text_files({RESULTS / f"{stem}.md": text})
     print(text)
 
 

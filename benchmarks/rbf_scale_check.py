@@ -11,11 +11,9 @@ Writes ``benchmarks/results/rbf_scale.md`` and ``rbf_scale.json``.
 """
 
 import json
-import os
 import resource
 import subprocess
 import sys
-import tempfile
 import time
 import timeit
 import warnings
@@ -109,13 +107,6 @@ def predict_timings():
     }
 
 
-def _write_atomic(path, text):
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    with os.fdopen(fd, "w") as handle:
-        handle.write(text)
-    os.replace(tmp, path)
-
-
 def main():
     if len(sys.argv) == 3:  # child process: one fit
         print(json.dumps(fit_once(sys.argv[1], int(float(sys.argv[2])))))
@@ -162,8 +153,14 @@ def main():
     lines += [f"| {k} | {v:.3g} |" for k, v in {**timings, **ratios}.items()]
     RESULTS.mkdir(exist_ok=True)
     payload = {"fits": fits, "predict": timings, "ratios": ratios}
-    _write_atomic(RESULTS / "rbf_scale.json", json.dumps(payload, indent=1))
-    _write_atomic(RESULTS / "rbf_scale.md", "\n".join(lines) + "\n")
+    from sklearn_ifog._io import write_text_files
+
+    write_text_files(
+        {
+            RESULTS / "rbf_scale.json": json.dumps(payload, indent=1),
+            RESULTS / "rbf_scale.md": "\n".join(lines) + "\n",
+        }
+    )
     print("\n".join(lines))
 
 

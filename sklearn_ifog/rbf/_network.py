@@ -78,6 +78,32 @@ def _smoothest_within_one_standard_error(options, losses, sample_weight):
     )
 
 
+def _select_and_score(width, D2, Y, T, sample_weight, alpha, max_centers, *, validation=None):
+    """OLS path at one width, and the fit of every prefix (scored on held-out rows if given).
+
+    ``D2`` are the squared distances of the selection rows to the candidates; ``validation``
+    is ``(D2_val, T_val, Y_val, sample_weight_val)`` or None.
+    """
+    P = np.exp(D2 * (-0.5 / width**2))
+    path = ols_forward_select(
+        P, Y, T=T, sample_weight=sample_weight, alpha=alpha, max_selected=max_centers
+    )
+    chosen = path.selected
+    D2_val, T_val, Y_val, sw_val = validation if validation is not None else (None,) * 4
+    fits = prefix_fits(
+        P[:, chosen],
+        Y,
+        T=T,
+        sample_weight=sample_weight,
+        alpha=alpha,
+        Phi_val=None if D2_val is None else np.exp(D2_val[:, chosen] * (-0.5 / width**2)),
+        T_val=T_val,
+        Y_val=Y_val,
+        sample_weight_val=sw_val,
+    )
+    return path, fits
+
+
 class RBFNetRegressor(RegressorMixin, BaseEstimator):
     """Gaussian radial-basis-function network with OLS centre selection and refinement.
 
@@ -524,26 +550,15 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
         fixed_size = self.criterion is None and self.goal is None
         paths = []
         for width in widths_tried:
-            P = np.exp(D2_sel * (-0.5 / width**2))
-            path = ols_forward_select(
-                P,
+            path, fits = _select_and_score(
+                width,
+                D2_sel,
                 Y_sel,
-                T=T_sel,
-                sample_weight=sw_sel,
-                alpha=alpha_sel,
-                max_selected=max_centers,
-            )
-            chosen = path.selected
-            fits = prefix_fits(
-                P[:, chosen],
-                Y_sel,
-                T=T_sel,
-                sample_weight=sw_sel,
-                alpha=alpha_sel,
-                Phi_val=np.exp(D2_val[:, chosen] * (-0.5 / width**2)) if has_val else None,
-                T_val=T_val if has_val else None,
-                Y_val=Y_val if has_val else None,
-                sample_weight_val=sw_val if has_val else None,
+                T_sel,
+                sw_sel,
+                alpha_sel,
+                max_centers,
+                validation=(D2_val, T_val, Y_val, sw_val) if has_val else None,
             )
             values = path_criterion(
                 fits, "holdout" if criterion == "cv" else criterion, sw_sel.sum()
@@ -634,27 +649,17 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
             D2_in = squared_distances(Z_in, candidates)
             D2_out = squared_distances(Z[rows_out], candidates)
             for i, width in enumerate(widths_tried):
-                P = np.exp(D2_in * (-0.5 / width**2))
-                path = ols_forward_select(
-                    P,
+                path, fits = _select_and_score(
+                    width,
+                    D2_in,
                     Y_in,
-                    T=T_in,
-                    sample_weight=sw_in,
-                    alpha=alpha_in,
-                    max_selected=max_centers,
+                    T_in,
+                    sw_in,
+                    alpha_in,
+                    max_centers,
+                    validation=(D2_out, T_out, Ys[rows_out], sw[rows_out]),
                 )
                 chosen = path.selected
-                fits = prefix_fits(
-                    P[:, chosen],
-                    Y_in,
-                    T=T_in,
-                    sample_weight=sw_in,
-                    alpha=alpha_in,
-                    Phi_val=np.exp(D2_out[:, chosen] * (-0.5 / width**2)),
-                    T_val=T_out,
-                    Y_val=Ys[rows_out],
-                    sample_weight_val=sw[rows_out],
-                )
                 padded = np.empty((max_centers + 1, rows_out.shape[0]))
                 padded[: len(chosen) + 1] = fits.val_sq
                 padded[len(chosen) + 1 :] = fits.val_sq[-1]
