@@ -4,20 +4,26 @@ The campaign: the simulator's default (3 units, 5 runs per (unit, azimuth), azim
 0/45/90/135, 60 s samples, about 16 000 rows); each unit is trained on its five runs at 0° and
 tested on five runs at 90° (Table 2), 45° (Table 3) or 135° (Table 4).
 
-What the simulator shows (seeds 0-7 measured, see the report of issue 4):
+What the simulator shows (campaign seeds 0-7, ``benchmarks/paper_claim_check.py``, results in
+``benchmarks/results/paper_claim.md``):
 
-- the modified RBF model cuts the MSD 32-76x against the raw output (the paper: > 10x);
+- the modified RBF model cuts the MSD 29-74x against the raw output (the paper: > 10x);
 - the traditional (T, ΔT) and modified (T, ΔT, T·ΔT) RBF networks tie: mean-MSD ratio
-  traditional/modified 0.89-1.29, the modified one winning 1-11 of the 15 test runs (trained on
-  ``rate - reference``); 0.91-1.49 and 6-12 of 15 when trained on the paper's error set Q. A
-  flexible network learns the T·ΔT product from (T, ΔT), so the paper's "modified beats
-  traditional in most experiments" is not asserted: it would hold or fail with the seed. The
-  tests assert parity instead.
+  traditional/modified 0.50-1.00 with the default network, the modified one winning more than
+  half of the 15 test runs for 2 of 8 seeds; a linear tail, the paper's Gaussian-only network
+  or a fixed 8-unit newrb-like one do not change that (3-5 of 8 seeds), nor does removing the
+  gyro noise. A flexible network learns the T·ΔT product from (T, ΔT) by itself, so the
+  paper's "modified beats traditional in most experiments" is not asserted for the RBF
+  network: it would hold or fail with the seed. The tests assert parity instead;
+- for the linear thermal model (the IEEE Std 952 style least-squares model) T·ΔT does carry
+  what (T, ΔT) lacks: the modified model wins 11-15 of 15 runs on every seed (ratio
+  1.09-1.71). That is asserted below.
 """
 
 import numpy as np
 import pytest
 from sklearn.dummy import DummyRegressor
+from sklearn.linear_model import LinearRegression
 
 from sklearn_ifog import ThermalFeatures
 from sklearn_ifog.datasets import make_thermal_campaign
@@ -95,16 +101,26 @@ def test_models_are_trained_on_the_training_azimuth_only(campaign):
 
 def test_modified_model_cuts_msd_tenfold(result):
     runs = result.runs
-    assert runs["raw"].mean() / runs["modified"].mean() >= 10.0  # 33.5 measured
+    assert runs["raw"].mean() / runs["modified"].mean() >= 10.0  # 34.5 measured
     per_table = runs.groupby("table")[["raw", "modified"]].mean()
-    assert (per_table["raw"] / per_table["modified"] >= 5.0).all()  # 14.0 at worst
+    assert (per_table["raw"] / per_table["modified"] >= 5.0).all()  # 14.7 at worst
 
 
 def test_modified_model_is_not_worse_than_traditional(result):
-    # A tie on this simulator (traditional/modified 0.997 for this seed, 0.89-1.29 over
+    # A tie on this simulator (traditional/modified 0.97 for this seed, 0.50-1.00 over
     # seeds 0-7): assert parity, not a win.
     runs = result.runs
     assert runs["modified"].mean() <= 1.25 * runs["traditional"].mean()
+
+
+def test_product_term_beats_traditional_for_the_linear_thermal_model(campaign):
+    # The paper's claim, where it holds on the simulator: a linear model of the drift cannot
+    # build T·ΔT from T and ΔT, and the Shupe coefficient varies with T.
+    runs = run_paper_experiments(campaign, regressor=LinearRegression()).runs
+    wins = int((runs["modified"] < runs["traditional"]).sum())
+    assert wins > len(runs) / 2  # 11 of 15 measured (11-15 over campaign seeds 0-7)
+    assert runs["traditional"].mean() / runs["modified"].mean() > 1.05  # 1.11 measured
+    assert runs["raw"].mean() / runs["modified"].mean() >= 10.0
 
 
 def test_error_set_training(campaign, error_set_result):
@@ -116,7 +132,7 @@ def test_error_set_training(campaign, error_set_result):
     assert first["raw"] == pytest.approx(np.var(error), rel=1e-12)
     drift = error_set_result.models[0]["modified"].predict(rows)
     assert first["modified"] == pytest.approx(np.var(error - drift), rel=1e-9)
-    # The mean-removed raw MSD is smaller, so is the cut: 10.0x here, 6.2-12.6x on seeds 0-7.
+    # The mean-removed raw MSD is smaller, so is the cut: 10.1x here, 5.0-11.1x on seeds 0-7.
     assert runs["raw"].mean() / runs["modified"].mean() >= 5.0
     assert runs["modified"].mean() <= 1.25 * runs["traditional"].mean()
 
