@@ -93,27 +93,31 @@ def why_table(seeds):
     rows = []
     for seed in seeds:
         campaign = make_thermal_campaign(noise=False, random_state=seed)
-        frame = campaign.frame
-        components = campaign.components
-        measured = ThermalFeatures(temperature="temperature", time="time", run="run")
-        measured = measured.fit_transform(frame)
-        coil = (components["coil_mean"].to_numpy(), components["coil_rate"].to_numpy())
-        state = {
-            "coil (true)": coil,
-            "sensor (measured)": (measured[:, 0], measured[:, 1]),
+        frame, components = campaign.frame, campaign.components
+        sensor = ThermalFeatures(
+            temperature="temperature", time="time", run="run", terms=("T", "dT")
+        ).fit_transform(frame)
+        states = {
+            "coil (true)": (
+                components["coil_mean"].to_numpy(),
+                components["coil_rate"].to_numpy(),
+            ),
+            "sensor (measured)": (sensor[:, 0], sensor[:, 1]),
         }
+        designs = {
+            f"{source}{' + T·ΔT' if product else ''}": _design(temperature, rate, product)
+            for source, (temperature, rate) in states.items()
+            for product in (False, True)
+        }
+        drift = frame["drift"].to_numpy()
+        at_zero = np.isclose(frame["azimuth"], 0.0)
         for unit in np.unique(frame["unit"]):
             in_unit = (frame["unit"] == unit).to_numpy()
-            train = in_unit & np.isclose(frame["azimuth"], 0.0)
-            test = in_unit & ~np.isclose(frame["azimuth"], 0.0)
-            drift = frame["drift"].to_numpy()
+            train, test = in_unit & at_zero, in_unit & ~at_zero
             row = {"seed": seed, "unit": int(unit), "drift_var": float(drift[test].var())}
-            for source, (temperature, rate) in state.items():
-                for product in (False, True):
-                    X = _design(temperature, rate, product)
-                    model = LinearRegression().fit(X[train], drift[train])
-                    error = float(np.mean((model.predict(X[test]) - drift[test]) ** 2))
-                    row[f"{source}{' + T·ΔT' if product else ''}"] = error
+            for name, X in designs.items():
+                model = LinearRegression().fit(X[train], drift[train])
+                row[name] = float(np.mean((model.predict(X[test]) - drift[test]) ** 2))
             rows.append(row)
     return rows
 
