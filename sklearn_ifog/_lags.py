@@ -234,22 +234,24 @@ def lag_step(deficit, u_prev, u, h, tau, *, hold="linear"):
 # ---------------------------------------------------------------------------------------------
 
 
-def _scan_blocks(a, b):
-    """Prefix scan along axis 1 of (n_blocks, width, m) arrays by recursive doubling.
+def _scan(a, b):
+    """Prefix scan along axis 0 of (width, m) arrays by recursive doubling, in place.
 
-    Returns ``(A, X)``: ``A[:, i]`` the product of ``a[:, :i+1]``, ``X[:, i]`` the solution of
-    ``x[i] = a[i] x[i-1] + b[i]`` started from ``x[-1] = 0``.
+    Returns ``(a, b)`` overwritten with ``A[i]``, the product of ``a[:i+1]``, and ``X[i]``, the
+    solution of ``x[i] = a[i] x[i-1] + b[i]`` started from ``x[-1] = 0``.
     """
-    a = a.copy()
-    b = b.copy()
-    width = a.shape[1]
+    width = a.shape[0]
+    buffer = np.empty_like(b)
     shift = 1
     while shift < width:
         # Element i takes in the map of element i - shift: (a_i, b_i) o (a_j, b_j).
-        b[:, shift:] += a[:, shift:] * b[:, :-shift]
-        a[:, shift:] = a[:, shift:] * a[:, :-shift]
+        product = buffer[: width - shift]
+        np.multiply(a[shift:], b[:-shift], out=product)
+        b[shift:] += product
+        np.multiply(a[shift:], a[:-shift], out=product)
+        a[shift:] = product
         shift *= 2
-        if shift < width and not a[:, shift:].any():
+        if shift < width and not a[shift:].any():
             break  # every later composition multiplies by an exact zero
     return a, b
 
@@ -257,23 +259,27 @@ def _scan_blocks(a, b):
 def _solve_recurrence(a, b):
     """Solve ``x[i] = a[i] * x[i-1] + b[i]`` along axis 0 with ``x[-1] = 0``.
 
-    ``a`` and ``b`` have shape (n, m); the ``m`` columns are independent recursions.
+    ``a`` and ``b`` have shape (n, m); the ``m`` columns are independent recursions. Blocks
+    of ``_BLOCK`` rows are laid side by side (block position on axis 0, contiguous rows of
+    blocks behind it) and scanned together; the blocks' end values solve the same recursion
+    over blocks, recursively.
     """
     n, m = a.shape
-    if n == 0:
-        return b.copy()
     if n <= _BLOCK:
-        return _scan_blocks(a[None], b[None])[1][0]
+        return _scan(a.copy(), b.copy())[1]
     n_blocks = -(-n // _BLOCK)
-    pad = n_blocks * _BLOCK - n
-    shape = (n_blocks, _BLOCK, m)
-    a_blocks = np.concatenate([a, np.zeros((pad, m))]).reshape(shape)
-    b_blocks = np.concatenate([b, np.zeros((pad, m))]).reshape(shape)
-    products, partial = _scan_blocks(a_blocks, b_blocks)
-    # The value at the end of every block, by the same recursion over blocks.
-    ends = _solve_recurrence(products[:, -1], partial[:, -1])
-    partial[1:] += products[1:] * ends[:-1, None, :]
-    return partial.reshape(n_blocks * _BLOCK, m)[:n]
+    pad = ((0, n_blocks * _BLOCK - n), (0, 0))
+
+    def side_by_side(x):
+        x = np.pad(x, pad).reshape(n_blocks, _BLOCK, m)
+        return np.ascontiguousarray(x.transpose(1, 0, 2)).reshape(_BLOCK, n_blocks * m)
+
+    products, partial = _scan(side_by_side(a), side_by_side(b))
+    ends = _solve_recurrence(products[-1].reshape(n_blocks, m), partial[-1].reshape(n_blocks, m))
+    products = products.reshape(_BLOCK, n_blocks, m)
+    partial = partial.reshape(_BLOCK, n_blocks, m)
+    partial[:, 1:] += products[:, 1:] * ends[None, :-1]
+    return partial.transpose(1, 0, 2).reshape(n_blocks * _BLOCK, m)[:n]
 
 
 # ---------------------------------------------------------------------------------------------
