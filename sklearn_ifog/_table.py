@@ -2,8 +2,8 @@
 
 Plain functions, numpy out, for numpy arrays and pandas / polars DataFrames:
 
-- columns: :func:`as_table`, :func:`column_names`, :func:`column_position` (strict, with an
-  error naming the column and the parameter), :func:`find_column` (lenient),
+- columns: :func:`as_table`, :func:`column_names`, :func:`column_at`, :func:`column_position`
+  (strict, with an error naming the column and the parameter), :func:`find_column` (lenient),
   :func:`numeric_column`, :func:`label_column`, :func:`check_finite`, and
   :func:`read_thermal_columns` (the temperature, time and run columns of a thermal test);
 - runs: :func:`run_codes`, :func:`group_rows_by_run` (a stable order that makes each run
@@ -31,6 +31,7 @@ __all__ = [
     "as_table",
     "check_finite",
     "check_time_increasing",
+    "column_at",
     "column_names",
     "column_position",
     "contiguous_runs",
@@ -285,8 +286,27 @@ def find_column(X, key):
     return int(key) % n_columns if -n_columns <= key < n_columns else None
 
 
-def _raw_column(X, position):
-    """Column ``position`` of ``X`` as it is stored (Series or 1-D array)."""
+def column_at(X, position):
+    """Column ``position`` of ``X`` as it is stored (a pandas/polars Series or a 1-D array).
+
+    Parameters
+    ----------
+    X : {array-like, pandas.DataFrame, polars.DataFrame}
+        The table.
+    position : int
+        A column position, e.g. from :func:`column_position` or :func:`find_column`.
+
+    Returns
+    -------
+    column : Series or ndarray of shape (n_samples,)
+        The column, unconverted.
+
+    Examples
+    --------
+    >>> from sklearn_ifog._table import column_at
+    >>> column_at([[1, 2], [3, 4]], 1)
+    array([2, 4])
+    """
     kind = frame_kind(X)
     if kind == "pandas":
         return X.iloc[:, position]
@@ -323,7 +343,11 @@ def _parse_text(column, label):
     """Numbers written as text (a CSV read as strings): each cell parsed, or an error."""
     import pandas as pd
 
-    column = column if _library(column) == "pandas" else pd.Series(np.asarray(column))
+    kind = _library(column)
+    if kind == "polars":
+        column = column.to_pandas()
+    elif kind is None:
+        column = pd.Series(column)
     values = pd.to_numeric(column, errors="coerce")
     not_numbers = np.flatnonzero(values.isna().to_numpy() & column.notna().to_numpy())
     if not_numbers.size:
@@ -446,11 +470,13 @@ def numeric_column(X, key, *, param, finite=True, parse_text=False, source="X", 
     """
     position = column_position(X, key, param=param, source=source, hint=hint)
     label = _label(param, X, position)
-    column = _raw_column(X, position)
-    if parse_text and np.dtype(getattr(column, "dtype", object)) == object:
-        values = _parse_text(column, label)
-    else:
+    column = column_at(X, position)
+    try:
         values = _as_float(column, label)
+    except TableTypeError:
+        if not parse_text:
+            raise
+        values = _parse_text(column, label)
     if finite:
         check_finite(values, label)
     return values
@@ -492,7 +518,7 @@ def label_column(X, key, *, param, source="X", hint=None):
     """
     position = column_position(X, key, param=param, source=source, hint=hint)
     label = _label(param, X, position)
-    column = _raw_column(X, position)
+    column = column_at(X, position)
     kind = _library(column)
     if kind == "pandas":
         missing = column.isna().to_numpy()
