@@ -487,14 +487,9 @@ def label_column(X, key, *, param, source="X", hint=None):
 
     Parameters
     ----------
-    X : {ndarray, pandas.DataFrame, polars.DataFrame}
-        The table (see :func:`as_table`).
-    key : str or int
-        Column name or position (see :func:`column_position`).
-    param : str
-        The parameter that names the column (its role), for messages.
-    source, hint : str
-        See :func:`column_position`.
+    X, key, param, source, hint
+        The table, the column (name or position), its role (e.g. ``"run"``, which also names
+        the ids in messages) and the message details, as for :func:`numeric_column`.
 
     Returns
     -------
