@@ -17,38 +17,11 @@ import numbers
 import numpy as np
 from sklearn.utils.validation import check_is_fitted
 
+from sklearn_ifog import _table
+
 __all__ = ["compensate", "drift_target"]
 
 _TARGET_KINDS = ("reference", "error_set")
-
-
-def _frame_column(frame, name, *, argument):
-    """Float values of column ``name`` of ``frame``, or a ValueError/TypeError naming it."""
-    columns = list(getattr(frame, "columns", []))
-    if name not in columns:
-        raise ValueError(
-            f"{argument}={name!r}: the frame has no column {name!r} (columns: {columns})."
-        )
-    raw = np.asarray(frame[name])
-    if raw.dtype.kind not in "biuf":
-        raise TypeError(f"Column {name!r} ({argument}) must be numeric, got dtype {raw.dtype}.")
-    values = raw.astype(np.float64, copy=False)
-    missing = np.flatnonzero(~np.isfinite(values))
-    if missing.size:
-        raise ValueError(
-            f"Column {name!r} ({argument}) has {missing.size} missing or infinite value(s), "
-            f"first at row {missing[0]}; clean them before building the target."
-        )
-    return values
-
-
-def _per_group_mean(values, labels):
-    """Mean of ``values`` within each label, broadcast back to the rows."""
-    _, inverse = np.unique(labels, return_inverse=True)
-    inverse = inverse.ravel()
-    sums = np.bincount(inverse, weights=values)
-    counts = np.bincount(inverse)
-    return (sums / counts)[inverse]
 
 
 def drift_target(frame, *, rate="rate", reference="reference", kind="reference", run="run"):
@@ -106,23 +79,25 @@ def drift_target(frame, *, rate="rate", reference="reference", kind="reference",
             'kind="reference" needs the reference column; pass reference="<column>" or use '
             'kind="error_set".'
         )
-    values = _frame_column(frame, rate, argument="rate")
+    values = _table.numeric_column(frame, rate, param="rate", source="frame")
     if reference is not None:
-        values = values - _frame_column(frame, reference, argument="reference")
+        values = values - _table.numeric_column(
+            frame, reference, param="reference", source="frame"
+        )
     name = "drift_measured"
     if kind == "error_set":
         name = "error_set"
         if run is None:
             values = values - values.mean()
         else:
-            columns = list(frame.columns)
-            if run not in columns:
-                raise ValueError(
-                    f"run={run!r}: the frame has no column {run!r} (columns: {columns}); "
-                    "pass run=None to treat the frame as one run."
-                )
-            labels = np.asarray(frame[run])
-            values = values - _per_group_mean(values, labels)
+            labels = _table.label_column(
+                frame,
+                run,
+                param="run",
+                source="frame",
+                hint="Pass run=None to treat the frame as one run.",
+            )
+            values = values - _table.per_run_mean(values, labels)
     index = getattr(frame, "index", None)
     if index is not None and type(frame).__module__.startswith("pandas"):
         import pandas as pd
@@ -171,8 +146,11 @@ def compensate(model, X, rate):
     [15.0, 15.0, 15.0]
     """
     check_is_fitted(model)
+    index = None
     if isinstance(rate, str | numbers.Integral):
-        rate = _rate_column(X, rate)
+        table = _table.as_table(X)
+        index = X.index if _table.frame_kind(table) == "pandas" else None
+        rate = _table.numeric_column(table, rate, param="rate", finite=False)
     n_samples = X.shape[0] if hasattr(X, "shape") else len(X)
     if len(rate) != n_samples:
         raise ValueError(f"rate has {len(rate)} values but X has {n_samples} rows.")
@@ -189,26 +167,9 @@ def compensate(model, X, rate):
         raise ValueError(f"rate must be 1-D, got shape {values.shape}.")
     compensated = values - prediction
     if type(rate).__module__.startswith("pandas"):
+        index = rate.index
+    if index is not None:
         import pandas as pd
 
-        return pd.Series(compensated, index=rate.index, name="rate_compensated")
+        return pd.Series(compensated, index=index, name="rate_compensated")
     return compensated
-
-
-def _rate_column(X, key):
-    """The rate column ``key`` (name or position) of ``X``, as a Series or array."""
-    columns = getattr(X, "columns", None)
-    if columns is not None:
-        if key in list(columns):
-            return X[key]
-        if isinstance(key, numbers.Integral) and hasattr(X, "iloc"):
-            return X.iloc[:, key]
-        if isinstance(key, numbers.Integral):
-            return np.asarray(X[:, key])
-        raise ValueError(f"rate={key!r}: X has no column {key!r} (columns: {list(columns)}).")
-    if isinstance(key, str):
-        raise ValueError(
-            f"rate={key!r} names a column, but X is an array without column names; pass the "
-            "rate values or an integer column position."
-        )
-    return np.asarray(X)[:, key]

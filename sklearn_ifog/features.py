@@ -18,9 +18,18 @@ from typing import ClassVar
 import numpy as np
 from scipy.signal import lfilter
 from sklearn.base import BaseEstimator, TransformerMixin
-from sklearn.utils.validation import check_array, validate_data
+from sklearn.utils.validation import validate_data
 
+from sklearn_ifog import _contract, _table
 from sklearn_ifog._compat import Interval, StrOptions, _check_feature_names_in, _fit_context
+from sklearn_ifog._contract import (
+    SECONDS_PER_UNIT,
+    VALID_TERMS,
+    SensorInputs,
+    get_term,
+    sensor_keys,
+)
+from sklearn_ifog._table import group_rows_by_run
 
 __all__ = [
     "SECONDS_PER_RATE_UNIT",
@@ -34,14 +43,9 @@ __all__ = [
     "validate_terms",
 ]
 
-#: Seconds in one unit of the temperature rate, by ``rate_unit`` name.
-SECONDS_PER_RATE_UNIT = {"s": 1.0, "min": 60.0, "h": 3600.0}
-
-#: Every term ``ThermalFeatures`` knows, in the order the documentation lists them.
-VALID_TERMS = ("T", "dT", "TdT", "T2", "gradient")
-
-# Output name of each term (the single-sensor name; several sensors prefix it).
-_TERM_NAMES = {"T": "T", "dT": "dT", "TdT": "T_dT", "T2": "T2", "gradient": "gradient"}
+#: Seconds in one unit of the temperature rate, by ``rate_unit`` name (the feature contract's
+#: :data:`sklearn_ifog._contract.SECONDS_PER_UNIT`).
+SECONDS_PER_RATE_UNIT = SECONDS_PER_UNIT
 
 
 # ---------------------------------------------------------------------------------------------
@@ -91,86 +95,14 @@ def validate_terms(terms, n_sensors):
     duplicates = sorted({term for term in terms if terms.count(term) > 1})
     if duplicates:
         raise ValueError(f"Duplicate term(s) {duplicates} in terms={terms!r}.")
-    if "gradient" in terms and n_sensors < 2:
-        raise ValueError(
-            "The 'gradient' term (each sensor minus the first one) needs at least two "
-            f"temperature columns; got {n_sensors}."
-        )
-    return terms
-
-
-def group_rows_by_run(run):
-    """Stable order that makes each run's rows contiguous.
-
-    Rows of one run keep their relative order (the time order), whatever the interleaving of
-    runs in the input. Runs are laid out in sorted order of their ids.
-
-    Parameters
-    ----------
-    run : array-like of shape (n_samples,) or None
-        Run id of every row (numbers or strings, one type). None: all rows are one run.
-
-    Returns
-    -------
-    order : ndarray of shape (n_samples,), dtype intp
-        ``values[order]`` lists the rows run by run; ``out[order] = grouped`` scatters a
-        result computed on the grouped rows back to the input order.
-    run_starts : ndarray of shape (n_samples,), dtype bool
-        True at the first row of every run, in the grouped order.
-
-    Raises
-    ------
-    ValueError
-        If the run ids cannot be ordered (e.g. a mix of strings and numbers).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from sklearn_ifog.features import group_rows_by_run
-    >>> order, run_starts = group_rows_by_run(np.array(["b", "a", "b", "a"]))
-    >>> order
-    array([1, 3, 0, 2])
-    >>> run_starts
-    array([ True, False,  True, False])
-    """
-    if run is None:
-        return None, None
-    run = np.asarray(run)
-    n_samples = run.shape[0]
-    labels = _object_codes(run) if run.dtype.kind == "O" else None
-    if labels is None:
-        try:
-            _, labels = np.unique(run, return_inverse=True)
-        except TypeError as exc:
-            kinds = sorted({type(value).__name__ for value in run[:1000].tolist()})
+    for term in terms:
+        if not get_term(term).first_sensor and n_sensors < 2:
             raise ValueError(
-                "Run ids must all be of one orderable type (all numbers or all strings); "
-                f"got {kinds}."
-            ) from exc
-    labels = labels.reshape(n_samples)
-    order = np.argsort(labels, kind="stable")
-    grouped = labels[order]
-    run_starts = np.empty(n_samples, dtype=bool)
-    run_starts[:1] = True
-    np.not_equal(grouped[1:], grouped[:-1], out=run_starts[1:])
-    return order, run_starts
-
-
-def _object_codes(run):
-    """Integer codes of object run ids by hashing (pandas), or None without pandas.
-
-    Sorting Python objects (``np.unique``) costs seconds per million rows; hashing them costs
-    milliseconds and needs no order between the ids' types.
-    """
-    try:
-        import pandas as pd
-    except ImportError:  # pragma: no cover - pandas is an optional dependency
-        return None
-    codes, _ = pd.factorize(run, use_na_sentinel=True)
-    if (codes < 0).any():
-        row = int(np.flatnonzero(codes < 0)[0])
-        raise ValueError(f"Missing run id (None or NaN) at row {row}; every row needs one.")
-    return codes
+                f"The {term!r} term has no column for the first sensor (for 'gradient': each "
+                "sensor minus the first one), so it needs at least two temperature columns; "
+                f"got {n_sensors}."
+            )
+    return terms
 
 
 def _start_mask(n_samples, run_starts):
@@ -312,21 +244,22 @@ def causal_rate(values, run_starts=None, time=None, seconds_per_unit=60.0):
     one_d = values.ndim == 1
     values = values.reshape(values.shape[0], -1)
     n_samples = values.shape[0]
-    continues = _start_mask(n_samples, run_starts)[1:] == 0
+    run_starts = _start_mask(n_samples, run_starts)
+    continues = ~run_starts[1:]
     rate = np.zeros_like(values)
     step = values[1:] - values[:-1]
     if time is None:
         rate[1:][continues] = step[continues]
     else:
         time = np.asarray(time, dtype=np.float64).reshape(n_samples)
-        elapsed = time[1:][continues] - time[:-1][continues]
-        bad = np.flatnonzero(~(elapsed > 0))
-        if bad.size:
-            row = int(np.flatnonzero(continues)[bad[0]]) + 1
+        violation = _table.first_time_violation(time, run_starts=run_starts)
+        if violation is not None:
+            row, previous = violation
             raise ValueError(
                 f"time must increase strictly within each run; row {row} has time "
-                f"{time[row].item()!r} after {time[row - 1].item()!r} at row {row - 1}."
+                f"{time[row].item()!r} after {time[previous].item()!r} at row {previous}."
             )
+        elapsed = time[1:][continues] - time[:-1][continues]
         rate[1:][continues] = step[continues] / elapsed[:, None] * seconds_per_unit
     return rate[:, 0] if one_d else rate
 
@@ -364,41 +297,18 @@ def assemble_terms(temperature, rate, terms):
     temperature = temperature.reshape(temperature.shape[0], -1)
     rate = np.asarray(rate, dtype=np.float64).reshape(temperature.shape)
     terms = validate_terms(terms, temperature.shape[1])
+    definitions = [get_term(term) for term in terms]
     columns = []
     for sensor in range(temperature.shape[1]):
-        T, dT = temperature[:, sensor], rate[:, sensor]
-        for term in terms:
-            if term == "T":
-                columns.append(T)
-            elif term == "dT":
-                columns.append(dT)
-            elif term == "TdT":
-                columns.append(T * dT)
-            elif term == "T2":
-                columns.append(T * T)
-            elif sensor > 0:  # "gradient"
-                columns.append(T - temperature[:, 0])
+        inputs = SensorInputs(
+            T=temperature[:, sensor], dT=rate[:, sensor], first=temperature[:, 0]
+        )
+        columns += [
+            term.compute(inputs) for term in definitions if sensor > 0 or term.first_sensor
+        ]
     if not columns:
         return np.empty((temperature.shape[0], 0))
     return np.column_stack(columns)
-
-
-def _python_scalar(value):
-    return value.item() if isinstance(value, np.generic) else value
-
-
-def _time_violation(time, order, run_starts):
-    """First input row whose time does not exceed its run's previous row, or None."""
-    grouped = time if order is None else time[order]
-    continues = np.ones(time.shape[0] - 1, dtype=bool) if run_starts is None else ~run_starts[1:]
-    bad = np.flatnonzero(continues & ~(grouped[1:] > grouped[:-1]))
-    if bad.size == 0:
-        return None
-    if order is None:
-        return int(bad[0]) + 1, int(bad[0])
-    rows, previous = order[bad + 1], order[bad]
-    first = int(np.argmin(rows))
-    return int(rows[first]), int(previous[first])
 
 
 def compute_thermal_features(
@@ -459,15 +369,7 @@ def compute_thermal_features(
     order, run_starts = group_rows_by_run(run)
     if time is not None:
         time = np.asarray(time, dtype=np.float64).reshape(temperature.shape[0])
-        violation = _time_violation(time, order, run_starts)
-        if violation is not None:
-            row, previous = violation
-            where = "" if run is None else f"in run {_python_scalar(np.asarray(run)[row])!r} "
-            raise ValueError(
-                f"time must increase strictly within each run; {where}row {row} has time "
-                f"{time[row].item()!r}, not after {time[previous].item()!r} at row {previous} "
-                "(rows are positions in the input)."
-            )
+        _table.check_time_increasing(time, run, order=order, run_starts=run_starts)
     if order is None:
         smoothed = ema_smooth(temperature, None, smoothing)
         rate = causal_rate(smoothed, None, time, seconds_per_unit)
@@ -477,107 +379,6 @@ def compute_thermal_features(
         rate = np.empty_like(temperature)
         rate[order] = causal_rate(smoothed, run_starts, grouped_time, seconds_per_unit)
     return assemble_terms(temperature, rate, terms)
-
-
-# ---------------------------------------------------------------------------------------------
-# Column access for numpy arrays and pandas / polars DataFrames.
-# ---------------------------------------------------------------------------------------------
-
-
-def _library(obj):
-    """ "pandas" or "polars" for their DataFrames and Series, None for anything else."""
-    module = type(obj).__module__.split(".")[0]
-    return module if module in ("pandas", "polars") else None
-
-
-def _frame_kind(X):
-    kind = _library(X)
-    return kind if kind is not None and hasattr(X, "columns") else None
-
-
-def _object_as_float(values, label):
-    """Numbers held in an object array as float64; anything else is rejected."""
-    # Inferring the dtype from the Python values (in C) tells numbers from strings; a plain
-    # ``astype(float)`` would silently parse strings such as "20.5".
-    inferred = np.array(values.tolist()) if values.size else np.empty(0)
-    if inferred.dtype.kind in "iuf" and inferred.ndim == 1:
-        return inferred.astype(np.float64)
-    if inferred.dtype.kind == "O":
-        try:
-            return values.astype(np.float64)
-        except TypeError as exc:  # e.g. None or a dict among the numbers
-            raise TypeError(f"{label} must be numeric: {exc}") from exc
-    raise ValueError(
-        f"{label} must be numeric, but it holds non-numeric values (object column inferred "
-        f"as {inferred.dtype})."
-    )
-
-
-def _numeric_column(column, label):
-    """One column as float64, without converting anything else of X."""
-    kind = _library(column)
-    if kind == "pandas":
-        import pandas as pd
-
-        dtype = column.dtype
-        if pd.api.types.is_bool_dtype(dtype) or not (
-            pd.api.types.is_numeric_dtype(dtype) or pd.api.types.is_object_dtype(dtype)
-        ):
-            raise ValueError(f"{label} must be numeric, got dtype {dtype}.")
-        if pd.api.types.is_object_dtype(dtype):
-            return _object_as_float(column.to_numpy(), label)
-        return column.to_numpy(dtype=np.float64, na_value=np.nan)
-    if kind == "polars":
-        if not column.dtype.is_numeric():
-            raise ValueError(f"{label} must be numeric, got dtype {column.dtype}.")
-        return np.asarray(column.to_numpy(), dtype=np.float64)
-    if column.dtype.kind in "iuf":
-        return column.astype(np.float64)
-    if column.dtype.kind == "O":
-        return _object_as_float(column, label)
-    raise ValueError(f"{label} must be numeric, got dtype {column.dtype}.")
-
-
-def _check_finite(values, label):
-    bad = ~np.isfinite(values)
-    if bad.any():
-        row = int(np.flatnonzero(bad)[0])
-        raise ValueError(
-            f"{label} contains NaN or inf ({int(bad.sum())} value(s); first at row {row}: "
-            f"{values[row].item()!r}). Rows are positions in X."
-        )
-
-
-def _run_ids(column, label):
-    """Run ids of one column as a numpy array, rejecting missing ids."""
-    kind = _library(column)
-    if kind == "pandas":
-        missing = column.isna().to_numpy()
-        run = column.to_numpy()
-    elif kind == "polars":
-        missing = column.is_null().to_numpy()
-        if column.dtype.is_float():
-            missing |= column.is_nan().fill_null(False).to_numpy()
-        run = column.to_numpy()
-    else:
-        run = column
-        if run.dtype.kind == "f":
-            missing = np.isnan(run)
-        elif run.dtype.kind == "O":
-            try:
-                missing = np.asarray((run != run) | np.equal(run, None), dtype=bool)
-            except TypeError as exc:  # e.g. pandas.NA, whose comparisons are undefined
-                raise ValueError(
-                    f"{label} holds run ids that cannot be compared (e.g. pandas.NA)."
-                ) from exc
-        else:
-            missing = np.zeros(run.shape[0], dtype=bool)
-    if missing.any():
-        row = int(np.flatnonzero(missing)[0])
-        raise ValueError(
-            f"{label} has missing run ids (first at row {row}); every row needs a run id."
-        )
-    return np.asarray(run)
 
 
 class ThermalFeatures(TransformerMixin, BaseEstimator):
@@ -686,6 +487,7 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
 
     def __init__(
         self,
+        *,
         temperature="temperature",
         time=None,
         run=None,
@@ -702,133 +504,30 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
 
     # -- column handling ------------------------------------------------------------------
 
-    def _temperature_keys(self):
-        keys = (
-            list(self.temperature)
-            if isinstance(self.temperature, list | tuple)
-            else [self.temperature]
-        )
-        if not keys:
-            raise ValueError("temperature is empty; give at least one temperature column.")
-        return keys
-
-    def _seconds_per_unit(self):
-        if isinstance(self.rate_unit, str):
-            return SECONDS_PER_RATE_UNIT[self.rate_unit]
-        return float(self.rate_unit)
-
-    @staticmethod
-    def _resolve(key, param, columns, n_columns):
-        """Position of the column that ``param`` names."""
-        if isinstance(key, bool | np.bool_) or not isinstance(key, str | numbers.Integral):
-            raise TypeError(
-                f"{param} must name a column (str) or give its position (int), got {key!r}."
-            )
-        if isinstance(key, numbers.Integral):
-            if not 0 <= key < n_columns:
-                raise ValueError(
-                    f"{param}={key!r} is not a column position of X, which has {n_columns} "
-                    f"column(s) (positions 0 to {n_columns - 1})."
-                )
-            return int(key)
-        if columns is None:
-            raise ValueError(
-                f"{param}={key!r} names a column, but X has no column names; pass a DataFrame "
-                "or give the column's integer position."
-            )
-        matches = [position for position, name in enumerate(columns) if name == key]
-        if not matches:
-            raise ValueError(
-                f"Column {key!r} ({param}) not found in X; available columns: {list(columns)}."
-            )
-        if len(matches) > 1:
-            raise ValueError(f"Column {key!r} ({param}) appears {len(matches)} times in X.")
-        return matches[0]
-
-    @staticmethod
-    def _as_table(X):
-        """A DataFrame as it is (no conversion), anything else as a 2-D array, non-empty."""
-        if _frame_kind(X) is None:
-            # dtype=None keeps an object array (e.g. with string run ids) as it is.
-            return check_array(
-                X, dtype=None, accept_sparse=False, ensure_all_finite=False, input_name="X"
-            )
-        if X.shape[0] < 1 or X.shape[1] < 1:
-            raise ValueError(
-                f"Found array with {X.shape[0]} sample(s) and {X.shape[1]} feature(s) "
-                f"(shape={X.shape}) while a minimum of 1 is required."
-            )
-        return X
-
-    def _read_columns(self, X):
-        """Validate X and read the temperature, time and run columns (and nothing else)."""
-        kind = _frame_kind(X)
-        columns = None if kind is None else list(X.columns)
-        n_columns = X.shape[1]
-
-        def column(position):
-            if kind == "pandas":
-                return X.iloc[:, position]
-            if kind == "polars":
-                return X.to_series(position)
-            return X[:, position]
-
-        def label(param, position):
-            name = position if columns is None else columns[position]
-            return f"{param} column {name!r}"
-
-        temp_positions = [
-            self._resolve(key, "temperature", columns, n_columns)
-            for key in self._temperature_keys()
-        ]
-        if len(set(temp_positions)) < len(temp_positions):
-            raise ValueError(f"temperature={self.temperature!r} lists a column twice.")
-        used = {position: "temperature" for position in temp_positions}
-        positions = {}
-        for param in ("time", "run"):
-            key = getattr(self, param)
-            if key is None:
-                continue
-            position = self._resolve(key, param, columns, n_columns)
-            if position in used:
-                raise ValueError(
-                    f"{param}={key!r} is the same column as {used[position]}; each column "
-                    "has one role."
-                )
-            used[position] = param
-            positions[param] = position
-
-        temperature = np.empty((X.shape[0], len(temp_positions)))
-        for sensor, position in enumerate(temp_positions):
-            values = _numeric_column(column(position), label("temperature", position))
-            _check_finite(values, label("temperature", position))
-            temperature[:, sensor] = values
-        time = None
-        if "time" in positions:
-            time = _numeric_column(column(positions["time"]), label("time", positions["time"]))
-            _check_finite(time, label("time", positions["time"]))
-        run = None
-        if "run" in positions:
-            run = _run_ids(column(positions["run"]), label("run", positions["run"]))
-        time_label = None if time is None else label("time", positions["time"])
-        return temperature, time, run, time_label
-
     def _features(self, X):
-        temperature, time, run, time_label = self._read_columns(X)
-        terms = validate_terms(self.terms, temperature.shape[1])
+        columns = _table.read_thermal_columns(
+            X, temperature=sensor_keys(self.temperature), time=self.time, run=self.run
+        )
+        terms = validate_terms(self.terms, columns.temperature.shape[1])
         try:
             return compute_thermal_features(
-                temperature,
-                time=time,
-                run=run,
+                columns.temperature,
+                time=columns.time,
+                run=columns.run,
                 terms=terms,
                 smoothing=self.smoothing,
-                seconds_per_unit=self._seconds_per_unit(),
+                seconds_per_unit=_contract.seconds_per_unit(self.rate_unit),
             )
-        except ValueError as exc:
-            if time_label is not None and str(exc).startswith("time must"):
-                raise ValueError(f"{time_label}: {exc}") from exc
-            raise
+        except _table.TableError as exc:
+            if columns.time_label is None or exc.previous_row is None:
+                raise
+            raise _table.TableError(
+                f"{columns.time_label}: {exc}",
+                row=exc.row,
+                value=exc.value,
+                previous_row=exc.previous_row,
+                run=exc.run,
+            ) from exc
 
     # -- scikit-learn surface -------------------------------------------------------------
 
@@ -848,7 +547,7 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         self : ThermalFeatures
             The transformer, with ``n_features_in_`` (and ``feature_names_in_``) set.
         """
-        X = self._as_table(X)
+        X = _table.as_table(X)
         validate_data(self, X, reset=True, skip_check_array=True)
         self._features(X)
         return self
@@ -869,7 +568,7 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         X_out : ndarray of shape (n_samples, n_features_out)
             The features, as :meth:`transform` gives them.
         """
-        X = self._as_table(X)
+        X = _table.as_table(X)
         validate_data(self, X, reset=True, skip_check_array=True)
         return self._features(X)
 
@@ -888,7 +587,7 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
             The features, row i for input row i, columns as :meth:`get_feature_names_out`.
         """
         self._validate_params()
-        X = self._as_table(X)
+        X = _table.as_table(X)
         if hasattr(self, "n_features_in_"):
             validate_data(self, X, reset=False, skip_check_array=True)
         return self._features(X)
@@ -908,7 +607,7 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
             One sensor: the term names (``"T"``, ``"dT"``, ``"T_dT"``, ...); several:
             ``"<sensor>_<term>"`` sensor by sensor.
         """
-        keys = self._temperature_keys()
+        keys = sensor_keys(self.temperature)
         terms = validate_terms(self.terms, len(keys))
         if hasattr(self, "n_features_in_"):
             input_features = _check_feature_names_in(self, input_features)
@@ -929,11 +628,11 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
 
         names = []
         for sensor, key in enumerate(keys):
-            for term in terms:
-                if term == "gradient" and sensor == 0:
-                    continue
-                name = _TERM_NAMES[term]
-                names.append(name if len(keys) == 1 else f"{sensor_name(key)}_{name}")
+            for term in map(get_term, terms):
+                if sensor > 0 or term.first_sensor:
+                    names.append(
+                        term.output if len(keys) == 1 else f"{sensor_name(key)}_{term.output}"
+                    )
         return np.asarray(names, dtype=object)
 
     def __sklearn_is_fitted__(self):

@@ -57,6 +57,7 @@ from sklearn.utils import check_random_state, get_tags
 from sklearn.utils.parallel import Parallel, delayed
 from sklearn.utils.validation import check_consistent_length, check_is_fitted, validate_data
 
+from sklearn_ifog import _table
 from sklearn_ifog._compat import (
     GroupsConsumerMixin,
     HasMethods,
@@ -85,22 +86,8 @@ __all__ = [
 
 def _column_values(X, key):
     """Values of column ``key`` (name or position) of ``X``, or None if X has no such column."""
-    if key is None or X is None:
-        return None
-    columns = getattr(X, "columns", None)
-    if columns is not None:
-        if key in list(columns):
-            return np.asarray(X[key])
-        if isinstance(key, numbers.Integral) and not isinstance(key, bool):
-            if hasattr(X, "iloc"):
-                return np.asarray(X.iloc[:, key])
-            return np.asarray(X[:, key])
-        return None
-    if isinstance(key, numbers.Integral) and not isinstance(key, bool):
-        array = np.asarray(X)
-        if array.ndim == 2 and -array.shape[1] <= key < array.shape[1]:
-            return array[:, key]
-    return None
+    position = _table.find_column(X, key)
+    return None if position is None else np.asarray(_table.column_at(X, position))
 
 
 def _labels_1d(values, *, name):

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sklearn_ifog._contract import SECONDS_PER_UNIT
 from sklearn_ifog._io import atomic_path
 
 __all__ = [
@@ -31,7 +32,6 @@ __all__ = [
 _RAW_COLOR = "0.55"
 _TEMPERATURE_COLOR = "tab:red"
 _SERIES_COLORS = ("tab:blue", "tab:green", "tab:purple", "tab:orange", "tab:brown")
-_TIME_SCALES = {"s": 1.0, "min": 60.0, "h": 3600.0}
 
 
 def _matplotlib():
@@ -148,8 +148,10 @@ def plot_compensation(
     >>> temperature_ax.get_ylabel()
     'temperature (°C)'
     """
-    if time_unit not in _TIME_SCALES:
-        raise ValueError(f"time_unit must be one of {sorted(_TIME_SCALES)}, got {time_unit!r}.")
+    if time_unit not in SECONDS_PER_UNIT:
+        raise ValueError(
+            f"time_unit must be one of {sorted(SECONDS_PER_UNIT)}, got {time_unit!r}."
+        )
     time = np.asarray(time, dtype=float)
     rate = np.asarray(rate, dtype=float)
     series = _as_series_mapping(compensated, "compensated")
@@ -165,7 +167,7 @@ def plot_compensation(
             )
     if ax is None:
         ax = _new_axes((8.0, 4.0))
-    hours = time / _TIME_SCALES[time_unit]
+    hours = time / SECONDS_PER_UNIT[time_unit]
     ax.plot(hours, rate, color=_RAW_COLOR, linewidth=0.8, label="raw")
     for (label, values), color in zip(series.items(), _SERIES_COLORS * 4, strict=False):
         ax.plot(hours, values, color=color, linewidth=0.8, label=label)

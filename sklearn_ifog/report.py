@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sklearn_ifog import _table
 from sklearn_ifog._io import atomic_path
 
 __all__ = ["Report", "compensation_report"]
@@ -292,14 +293,10 @@ def _sample_period(time_values):
 
 def _run_segments(run, n_samples):
     """{run label: row positions (in time order)} in order of first appearance."""
-    if run is None:
-        return {_ALL_RUNS: np.arange(n_samples)}
-    labels, first, inverse = np.unique(run, return_index=True, return_inverse=True)
-    inverse = inverse.ravel()
-    order = np.argsort(inverse, kind="stable")
-    bounds = np.searchsorted(inverse[order], np.arange(labels.size + 1))
-    segments = {labels[k]: order[bounds[k] : bounds[k + 1]] for k in range(labels.size)}
-    return {labels[k]: segments[labels[k]] for k in np.argsort(first, kind="stable")}
+    return {
+        _ALL_RUNS if label is None else label: rows
+        for label, rows in _table.run_segments(run, n_samples)
+    }
 
 
 def _safe_bias_stability(values, period, uniform, window):

@@ -10,13 +10,13 @@ chunking.
 """
 
 import copy
-import itertools
 
 import numpy as np
 from sklearn.pipeline import Pipeline
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from sklearn_ifog.export._spec import seconds_per_unit
+from sklearn_ifog import _table
+from sklearn_ifog._contract import seconds_per_unit, sensor_keys
 from sklearn_ifog.features import (
     ThermalFeatures,
     assemble_terms,
@@ -29,15 +29,6 @@ __all__ = ["StreamingCompensator", "advance_features"]
 
 STATE_SCHEMA = "sklearn-ifog-streaming-state"
 STATE_VERSION = 1
-
-
-def _plain(value):
-    """A run id as a JSON-able Python scalar."""
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and value.is_integer():
-        return int(value)
-    return value
 
 
 def advance_features(temperature, time, state, *, terms, smoothing, seconds_per_unit):
@@ -181,8 +172,7 @@ class StreamingCompensator:
             )
         if len(pipeline.steps) < 2:
             raise ValueError("StreamingCompensator needs a regressor after ThermalFeatures.")
-        sensors = features.temperature
-        sensors = list(sensors) if isinstance(sensors, list | tuple) else [sensors]
+        sensors = sensor_keys(features.temperature)
         self.pipeline = pipeline
         self.n_sensors = len(sensors)
         self._thermal = features
@@ -321,10 +311,13 @@ class StreamingCompensator:
         # The batch transformer's own validation and column reading: same columns, same
         # errors as ``pipeline.predict``.
         thermal = self._thermal
-        X = thermal._as_table(X)
+        X = _table.as_table(X)
         if hasattr(thermal, "n_features_in_"):
             validate_data(thermal, X, reset=False, skip_check_array=True)
-        temperature, time, run, _ = thermal._read_columns(X)
+        spec = self._features
+        temperature, time, run, _ = _table.read_thermal_columns(
+            X, temperature=spec["temperature"], time=spec["time"], run=thermal.run
+        )
         rates = None if rate is None else np.asarray(rate, dtype=np.float64)
         return self._advance(temperature, time, run, rates)
 
@@ -336,11 +329,11 @@ class StreamingCompensator:
                 f"Expected {self.n_sensors} temperature value(s) per sample (sensors "
                 f"{spec['temperature']}), got {temperature.shape[1]}."
             )
-        _check_finite(temperature, "temperature")
+        _table.check_finite(temperature, "temperature")
         if spec["time"] is not None:
             if time is None:
                 raise ValueError(f"The model needs the time column {spec['time']!r}.")
-            _check_finite(time, "time")
+            _table.check_finite(time, "time")
         else:
             time = None
         if rate is not None and rate.shape[0] != n_samples:
@@ -349,7 +342,7 @@ class StreamingCompensator:
         # leaves the state as it was.
         state = dict(self.state)
         blocks = []
-        for start, stop, run_id in _segments(run, n_samples):
+        for start, stop, run_id in _table.contiguous_runs(run, n_samples):
             if run_id is not None and run_id != state["run"]:
                 state = self._start_run(state, run_id)
             segment_time = None if time is None else time[start:stop]
@@ -402,33 +395,17 @@ class StreamingCompensator:
         return pd.DataFrame(features, columns=self._names_in)
 
 
-def _segments(run, n_samples):
-    """(start, stop, run id) of the stretches of constant run id (one stretch if no run)."""
-    if run is None:
-        return [(0, n_samples, None)] if n_samples else []
-    run = np.asarray(run)
-    changes = np.flatnonzero(run[1:] != run[:-1]) + 1
-    bounds = [0, *changes.tolist(), n_samples]
-    return [(start, stop, _plain(run[start])) for start, stop in itertools.pairwise(bounds)]
-
-
 def _check_increasing(time, state, offset):
+    """Raise unless ``time`` (rows ``offset:`` of a chunk) continues the run strictly."""
     previous = state["last_time"] if state["has_history"] else None
-    elapsed = np.diff(time) if previous is None else np.diff(time, prepend=previous)
-    bad = np.flatnonzero(~(elapsed > 0))
-    if bad.size:
-        row = offset + bad[0] + (0 if previous is not None else 1)
+    violation = _table.first_time_violation(time, previous=previous)
+    if violation is not None:
         where = (
             "the current run (call reset() or give the run id at the start of a new run)"
             if state["run"] is None
             else f"run {state['run']!r}"
         )
         raise ValueError(
-            f"time must increase strictly within {where}: row {row} of the chunk "
-            "is not after the previous sample."
+            f"time must increase strictly within {where}: row {offset + violation[0]} of the "
+            "chunk is not after the previous sample."
         )
-
-
-def _check_finite(values, name):
-    if not np.all(np.isfinite(values)):
-        raise ValueError(f"Column {name!r} holds NaN or inf values.")

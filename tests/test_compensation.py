@@ -77,9 +77,17 @@ def test_polars_frame_gives_array(frame):
 @pytest.mark.parametrize(
     ("kwargs", "error", "match"),
     [
-        ({"rate": "gyro"}, ValueError, r"rate='gyro'.*no column 'gyro'"),
-        ({"reference": "earth"}, ValueError, r"reference='earth'.*no column 'earth'"),
-        ({"kind": "error_set", "run": "burst"}, ValueError, r"run='burst'.*run=None"),
+        ({"rate": "gyro"}, ValueError, r"Column 'gyro' \(rate\) not found in frame; available"),
+        (
+            {"reference": "earth"},
+            ValueError,
+            r"Column 'earth' \(reference\) not found in frame; available",
+        ),
+        (
+            {"kind": "error_set", "run": "burst"},
+            ValueError,
+            r"Column 'burst' \(run\) not found in frame.*Pass run=None",
+        ),
         ({"kind": "mean"}, ValueError, r"kind must be one of"),
         ({"reference": None}, ValueError, r'kind="reference" needs the reference'),
     ],
@@ -91,13 +99,15 @@ def test_bad_arguments_name_the_problem(frame, kwargs, error, match):
 
 def test_text_column_is_a_type_error(frame):
     frame = frame.assign(reference="north")
-    with pytest.raises(TypeError, match=r"Column 'reference' \(reference\) must be numeric"):
+    with pytest.raises(TypeError, match=r"reference column 'reference' must be numeric"):
         drift_target(frame)
 
 
 def test_missing_values_are_refused_not_dropped(frame):
     frame.loc[104, "rate"] = np.nan
-    with pytest.raises(ValueError, match=r"Column 'rate'.*1 missing.*first at row 4"):
+    with pytest.raises(
+        ValueError, match=r"rate column 'rate' contains NaN or inf \(1 value\(s\); first at row 4"
+    ):
         drift_target(frame)
 
 
@@ -136,7 +146,9 @@ def test_compensate_reads_rate_column_of_X(frame):
     np.testing.assert_allclose(
         compensated.to_numpy(), frame["rate"].to_numpy() - 0.01 * frame["temperature"].to_numpy()
     )
-    with pytest.raises(ValueError, match=r"rate='gyro': X has no column 'gyro'"):
+    with pytest.raises(
+        ValueError, match=r"Column 'gyro' \(rate\) not found in X; available columns"
+    ):
         compensate(model, frame, "gyro")
 
 
@@ -146,7 +158,7 @@ def test_compensate_refuses_unfitted_and_mismatched_input(frame, fitted):
         compensate(LinearRegression(), X, frame["rate"])
     with pytest.raises(ValueError, match=r"rate has 5 values but X has 12 rows"):
         compensate(model, X, frame["rate"].to_numpy()[:5])
-    with pytest.raises(ValueError, match=r"rate='rate' names a column, but X is an array"):
+    with pytest.raises(ValueError, match=r"rate='rate' names a column, but X has no column names"):
         compensate(model, X.to_numpy(), "rate")
 
 
@@ -155,3 +167,16 @@ def test_compensate_refuses_multi_output_models(frame):
     model = LinearRegression().fit(X, np.column_stack([frame["rate"], frame["rate"]]))
     with pytest.raises(ValueError, match="predicts 2 outputs"):
         compensate(model, X, frame["rate"])
+
+
+def test_error_set_refuses_missing_run_ids_and_handles_interleaved_runs(frame):
+    # Interleaved runs: the per-run mean is the mean of each run's rows wherever they are.
+    shuffled = frame.sample(frac=1.0, random_state=0)
+    target = drift_target(shuffled, kind="error_set")
+    np.testing.assert_allclose(
+        target.sort_index().to_numpy(), drift_target(frame, kind="error_set").to_numpy()
+    )
+    frame = frame.assign(run=frame["run"].astype(float))
+    frame.loc[frame.index[3], "run"] = np.nan
+    with pytest.raises(ValueError, match=r"run column 'run' has missing run ids \(first at row 3"):
+        drift_target(frame, kind="error_set")

@@ -13,14 +13,12 @@ from sklearn.model_selection import GridSearchCV, GroupKFold
 from sklearn.pipeline import make_pipeline
 
 from sklearn_ifog import ThermalFeatures
-from sklearn_ifog import features as features_module
 from sklearn_ifog._compat import InvalidParameterError
 from sklearn_ifog.features import (
     assemble_terms,
     causal_rate,
     compute_thermal_features,
     ema_smooth,
-    group_rows_by_run,
 )
 
 T4 = [20.0, 21.0, 23.0, 22.0]
@@ -179,26 +177,6 @@ def test_output_rows_follow_input_rows():
 
 
 # --- plain numerics --------------------------------------------------------------------------
-
-
-def test_group_rows_by_run_is_stable():
-    order, run_starts = group_rows_by_run(np.array([3, 1, 3, 1, 2, 3]))
-    assert_array_equal(order, [1, 3, 4, 0, 2, 5])
-    assert_array_equal(run_starts, [True, False, True, True, False, False])
-    assert group_rows_by_run(None) == (None, None)
-
-
-def test_group_rows_by_run_mixed_id_types(monkeypatch):
-    # Hashing (pandas) keeps 1 and "1" apart and needs no order between types.
-    order, run_starts = group_rows_by_run(np.array([1, "1", 1, "a", "1"], dtype=object))
-    assert_array_equal(order, [0, 2, 1, 4, 3])
-    assert_array_equal(run_starts, [True, False, True, False, True])
-    # Without pandas, ids are sorted, which mixed types cannot be.
-    monkeypatch.setattr(features_module, "_object_codes", lambda run: None)
-    with pytest.raises(ValueError, match=r"one orderable type.*\['int', 'str'\]"):
-        group_rows_by_run(np.array([1, "a", 2], dtype=object))
-    order, _ = group_rows_by_run(np.array(["b", "a", "b"], dtype=object))
-    assert_array_equal(order, [1, 0, 2])
 
 
 def test_ema_smooth_continues_across_chunks_bit_for_bit():

@@ -15,7 +15,13 @@ import numpy as np
 import pytest
 from sklearn.linear_model import Ridge
 from sklearn.pipeline import Pipeline, make_pipeline
-from sklearn.preprocessing import PolynomialFeatures, StandardScaler
+from sklearn.preprocessing import (
+    MaxAbsScaler,
+    MinMaxScaler,
+    PolynomialFeatures,
+    RobustScaler,
+    StandardScaler,
+)
 
 from sklearn_ifog import RBFNetRegressor, ThermalFeatures
 from sklearn_ifog.datasets import make_thermal_campaign
@@ -189,7 +195,9 @@ def test_bad_inputs_are_named(models, campaign):
     compensator = StreamingCompensator(models["rbf"])
     with pytest.raises(ValueError, match="Feature names seen at fit time, yet now missing"):
         compensator.update(campaign[["time", "run"]])
-    with pytest.raises(ValueError, match="Column 'temperature' holds NaN"):
+    with pytest.raises(
+        ValueError, match=r"temperature contains NaN or inf \(1 value\(s\); first at row 0: nan\)"
+    ):
         compensator.step(0.0, np.nan, 1.0, run=0)
     with pytest.raises(ValueError, match=r"Expected 1 temperature value\(s\)"):
         compensator.step(0.0, [20.0, 21.0], 1.0)
@@ -291,3 +299,101 @@ def test_pandas_output_pipeline_gets_named_features(campaign):
         warnings.simplefilter("error")
         _, drift = _stream(compensator, run, 7)
     _assert_close(drift, model.predict(run))
+
+
+# --- item 8 of issue 10: more pipelines equal to batch, and set_state refusals -------------
+
+
+def _run_frame(campaign, n_samples=400):
+    return _one_run(campaign, n_samples).reset_index(drop=True)
+
+
+@pytest.mark.parametrize(
+    "steps",
+    [
+        pytest.param(lambda: [MinMaxScaler(), Ridge(alpha=1e-3)], id="minmax"),
+        pytest.param(lambda: [MinMaxScaler(clip=True), Ridge(alpha=1e-3)], id="minmax-clip"),
+        pytest.param(lambda: [RobustScaler(), Ridge(alpha=1e-3)], id="robust"),
+        pytest.param(lambda: [MaxAbsScaler(), Ridge(alpha=1e-3)], id="maxabs"),
+        pytest.param(
+            lambda: [StandardScaler(), _rbf(tail=False, criterion=None, n_centers=8)],
+            id="rbf-no-tail",
+        ),
+    ],
+)
+def test_streaming_equals_batch_for_other_steps(campaign, steps):
+    run = _run_frame(campaign)
+    model = make_pipeline(_features(smoothing=1.0), *steps()).fit(run, run["drift"])
+    compensated, drift = _stream(StreamingCompensator(model), run, 9)
+    _assert_equal_to_batch(model, run, compensated, drift)
+    # Whole-run chunk: the same shapes as batch, so equal to the last bit.
+    _, whole = StreamingCompensator(model).update(run, run["rate"].to_numpy())
+    np.testing.assert_array_equal(whole, model.predict(run))
+
+
+def test_streaming_without_time_column_equals_batch(campaign):
+    run = _run_frame(campaign)
+    features = ThermalFeatures(temperature="temperature", run="run", smoothing=2.0)
+    model = make_pipeline(features, StandardScaler(), Ridge(alpha=1e-3)).fit(run, run["drift"])
+    compensated, drift = _stream(StreamingCompensator(model), run, 7)
+    _assert_equal_to_batch(model, run, compensated, drift)
+    # step() takes no time stamp for such a model.
+    compensator = StreamingCompensator(model)
+    stepped = [
+        compensator.step(None, temperature, run=run_id)[1]
+        for temperature, run_id in zip(run["temperature"], run["run"], strict=True)
+    ]
+    _assert_close(np.asarray(stepped), model.predict(run))
+
+
+def test_streaming_with_passthrough_steps_equals_batch(campaign):
+    run = _run_frame(campaign)
+    model = Pipeline(
+        [
+            ("features", _features()),
+            ("nothing", "passthrough"),
+            ("scale", StandardScaler()),
+            ("none", None),
+            ("ridge", Ridge(alpha=1e-3)),
+        ]
+    ).fit(run, run["drift"])
+    compensated, drift = _stream(StreamingCompensator(model), run, 11)
+    _assert_equal_to_batch(model, run, compensated, drift)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"schema": "other-schema"}, r"schema 'other-schema' version 1; expected"),
+        ({"version": 2}, r"version 2; expected 'sklearn-ifog-streaming-state' version 1"),
+    ],
+)
+def test_set_state_refuses_wrong_schema_or_version(models, change, message):
+    compensator = StreamingCompensator(models["rbf"])
+    before = compensator.get_state()
+    with pytest.raises(ValueError, match=message):
+        compensator.set_state({**before, **change})
+    assert compensator.get_state() == before
+
+
+@pytest.mark.parametrize(
+    "field",
+    ["schema", "version", "n_sensors", "run", "has_history", "smoothed", "last_time"],
+)
+def test_set_state_refuses_a_missing_field(models, campaign, field):
+    compensator = StreamingCompensator(models["rbf"])
+    compensator.update(_one_run(campaign, 5))
+    state = compensator.get_state()
+    del state[field]
+    with pytest.raises(ValueError, match=r"state must be a dict with keys \[.*\], got \["):
+        compensator.set_state(state)
+    # The refused state changed nothing: streaming continues as before.
+    assert compensator.get_state()["has_history"] is True
+
+
+def test_set_state_refuses_a_missing_time_when_the_model_uses_time(models, campaign):
+    compensator = StreamingCompensator(models["rbf"])
+    compensator.update(_one_run(campaign, 5))
+    state = {**compensator.get_state(), "last_time": None}
+    with pytest.raises(ValueError, match=r"state\['last_time'\] is missing: the model uses time"):
+        compensator.set_state(state)

@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sklearn_ifog._contract import get_term, uses_rate
 from sklearn_ifog._io import write_text_files
 from sklearn_ifog.export._spec import describe_pipeline
 from sklearn_ifog.export._templates import HEADER, SOURCE
@@ -114,7 +115,7 @@ class _Writer:
 
 def _features_body(features, prefix, real):
     terms = features["terms"]
-    needs_delta = any(term in ("dT", "TdT") for term in terms)
+    needs_delta = uses_rate(terms)
     uses_time = needs_delta and features["time"] is not None
     smooths = needs_delta and features["smoothing"] > 0
     lines = ["    int sensor;", "    int column = 0;"]
@@ -143,17 +144,10 @@ def _features_body(features, prefix, real):
         else:
             lines.append("            delta = smoothed - previous;")
         lines += ["        }", "        state->smoothed[sensor] = smoothed;"]
-    expressions = {
-        "T": "raw",
-        "dT": "delta",
-        "TdT": "raw * delta",
-        "T2": "raw * raw",
-        "gradient": "raw - temperature[0]",
-    }
-    for term in terms:
-        assignment = f"features[column++] = ({real})({expressions[term]});"
-        if term == "gradient":
-            # The first sensor has no gradient column (it would be identically zero).
+    for term in map(get_term, terms):
+        assignment = f"features[column++] = ({real})({term.c_expression});"
+        if not term.first_sensor:
+            # The first sensor has no column of this term (e.g. its gradient is zero).
             lines += ["        if (sensor > 0) {", f"            {assignment}", "        }"]
         else:
             lines.append(f"        {assignment}")

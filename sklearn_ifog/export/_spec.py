@@ -64,15 +64,13 @@ from sklearn.pipeline import Pipeline
 from sklearn.utils.validation import check_is_fitted
 
 import sklearn_ifog
-from sklearn_ifog.features import SECONDS_PER_RATE_UNIT, ThermalFeatures
+from sklearn_ifog._contract import VALID_TERMS, seconds_per_unit, sensor_keys
+from sklearn_ifog.features import ThermalFeatures
 from sklearn_ifog.rbf import RBFNetRegressor
 from sklearn_ifog.rbf._basis import tail_degree_from_size
 
 SCHEMA_NAME = "sklearn-ifog-pipeline"
 SCHEMA_VERSION = 1
-
-# Feature terms the exporters compute (see sklearn_ifog.features.assemble_terms).
-KNOWN_TERMS = ("T", "dT", "TdT", "T2", "gradient")
 
 # Regressors whose predict is exactly ``X @ coef_.T + intercept_``.
 LINEAR_REGRESSORS = (
@@ -123,35 +121,16 @@ def _column(value):
     return str(value)
 
 
-def seconds_per_unit(rate_unit):
-    """Seconds in one ``rate_unit`` of :class:`ThermalFeatures` ("s", "min", "h" or seconds).
-
-    Parameters
-    ----------
-    rate_unit : {"s", "min", "h"} or float
-        The unit of ΔT's time base.
-
-    Returns
-    -------
-    seconds : float
-        Seconds per unit.
-    """
-    if isinstance(rate_unit, str):
-        return SECONDS_PER_RATE_UNIT[rate_unit]
-    return float(rate_unit)
-
-
 def describe_features(step, name="thermalfeatures"):
     """The ThermalFeatures part of the schema (see the module docstring)."""
     check_is_fitted(step)
-    temperature = step.temperature
-    sensors = list(temperature) if isinstance(temperature, list | tuple) else [temperature]
+    sensors = sensor_keys(step.temperature)
     terms = [str(term) for term in step.terms]
-    unknown = [term for term in terms if term not in KNOWN_TERMS]
+    unknown = [term for term in terms if term not in VALID_TERMS]
     if unknown:
         raise ValueError(
             f"Cannot export {_step_label(name, step)}: unknown feature term(s) {unknown}; "
-            f"the exporters compute {list(KNOWN_TERMS)}."
+            f"the exporters compute {list(VALID_TERMS)}."
         )
     smoothing = float(step.smoothing)
     return {
