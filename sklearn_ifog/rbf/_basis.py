@@ -115,21 +115,11 @@ def weighted_mean_std(A, sample_weight, *, pooled=False):
 
 
 def standardisation(A, sample_weight):
-    """Weighted mean and standard deviation of each column; scale 1 for a constant column.
+    """:func:`weighted_mean_std`, guarded: scale 1 for a constant column.
 
-    Parameters
-    ----------
-    A : ndarray of shape (n_samples, n_columns)
-        Values.
-    sample_weight : ndarray of shape (n_samples,)
-        Non-negative weights with a positive sum.
-
-    Returns
-    -------
-    mean : ndarray of shape (n_columns,)
-        Weighted means; an exactly constant column's own value, so it standardises to 0.
-    scale : ndarray of shape (n_columns,)
-        Weighted standard deviations, 1 where that is not positive.
+    An exactly constant column (over the rows of positive weight) gets its own value as mean,
+    so it standardises to 0; a standard deviation that is not positive becomes 1. Returns
+    ``(mean, scale)``, each of shape (n_columns,).
 
     Examples
     --------

@@ -51,26 +51,26 @@ def fit_network(
     Y,
     sample_weight,
     *,
-    n_centers="auto",
-    width="auto",
-    refine="varpro",
-    alpha=1e-4,
-    criterion="cv",
-    goal=None,
-    tail="quadratic",
-    max_candidates=300,
-    candidates="kmeans++",
-    max_samples=3000,
-    validation_fraction=0.2,
-    max_iter=100,
-    tol=1e-6,
-    learning_rate=0.1,
-    random_state=None,
+    n_centers,
+    width,
+    refine,
+    alpha,
+    criterion,
+    goal,
+    tail,
+    max_candidates,
+    candidates,
+    max_samples,
+    validation_fraction,
+    max_iter,
+    tol,
+    learning_rate,
+    random_state,
 ):
     """Fit a Gaussian RBF network: selection, refinement, output weights on all rows.
 
-    The parameters are those of :class:`~sklearn_ifog.RBFNetRegressor`, already validated;
-    see its documentation for what each does.
+    The settings are the parameters of :class:`~sklearn_ifog.RBFNetRegressor` (the one place
+    their defaults are given), already validated; see its documentation for what each does.
 
     Parameters
     ----------
@@ -92,8 +92,10 @@ max_samples, validation_fraction, max_iter, tol, learning_rate, random_state
     Examples
     --------
     >>> import numpy as np
+    >>> from sklearn_ifog import RBFNetRegressor
     >>> X = np.linspace(-1, 1, 200)[:, None]
-    >>> fitted = fit_network(X, 2 * X + 1, np.ones(200), refine=None, random_state=0)
+    >>> params = RBFNetRegressor(refine=None, random_state=0).get_params()
+    >>> fitted = fit_network(X, 2 * X + 1, np.ones(200), **params)
     >>> fitted.tail_degree, fitted.network.tail_coef.shape
     (2, (1, 2))
     """

@@ -134,7 +134,7 @@ def refine_network(
     >>> Z = rng.uniform(-1, 1, size=(200, 1))
     >>> Y = np.sin(3 * Z)
     >>> centers, widths = Z[:4], np.full(4, 2.0)
-    >>> coef, tail, b = solve_outputcheck_weights(gaussian_design(Z, centers, widths), Z[:, :0], Y)
+    >>> coef, tail, b = solve_output_weights(gaussian_design(Z, centers, widths), Z[:, :0], Y)
     >>> res = refine_network(Z, Y, centers, widths, coef, tail, b, method="varpro")
     >>> res.improved, res.history["train_loss"][-1] < 0.1 * res.history["train_loss"][0]
     (True, True)

@@ -51,17 +51,17 @@ SELECTION_CRITERIA = ("cv", "holdout", "gcv", "bic", "aicc")
 
 
 class SelectionOptions(NamedTuple):
-    """The settings of :func:`select_network` (``RBFNetRegressor``'s parameters of that name)."""
+    """The settings of :func:`select_network`: ``RBFNetRegressor``'s parameters of that name."""
 
-    n_centers: object = "auto"
-    width: object = "auto"
-    criterion: str | None = "cv"
-    goal: float | None = None
-    alpha: float = 1e-4
-    max_candidates: int = 300
-    candidates: str = "kmeans++"
-    max_samples: int = 3000
-    validation_fraction: float = 0.2
+    n_centers: object
+    width: object
+    criterion: str | None
+    goal: float | None
+    alpha: float
+    max_candidates: int
+    candidates: str
+    max_samples: int
+    validation_fraction: float
 
 
 class _WidthPath(NamedTuple):
@@ -146,7 +146,7 @@ def subsample(rows, size, random_state):
     --------
     >>> import numpy as np
     >>> subsample(np.arange(10), 4, np.random.RandomState(0)).tolist()
-    [2, 6, 7, 8]
+    [2, 4, 8, 9]
     """
     if rows.shape[0] <= size:
         return rows
@@ -217,16 +217,19 @@ def select_network(
     >>> Z = np.linspace(-2, 2, 200)[:, None]
     >>> Y = np.sin(2 * Z)
     >>> train, val = split_rows(np.ones(200), 0.2, needs_blocks=True)
+    >>> options = SelectionOptions(
+    ...     n_centers="auto",
+    ...     width="auto",
+    ...     criterion="holdout",
+    ...     goal=None,
+    ...     alpha=1e-4,
+    ...     max_candidates=300,
+    ...     candidates="kmeans++",
+    ...     max_samples=3000,
+    ...     validation_fraction=0.2,
+    ... )
     >>> sel = select_network(
-    ...     Z,
-    ...     Y,
-    ...     np.ones(200),
-    ...     train,
-    ...     val,
-    ...     np.ones(1),
-    ...     rng,
-    ...     degrees=(1,),
-    ...     options=SelectionOptions(criterion="holdout"),
+    ...     Z, Y, np.ones(200), train, val, np.ones(1), rng, degrees=(1,), options=options
     ... )
     >>> sel.path["criterion_name"], sel.network.tail_degree
     ('holdout', 1)
