@@ -11,7 +11,12 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.preprocessing import PolynomialFeatures
 
 from sklearn_ifog import RBFNetRegressor
-from sklearn_ifog.rbf._basis import gaussian_design, n_tail_features, tail_features
+from sklearn_ifog.rbf._basis import (
+    gaussian_design,
+    n_tail_features,
+    predict_network,
+    tail_features,
+)
 
 
 def _smooth(n, seed=0, noise=0.05):
@@ -51,6 +56,27 @@ def test_prediction_follows_contract_formula(smooth_model):
     assert isinstance(model.intercept_, float)
     assert_allclose(model.x_mean_, X.mean(axis=0))
     assert_allclose(model.x_scale_, X.std(axis=0))
+
+
+def test_parameters_are_keyword_only():
+    with pytest.raises(TypeError, match="positional"):
+        RBFNetRegressor(10)
+    assert RBFNetRegressor(n_centers=10).n_centers == 10
+
+
+@pytest.mark.parametrize("n_outputs", [1, 2])
+def test_fitted_network_value_is_what_predict_evaluates(n_outputs):
+    X, y, _ = _smooth(300, seed=2)
+    Y = y if n_outputs == 1 else np.column_stack([y, 2 * y - X[:, 0]])
+    model = RBFNetRegressor(refine=None, tail="linear", random_state=0).fit(X, Y)
+    network = model._network()
+    assert network.coef.shape == (n_outputs, model.widths_.shape[0])
+    assert network.tail_coef.shape == (n_outputs, 3)
+    assert network.intercept.shape == (n_outputs,)
+    assert network.tail_degree == model.tail_degree_ == 1
+    X_new = np.random.default_rng(6).uniform(-1.5, 1.5, size=(40, 3))
+    expected = predict_network((X_new - model.x_mean_) / model.x_scale_, *network)
+    assert_array_equal(model.predict(X_new), expected[:, 0] if n_outputs == 1 else expected)
 
 
 def test_fits_a_smooth_function_and_refinement_helps():

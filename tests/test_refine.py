@@ -1,4 +1,4 @@
-"""Tests of the RBF network refinement (sklearn_ifog.rbf._refine)."""
+"""Tests of the RBF network refinement (sklearn_ifog.rbf._refine and its method modules)."""
 
 import warnings
 
@@ -6,23 +6,19 @@ import numpy as np
 import pytest
 from sklearn.utils import check_random_state
 
-from sklearn_ifog.rbf import _refine
+from sklearn_ifog.rbf import _varpro
 from sklearn_ifog.rbf._basis import (
+    WIDTH_LIMITS,
     gaussian_design,
     n_tail_features,
     predict_network,
     solve_output_weights,
     tail_features,
 )
-from sklearn_ifog.rbf._refine import (
-    WIDTH_LIMITS,
-    WIDTH_RANGE,
-    full_jacobian,
-    full_residuals,
-    refine_network,
-    varpro_jacobian,
-    varpro_residuals,
-)
+from sklearn_ifog.rbf._lm import full_jacobian, full_residuals
+from sklearn_ifog.rbf._refine import refine_network
+from sklearn_ifog.rbf._refine_core import WIDTH_RANGE
+from sklearn_ifog.rbf._varpro import varpro_jacobian, varpro_residuals
 
 METHODS = ["varpro", "lm", "gd"]
 # "gd" is a first-order method: its tests use a learning rate suited to its mini-batches.
@@ -59,7 +55,7 @@ def loss(Z, Y, network, alpha=0.0, sample_weight=None):
 
 
 def as_network(result):
-    return result.centers, result.widths, result.coef, result.tail_coef, result.intercept
+    return result.network
 
 
 def central_difference(fun, theta, step=1e-6):
@@ -200,9 +196,9 @@ def test_varpro_with_subspace_trust_region_steps(monkeypatch):
     Z, Y = smooth_problem()
     start = starting_network(Z, Y, width=0.3)
     exact = refine_network(Z, Y, *start, method="varpro", max_iter=30, random_state=0)
-    monkeypatch.setattr(_refine, "EXACT_TRUST_REGION_MAX_ENTRIES", 0)
+    monkeypatch.setattr(_varpro, "EXACT_TRUST_REGION_MAX_ENTRIES", 0)
     subspace = refine_network(Z, Y, *start, method="varpro", max_iter=30, random_state=0)
-    assert not np.array_equal(subspace.centers, exact.centers)
+    assert not np.array_equal(subspace.network.centers, exact.network.centers)
     assert loss(Z, Y, as_network(subspace)) < 0.5 * loss(Z, Y, start)
 
 
@@ -218,7 +214,7 @@ def test_quadratic_tail(method):
     result = refine_network(
         Z, Y, *start, method=method, max_iter=30, learning_rate=0.1, random_state=0
     )
-    assert result.tail_coef.shape == (1, 9)
+    assert result.network.tail_coef.shape == (1, 9)
     assert result.improved
     assert loss(Z, Y, as_network(result)) < loss(Z, Y, start)
 
@@ -305,9 +301,9 @@ def test_multi_output(method):
         learning_rate=LEARNING_RATE[method],
         random_state=0,
     )
-    assert result.coef.shape == (2, 8)
-    assert result.tail_coef.shape == (2, 3)
-    assert result.intercept.shape == (2,)
+    assert result.network.coef.shape == (2, 8)
+    assert result.network.tail_coef.shape == (2, 3)
+    assert result.network.intercept.shape == (2,)
     assert loss(Z, Y, as_network(result)) < 0.7 * loss(Z, Y, start)
 
 
@@ -317,7 +313,9 @@ def test_identical_outputs_get_identical_weights():
     start = starting_network(Z, Y2, width=3.0)
     for method in ("varpro", "lm"):
         result = refine_network(Z, Y2, *start, method=method, max_iter=10, random_state=0)
-        np.testing.assert_allclose(result.coef[0], result.coef[1], rtol=1e-7, atol=1e-9)
+        np.testing.assert_allclose(
+            result.network.coef[0], result.network.coef[1], rtol=1e-7, atol=1e-9
+        )
 
 
 @pytest.mark.parametrize("method", ["varpro", "lm"])
@@ -358,8 +356,8 @@ def test_widths_stay_within_bounds(method):
         learning_rate=LEARNING_RATE[method],
         random_state=0,
     )
-    assert np.all(result.widths >= WIDTH_LIMITS[0] * (1 - 1e-12))
-    assert np.all(result.widths <= 5e-3 * WIDTH_RANGE * (1 + 1e-12))
+    assert np.all(result.network.widths >= WIDTH_LIMITS[0] * (1 - 1e-12))
+    assert np.all(result.network.widths <= 5e-3 * WIDTH_RANGE * (1 + 1e-12))
 
 
 def nasty_cases():
@@ -418,9 +416,11 @@ def test_units_of_the_target_do_not_matter(method, scale):
     plain = refine_network(Z, Y, *start, **kwargs)
     scaled = refine_network(Z, Y * scale, *scaled_start, **kwargs)
     assert plain.n_iter == scaled.n_iter
-    np.testing.assert_allclose(scaled.centers, plain.centers, rtol=1e-6, atol=1e-8)
-    np.testing.assert_allclose(scaled.widths, plain.widths, rtol=1e-6)
-    np.testing.assert_allclose(scaled.coef, plain.coef * scale, rtol=1e-6, atol=1e-8 * scale)
+    np.testing.assert_allclose(scaled.network.centers, plain.network.centers, rtol=1e-6, atol=1e-8)
+    np.testing.assert_allclose(scaled.network.widths, plain.network.widths, rtol=1e-6)
+    np.testing.assert_allclose(
+        scaled.network.coef, plain.network.coef * scale, rtol=1e-6, atol=1e-8 * scale
+    )
     np.testing.assert_allclose(
         scaled.history["train_loss"],
         np.multiply(plain.history["train_loss"], scale**2),
@@ -446,9 +446,9 @@ def test_network_without_gaussian_units(method):
         learning_rate=LEARNING_RATE[method],
         random_state=0,
     )
-    assert result.centers.shape == (0, 3)
-    assert result.coef.shape == (1, 0)
-    assert np.all(np.isfinite(result.tail_coef))
+    assert result.network.centers.shape == (0, 3)
+    assert result.network.coef.shape == (1, 0)
+    assert np.all(np.isfinite(result.network.tail_coef))
     assert result.history["val_loss"][-1] <= result.history["val_loss"][0]
 
 
@@ -457,8 +457,8 @@ def test_one_dimensional_target_is_accepted():
     start = starting_network(Z, Y)
     one_d = refine_network(Z, Y[:, 0], *start, method="varpro", max_iter=3, random_state=0)
     two_d = refine_network(Z, Y, *start, method="varpro", max_iter=3, random_state=0)
-    np.testing.assert_array_equal(one_d.centers, two_d.centers)
-    assert one_d.coef.shape == (1, 8)
+    np.testing.assert_array_equal(one_d.network.centers, two_d.network.centers)
+    assert one_d.network.coef.shape == (1, 8)
 
 
 @pytest.mark.parametrize(

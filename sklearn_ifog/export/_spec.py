@@ -198,27 +198,24 @@ def _linear(step):
 
 
 def _rbf_network(step):
-    coef = np.asarray(step.coef_, dtype=np.float64)
-    single_output = coef.ndim == 1
-    coef = np.atleast_2d(coef)
-    n_outputs = coef.shape[0]
-    n_inputs = np.asarray(step.x_mean_).shape[0]
-    tail = np.asarray(step.tail_coef_, dtype=np.float64).reshape(n_outputs, -1)
+    single_output = np.ndim(step.coef_) == 1
+    network = step._network()  # the fitted network as one value, 2-D weights
+    n_outputs, n_inputs = network.coef.shape[0], network.centers.shape[1]
+    tail = network.tail_coef
     tail_degree = tail_degree_from_size(tail.shape[1], n_inputs)
     if tail_degree == 0 or not np.any(tail):
         # No tail, or an all-zero one: written as a zero linear tail (one schema shape).
         tail_degree, tail = 1, np.zeros((n_outputs, n_inputs))
-    intercept = np.broadcast_to(np.asarray(step.intercept_, dtype=np.float64), (n_outputs,))
     spec = {
         "op": "rbf_network",
         "x_mean": _floats(step.x_mean_),
         "x_scale": _floats(step.x_scale_),
-        "centers": _floats(np.asarray(step.centers_).reshape(-1, n_inputs)),
-        "widths": _floats(np.broadcast_to(step.widths_, (coef.shape[1],))),
-        "coef": _floats(coef),
+        "centers": _floats(network.centers),
+        "widths": _floats(network.widths),
+        "coef": _floats(network.coef),
         "tail_degree": tail_degree,
         "tail_coef": _floats(tail),
-        "intercept": _floats(intercept),
+        "intercept": _floats(network.intercept),
     }
     return spec, single_output
 

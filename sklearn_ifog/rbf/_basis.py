@@ -8,10 +8,12 @@ The network, on inputs already standardised to ``Z``::
 ``coef`` has shape (n_outputs, n_centers), ``tail_coef`` (n_outputs, n_tail) and ``intercept``
 (n_outputs,). The polynomial tail has degree 0 (no tail, ``n_tail = 0``), 1 (the inputs,
 ``n_tail = d``) or 2 (the inputs then their degree-2 monomials, ``n_tail = d + d (d + 1) / 2``);
-the degree follows from ``n_tail`` (:func:`tail_degree_from_size`). Plain numpy in, numpy out.
+the degree follows from ``n_tail`` (:func:`tail_degree_from_size`). A network travels as a
+:class:`Network` value. Plain numpy in, numpy out.
 """
 
 from functools import lru_cache
+from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg
@@ -25,6 +27,112 @@ MAX_BLOCK_ENTRIES = 2**23
 # Up to this many rows, predictions use explicit differences (fewer numpy calls, exact for
 # points at a centre): the single-row latency of an embedded compensator.
 SMALL_BATCH_ROWS = 16
+# Widths are kept inside this range (standardised units), by selection and by refinement, so
+# no design column is all zeros or all ones by construction.
+WIDTH_LIMITS = (1e-3, 1e3)
+
+
+class Network(NamedTuple):
+    """A Gaussian RBF network on standardised inputs, as one value.
+
+    ``f(Z) = gaussian_design(Z, centers, widths) @ coef.T + tail_features(Z, tail_degree)
+    @ tail_coef.T + intercept``; the fields are in the order :func:`predict_network` takes
+    them, so ``predict_network(Z, *network)`` evaluates it.
+
+    Attributes
+    ----------
+    centers : ndarray of shape (n_centers, n_features)
+        Centres, standardised units.
+    widths : ndarray of shape (n_centers,)
+        Widths, standardised units.
+    coef : ndarray of shape (n_outputs, n_centers)
+        Gaussian output weights.
+    tail_coef : ndarray of shape (n_outputs, n_tail)
+        Polynomial-tail weights; ``n_tail`` (0, ``d`` or ``d + d (d + 1) / 2``) sets the
+        tail's degree (:attr:`tail_degree`).
+    intercept : ndarray of shape (n_outputs,)
+        Intercepts.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> net = Network(np.zeros((1, 1)), np.ones(1), np.ones((1, 1)), np.zeros((1, 1)), np.zeros(1))
+    >>> net.tail_degree, predict_network(np.array([[1.0]]), *net).round(4)
+    (1, array([[0.6065]]))
+    """
+
+    centers: np.ndarray
+    widths: np.ndarray
+    coef: np.ndarray
+    tail_coef: np.ndarray
+    intercept: np.ndarray
+
+    @property
+    def tail_degree(self):
+        """Degree (0, 1 or 2) of the polynomial tail, from the number of tail columns."""
+        return tail_degree_from_size(self.tail_coef.shape[1], self.centers.shape[1])
+
+    def copy(self):
+        """A network holding copies of the arrays."""
+        return Network(*(np.array(a, copy=True) for a in self))
+
+
+def weighted_mean_std(A, sample_weight, *, pooled=False):
+    """Weighted column means and standard deviations, the one target standardisation.
+
+    Parameters
+    ----------
+    A : ndarray of shape (n_samples, n_columns)
+        Values.
+    sample_weight : ndarray of shape (n_samples,)
+        Non-negative weights with a positive sum.
+    pooled : bool, default=False
+        False: one standard deviation per column. True: one for all columns, the root of
+        their mean variance (every column keeps its relative weight when divided by it).
+
+    Returns
+    -------
+    mean : ndarray of shape (n_columns,)
+        Weighted means.
+    std : ndarray of shape (n_columns,) or float
+        Weighted standard deviations (not guarded: a constant column gives 0).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> A = np.array([[0.0, 0.0], [2.0, 4.0]])
+    >>> weighted_mean_std(A, np.ones(2))
+    (array([1., 2.]), array([1., 2.]))
+    >>> round(weighted_mean_std(A, np.ones(2), pooled=True)[1], 6)
+    1.581139
+    """
+    total = sample_weight.sum()
+    mean = sample_weight @ A / total
+    sum_sq = sample_weight @ np.square(A - mean)
+    if pooled:
+        return mean, float(np.sqrt(np.sum(sum_sq) / (total * A.shape[1])))
+    return mean, np.sqrt(sum_sq / total)
+
+
+def standardisation(A, sample_weight):
+    """:func:`weighted_mean_std`, guarded: scale 1 for a constant column.
+
+    An exactly constant column (over the rows of positive weight) gets its own value as mean,
+    so it standardises to 0; a standard deviation that is not positive becomes 1. Returns
+    ``(mean, scale)``, each of shape (n_columns,).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> standardisation(np.array([[1.0, 3.0], [1.0, 5.0]]), np.ones(2))
+    (array([1., 4.]), array([1., 1.]))
+    """
+    mean, scale = weighted_mean_std(A, sample_weight)
+    positive = A[sample_weight > 0]
+    constant = np.ptp(positive, axis=0) == 0
+    mean[constant] = positive[0, constant]
+    scale[constant | ~(scale > 0)] = 1.0
+    return mean, scale
 
 
 def n_tail_features(n_features, degree):

@@ -1,107 +1,17 @@
 """RBFNetRegressor: Gaussian RBF network, OLS centre selection, optional refinement."""
 
-import copy
-import itertools
-import warnings
 from numbers import Integral, Real
 from typing import ClassVar
 
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
-from sklearn.exceptions import ConvergenceWarning
-from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted, validate_data
-from threadpoolctl import threadpool_limits
 
 from sklearn_ifog._compat import Interval, StrOptions, _check_sample_weight, _fit_context
-from sklearn_ifog.rbf._basis import (
-    n_tail_features,
-    predict_network,
-    solve_output_weights_chunked,
-    squared_distances,
-    tail_features,
-)
-from sklearn_ifog.rbf._ols import (
-    candidate_pool,
-    contiguous_validation_mask,
-    median_nn_distance,
-    ols_forward_select,
-    path_criterion,
-    prefix_fits,
-    within_one_standard_error,
-)
-
-# Largest number of centres when ``n_centers="auto"``; the criterion picks along the path.
-AUTO_MAX_CENTERS = 40
-# Shared-width grid, in multiples of the candidates' median nearest-neighbour distance.
-WIDTH_MULTIPLES = (2.0, 4.0, 8.0, 16.0)
-# Widths are kept inside this range (standardised units) so no design column is all zeros
-# or all ones by construction.
-WIDTH_BOUNDS = (1e-3, 1e3)
-# Below this many held-out rows a validation error ranks nothing: no held-out blocks.
-MIN_VALIDATION_ROWS = 10
-# Held-out blocks per fit (fewer when there are few rows: at least 5 rows per block).
-N_VALIDATION_BLOCKS = 2
-MIN_BLOCK_ROWS = 5
-# Tail degrees tried for each value of ``tail``.
-TAIL_DEGREES = {False: (0,), True: (1,), "linear": (1,), "quadratic": (2,), "auto": (1, 2)}
-# The quadratic tail's weights are not penalised: it needs at least this many selection rows
-# per tail column, otherwise the linear tail is used (with a warning).
-MIN_ROWS_PER_TAIL_COLUMN = 10
-
-
-def _weighted_mean_scale(A, sample_weight):
-    """Weighted mean and standard deviation of each column; scale 1 for a constant column."""
-    total = sample_weight.sum()
-    mean = sample_weight @ A / total
-    scale = np.sqrt(sample_weight @ np.square(A - mean) / total)
-    positive = A[sample_weight > 0]
-    constant = np.ptp(positive, axis=0) == 0
-    # An exactly constant column: its mean is the value itself, so it standardises to 0.
-    mean[constant] = positive[0, constant]
-    scale[constant | ~(scale > 0)] = 1.0
-    return mean, scale
-
-
-def _smoothest_within_one_standard_error(options, losses, sample_weight):
-    """The (width index, prefix) of the smoothest network within one standard error.
-
-    ``options`` lists (width index, number of centres) pairs, ``losses`` their squared
-    held-out errors row by row. Widths are tried in increasing order, so the smoothest is
-    the widest width, then the fewest centres: the simplest network the held-out rows cannot
-    tell apart from the best one.
-    """
-    within = within_one_standard_error(losses, sample_weight)
-    return max(
-        (option for option, ok in zip(options, within, strict=True) if ok),
-        key=lambda option: (option[0], -option[1]),
-    )
-
-
-def _select_and_score(width, D2, Y, T, sample_weight, alpha, max_centers, *, validation=None):
-    """OLS path at one width, and the fit of every prefix (scored on held-out rows if given).
-
-    ``D2`` are the squared distances of the selection rows to the candidates; ``validation``
-    is ``(D2_val, T_val, Y_val, sample_weight_val)`` or None.
-    """
-    P = np.exp(D2 * (-0.5 / width**2))
-    path = ols_forward_select(
-        P, Y, T=T, sample_weight=sample_weight, alpha=alpha, max_selected=max_centers
-    )
-    chosen = path.selected
-    D2_val, T_val, Y_val, sw_val = validation if validation is not None else (None,) * 4
-    fits = prefix_fits(
-        P[:, chosen],
-        Y,
-        T=T,
-        sample_weight=sample_weight,
-        alpha=alpha,
-        Phi_val=None if D2_val is None else np.exp(D2_val[:, chosen] * (-0.5 / width**2)),
-        T_val=T_val,
-        Y_val=Y_val,
-        sample_weight_val=sw_val,
-    )
-    return path, fits
+from sklearn_ifog.rbf._basis import Network, predict_network
+from sklearn_ifog.rbf._fit import fit_network
+from sklearn_ifog.rbf._refine import REFINE_METHODS
+from sklearn_ifog.rbf._select import SELECTION_CRITERIA, TAIL_DEGREES
 
 
 class RBFNetRegressor(RegressorMixin, BaseEstimator):
@@ -319,11 +229,11 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
     _parameter_constraints: ClassVar[dict] = {
         "n_centers": [StrOptions({"auto"}), Interval(Integral, 1, None, closed="left")],
         "width": [StrOptions({"auto"}), Interval(Real, 0, None, closed="neither")],
-        "refine": [StrOptions({"varpro", "lm", "gd"}), None],
+        "refine": [StrOptions(set(REFINE_METHODS)), None],
         "alpha": [Interval(Real, 0, None, closed="left")],
-        "criterion": [StrOptions({"holdout", "cv", "gcv", "bic", "aicc"}), None],
+        "criterion": [StrOptions(set(SELECTION_CRITERIA)), None],
         "goal": [Interval(Real, 0, None, closed="left"), None],
-        "tail": [StrOptions({"linear", "quadratic", "auto"}), "boolean"],
+        "tail": [StrOptions({key for key in TAIL_DEGREES if isinstance(key, str)}), "boolean"],
         "max_candidates": [Interval(Integral, 1, None, closed="left")],
         "candidates": [StrOptions({"kmeans++", "random"})],
         "max_samples": [Interval(Integral, 2, None, closed="left")],
@@ -336,6 +246,7 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
 
     def __init__(
         self,
+        *,
         n_centers="auto",
         width="auto",
         refine="varpro",
@@ -397,328 +308,37 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
             ensure_min_samples=2,
         )
         sw = _check_sample_weight(sample_weight, X, dtype=np.float64, ensure_non_negative=True)
-        Y = y.reshape(X.shape[0], -1)
-        self.x_mean_, self.x_scale_ = _weighted_mean_scale(X, sw)
-        y_mean, y_scale = _weighted_mean_scale(Y, sw)
-        Z = (X - self.x_mean_) / self.x_scale_
-        Ys = (Y - y_mean) / y_scale
-        rng = check_random_state(self.random_state)
-
-        train, val = self._split(sw)
-        sel_rows = self._subsample(train, rng)
-        val_rows = self._subsample(val, rng) if val is not None else None
-        degrees = self._tail_degrees(X.shape[1], sel_rows.shape[0])
-        # Selection, refinement and the blocked solve work on small or skinny matrices, where
-        # a multi-threaded BLAS spends more time synchronising than computing (3 to 20 times
-        # slower on a loaded machine).
-        with threadpool_limits(limits=1, user_api="blas"):
-            # Each tail degree is selected from the same random state, so with "auto" both
-            # are scored on the same candidates, folds and rows (a paired comparison).
-            trials = []
-            for degree in degrees:
-                rng_degree = copy.deepcopy(rng) if len(degrees) > 1 else rng
-                network, path, score = self._select(
-                    Z, Ys, sw, sel_rows, val_rows, y_scale, rng_degree, degree
-                )
-                trials.append((score, degree, network, path, rng_degree))
-            # The lower criterion value wins; a tie keeps the lower degree.
-            best = min(range(len(trials)), key=lambda i: (trials[i][0], trials[i][1]))
-            _, tail_degree, network, path, rng = trials[best]
-            path["tail_degree"] = tail_degree
-            path["tail_scores"] = {degree: score for score, degree, *_ in trials}
-            centers, widths = network[:2]
-
-            self.n_iter_ = 0
-            refined = False
-            if self.refine is not None and val_rows is not None and centers.shape[0]:
-                result = self._refine(Z, Ys, sw, sel_rows, val_rows, network, rng)
-                self.n_iter_ = int(result.n_iter)
-                refined = bool(result.improved)
-                centers, widths = result.centers, result.widths
-                if not result.converged:
-                    warnings.warn(
-                        f"RBFNetRegressor: {self.refine!r} refinement stopped at "
-                        f"max_iter={self.max_iter} before converging; the best iterate was kept.",
-                        ConvergenceWarning,
-                        stacklevel=2,
-                    )
-            coef, tail_coef, intercept = solve_output_weights_chunked(
-                Z,
-                Ys,
-                centers,
-                widths,
-                tail=tail_degree,
-                sample_weight=sw,
-                alpha=self.alpha * sw.sum(),
-            )
-        path["refined"] = refined
-        coef = coef * y_scale[:, None]
-        tail_coef = tail_coef * y_scale[:, None]
-        intercept = intercept * y_scale + y_mean
-        if tail_degree == 0:
-            # The export contract: no tail is a zero linear tail.
-            tail_coef = np.zeros((Y.shape[1], X.shape[1]))
-        self.tail_degree_ = tail_degree
-        self.centers_ = centers
-        self.widths_ = widths
-        self.selection_path_ = path
+        fitted = fit_network(X, y.reshape(X.shape[0], -1), sw, **self.get_params())
+        network = fitted.network
+        self.x_mean_, self.x_scale_ = fitted.x_mean, fitted.x_scale
+        self.centers_, self.widths_ = network.centers, network.widths
+        self.tail_degree_ = fitted.tail_degree
+        self.n_iter_ = fitted.n_iter
+        self.selection_path_ = fitted.path
         if y.ndim == 1:
-            self.coef_, self.tail_coef_, self.intercept_ = coef[0], tail_coef[0], intercept[0]
+            self.coef_ = network.coef[0]
+            self.tail_coef_ = network.tail_coef[0]
+            self.intercept_ = network.intercept[0]
         else:
-            self.coef_, self.tail_coef_, self.intercept_ = coef, tail_coef, intercept
+            self.coef_, self.tail_coef_ = network.coef, network.tail_coef
+            self.intercept_ = network.intercept
         return self
 
-    def _tail_degrees(self, n_features, n_rows):
-        """Tail degrees to try; the quadratic one only with enough rows per tail column."""
-        degrees = TAIL_DEGREES[self.tail]
-        needed = MIN_ROWS_PER_TAIL_COLUMN * (n_tail_features(n_features, 2) + 1)
-        if 2 in degrees and n_rows < needed:
-            warnings.warn(
-                f"RBFNetRegressor: tail={self.tail!r} needs at least {needed} selection rows "
-                f"for the {n_tail_features(n_features, 2)} unpenalised columns of a quadratic "
-                f"tail on {n_features} features, got {n_rows}; a linear tail is used.",
-                UserWarning,
-                stacklevel=3,
-            )
-            degrees = (1,)
-        return degrees
+    def _network(self):
+        """The fitted network as a :class:`~sklearn_ifog.rbf._basis.Network` (2-D weights).
 
-    def _split(self, sw):
-        """Training rows and held-out contiguous blocks (None when too few rows)."""
-        n_samples = sw.shape[0]
-        n_held = round(self.validation_fraction * n_samples)
-        needs_blocks = self.criterion in ("holdout", "cv", None) or self.refine is not None
-        if not needs_blocks or n_held < MIN_VALIDATION_ROWS:
-            return np.arange(n_samples), None
-        n_blocks = max(1, min(N_VALIDATION_BLOCKS, n_held // MIN_BLOCK_ROWS))
-        mask = contiguous_validation_mask(n_samples, self.validation_fraction, n_blocks)
-        if not (sw[mask].sum() > 0 and sw[~mask].sum() > 0):
-            return np.arange(n_samples), None
-        return np.flatnonzero(~mask), np.flatnonzero(mask)
-
-    def _subsample(self, rows, rng, size=None):
-        size = self.max_samples if size is None else size
-        if rows.shape[0] <= size:
-            return rows
-        return np.sort(rng.choice(rows, size=size, replace=False))
-
-    def _select(self, Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree):
-        """OLS paths over the width grid, with a polynomial tail of degree ``degree``.
-
-        Returns the chosen network, its path record and its criterion value (lower is
-        better; comparable between tail degrees selected from the same random state).
+        On the standardised inputs ``(X - x_mean_) / x_scale_``; what ``predict`` evaluates
+        and the exporters write.
         """
-        Z_sel, Y_sel, sw_sel = Z[sel_rows], Ys[sel_rows], sw[sel_rows]
-        candidates = candidate_pool(
-            Z_sel,
-            sample_weight=sw_sel,
-            max_candidates=self.max_candidates,
-            method=self.candidates,
-            random_state=rng,
-        )
-        n_candidates = candidates.shape[0]
-        if self.n_centers == "auto":
-            max_centers = min(AUTO_MAX_CENTERS, n_candidates)
-        else:
-            max_centers = min(self.n_centers, n_candidates)
-            if self.n_centers > n_candidates:
-                warnings.warn(
-                    f"n_centers={self.n_centers} but only {n_candidates} distinct candidate "
-                    f"rows are available; at most {n_candidates} centres will be used.",
-                    UserWarning,
-                    stacklevel=3,
-                )
-        if self.width == "auto":
-            widths_tried = median_nn_distance(candidates) * np.asarray(WIDTH_MULTIPLES)
-        else:
-            widths_tried = np.array([float(self.width)])
-        widths_tried = np.clip(widths_tried, *WIDTH_BOUNDS)
-
-        has_val = val_rows is not None
-        criterion = self.criterion
-        if criterion is None:
-            criterion = "holdout" if has_val else "gcv"
-        elif criterion in ("holdout", "cv") and not has_val:
-            criterion = "gcv"
-        alpha_sel = self.alpha * sw_sel.sum()
-        T_sel = tail_features(Z_sel, degree) if degree else None
-        D2_sel = squared_distances(Z_sel, candidates)
-        if has_val:
-            Z_val, Y_val, sw_val = Z[val_rows], Ys[val_rows], sw[val_rows]
-            D2_val = squared_distances(Z_val, candidates)
-            T_val = tail_features(Z_val, degree) if degree else None
-        fixed_size = self.criterion is None and self.goal is None
-        paths = []
-        for width in widths_tried:
-            path, fits = _select_and_score(
-                width,
-                D2_sel,
-                Y_sel,
-                T_sel,
-                sw_sel,
-                alpha_sel,
-                max_centers,
-                validation=(D2_val, T_val, Y_val, sw_val) if has_val else None,
-            )
-            values = path_criterion(
-                fits, "holdout" if criterion == "cv" else criterion, sw_sel.sum()
-            )
-            paths.append((width, path, fits, values))
-        losses = None
-        if criterion == "cv":
-            losses, sw_losses = self._cross_validated_losses(
-                Z, Ys, sw, candidates, widths_tried, max_centers, fixed_size, rng, degree
-            )
-        if losses is not None:
-            choice = self._choose_by_losses(losses, sw_losses, fixed_size, paths)
-            i_cv = choice[0]
-            k_cv = min(choice[1], losses[i_cv].shape[0] - 1)
-            score = float(losses[i_cv][k_cv] @ sw_losses / sw_losses.sum())
-            # Record the cross-validated error of each prefix (of the final paths' length).
-            paths = [
-                (width, path, fits, (loss @ sw_losses / sw_losses.sum())[: len(path.selected) + 1])
-                for (width, path, fits, _), loss in zip(paths, losses, strict=True)
-            ]
-        else:
-            choice = self._choose(paths, criterion, fixed_size, sw_val if has_val else None)
-        width, path, fits, values = paths[choice[0]]
-        k = choice[1]
-        if losses is None:
-            if criterion == "holdout":
-                score = float(fits.val_sq[k] @ sw_val / sw_val.sum())
-            else:
-                score = float(values[k])
-        width_scores = [values[-1] if fixed_size else values.min() for *_, values in paths]
-        train_mse = (fits.train_mse * np.square(y_scale)).mean(axis=1)
-        if self.goal is not None:
-            reached = np.flatnonzero(train_mse <= self.goal)
-            k = int(reached[0]) if reached.size else len(path.selected)
-        n_tail = n_tail_features(Z.shape[1], degree)
-        W = fits.weights[k]
-        centers = candidates[path.selected[:k]]
-        widths = np.full(k, width)
-        network = (centers, widths, W[1 + n_tail :].T, W[1 : 1 + n_tail].T, W[0])
-        val_mse = (
-            (fits.val_mse * np.square(y_scale)).mean(axis=1)
-            if has_val
-            else np.full(len(values), np.nan)
-        )
-        record = {
-            "err": path.err,
-            "tail_err": path.tail_err,
-            "train_mse": train_mse,
-            "val_mse": val_mse,
-            "dof": fits.dof,
-            "criterion": values,
-            "criterion_name": criterion,
-            "n_centers": k,
-            "widths_tried": widths_tried,
-            "width_scores": np.asarray(width_scores),
-        }
-        return network, record, score
-
-    def _cross_validated_losses(
-        self, Z, Ys, sw, candidates, widths_tried, max_centers, fixed_size, rng, degree
-    ):
-        """Held-out squared errors of every (width, prefix) over contiguous folds.
-
-        The rows are cut into ``round(1 / validation_fraction)`` contiguous folds; each fold
-        is held out in turn, the selection paths are run on the other rows and every prefix
-        is scored on the fold. The candidate pool is the final one (centre locations only,
-        no held-out target is used), so the folds cost no extra seeding. Returns
-        ``losses[i]`` of shape (max_centers + 1, n_scored) for width ``i`` (a path that
-        stopped early repeats its last prefix) and the weights of the scored rows, which
-        are in row order.
-        """
-        n_samples = Z.shape[0]
-        n_folds = int(np.clip(round(1.0 / self.validation_fraction), 2, 10))
-        bounds = np.linspace(0, n_samples, n_folds + 1).round().astype(int)
-        losses = [[] for _ in widths_tried]
-        weights = []
-        for start, stop in itertools.pairwise(bounds):
-            rows_in = np.concatenate([np.arange(start), np.arange(stop, n_samples)])
-            rows_out = np.arange(start, stop)
-            if not (sw[rows_in].sum() > 0 and sw[rows_out].sum() > 0):
-                continue
-            rows_in = self._subsample(rows_in, rng)
-            rows_out = self._subsample(rows_out, rng, self.max_samples // n_folds)
-            Z_in, Y_in, sw_in = Z[rows_in], Ys[rows_in], sw[rows_in]
-            alpha_in = self.alpha * sw_in.sum()
-            T_in = tail_features(Z_in, degree) if degree else None
-            T_out = tail_features(Z[rows_out], degree) if degree else None
-            D2_in = squared_distances(Z_in, candidates)
-            D2_out = squared_distances(Z[rows_out], candidates)
-            for i, width in enumerate(widths_tried):
-                path, fits = _select_and_score(
-                    width,
-                    D2_in,
-                    Y_in,
-                    T_in,
-                    sw_in,
-                    alpha_in,
-                    max_centers,
-                    validation=(D2_out, T_out, Ys[rows_out], sw[rows_out]),
-                )
-                chosen = path.selected
-                padded = np.empty((max_centers + 1, rows_out.shape[0]))
-                padded[: len(chosen) + 1] = fits.val_sq
-                padded[len(chosen) + 1 :] = fits.val_sq[-1]
-                losses[i].append(padded[-1:] if fixed_size else padded)
-            weights.append(sw[rows_out])
-        if not weights:  # no fold with weight on both sides: score on the one split
-            return None, None
-        return [np.hstack(loss) for loss in losses], np.concatenate(weights)
-
-    @staticmethod
-    def _choose_by_losses(losses, sw_losses, fixed_size, paths):
-        """(width index, prefix) from cross-validated losses, capped to the final paths."""
-        options = [(i, k) for i, loss in enumerate(losses) for k in range(loss.shape[0])]
-        i, k = _smoothest_within_one_standard_error(options, np.vstack(losses), sw_losses)
-        n_final = len(paths[i][1].selected)
-        return i, n_final if fixed_size else min(k, n_final)
-
-    @staticmethod
-    def _choose(paths, criterion, fixed_size, sw_val):
-        """(width index, prefix) from the paths of every width and their criterion values.
-
-        Held-out errors go through the one-standard-error rule; information criteria are
-        minimised.
-        """
-        options = [
-            (i, k)
-            for i, (_, path, _, _) in enumerate(paths)
-            for k in ([len(path.selected)] if fixed_size else range(len(path.selected) + 1))
-        ]
-        if criterion == "holdout":
-            losses = np.vstack([paths[i][2].val_sq[k] for i, k in options])
-            return _smoothest_within_one_standard_error(options, losses, sw_val)
-        values = [paths[i][3][k] for i, k in options]
-        return options[int(np.argmin(values))]
-
-    def _refine(self, Z, Ys, sw, sel_rows, val_rows, network, rng):
-        from sklearn_ifog.rbf._refine import refine_network
-
-        centers, widths, coef, tail_coef, intercept = network
-        sw_sel = sw[sel_rows]
-        return refine_network(
-            Z[sel_rows],
-            Ys[sel_rows],
-            centers,
-            widths,
-            coef,
-            tail_coef,
-            intercept,
-            method=self.refine,
-            sample_weight=sw_sel,
-            alpha=self.alpha * sw_sel.sum(),
-            Z_val=Z[val_rows],
-            Y_val=Ys[val_rows],
-            sample_weight_val=sw[val_rows],
-            max_iter=self.max_iter,
-            tol=self.tol,
-            learning_rate=self.learning_rate,
-            max_samples=None,
-            random_state=rng.randint(np.iinfo(np.int32).max),
+        check_is_fitted(self)
+        coef = np.atleast_2d(np.asarray(self.coef_, dtype=np.float64))
+        n_outputs = coef.shape[0]
+        return Network(
+            centers=np.asarray(self.centers_, dtype=np.float64).reshape(-1, self.n_features_in_),
+            widths=np.broadcast_to(np.asarray(self.widths_, dtype=np.float64), coef.shape[1:]),
+            coef=coef,
+            tail_coef=np.asarray(self.tail_coef_, dtype=np.float64).reshape(n_outputs, -1),
+            intercept=np.broadcast_to(np.asarray(self.intercept_, dtype=np.float64), (n_outputs,)),
         )
 
     def predict(self, X):
@@ -736,17 +356,8 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
         """
         check_is_fitted(self)
         X = validate_data(self, X, reset=False)
-        coef = self.coef_
-        single = coef.ndim == 1
-        Y = predict_network(
-            (X - self.x_mean_) / self.x_scale_,
-            self.centers_,
-            self.widths_,
-            coef[None] if single else coef,
-            self.tail_coef_[None] if single else self.tail_coef_,
-            np.atleast_1d(self.intercept_),
-        )
-        return Y[:, 0] if single else Y
+        Y = predict_network((X - self.x_mean_) / self.x_scale_, *self._network())
+        return Y[:, 0] if np.ndim(self.coef_) == 1 else Y
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

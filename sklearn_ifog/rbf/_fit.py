@@ -1,0 +1,179 @@
+"""The numerics of ``RBFNetRegressor.fit``: standardise, select, refine, solve on all rows."""
+
+import warnings
+from typing import NamedTuple
+
+import numpy as np
+from sklearn.exceptions import ConvergenceWarning
+from sklearn.utils import check_random_state
+from threadpoolctl import threadpool_limits
+
+from sklearn_ifog.rbf._basis import Network, solve_output_weights_chunked, standardisation
+from sklearn_ifog.rbf._refine import refine_network
+from sklearn_ifog.rbf._select import (
+    SelectionOptions,
+    select_network,
+    split_rows,
+    subsample,
+    tail_degrees,
+)
+
+
+class FittedNetwork(NamedTuple):
+    """Result of :func:`fit_network`.
+
+    Attributes
+    ----------
+    network : Network
+        The network on standardised inputs, in target units: ``coef`` (n_outputs,
+        n_centers), ``tail_coef`` (n_outputs, n_tail; zeros of width ``n_features`` without
+        a tail) and ``intercept`` (n_outputs,).
+    tail_degree : int
+        Degree of the tail (0: none).
+    x_mean, x_scale : ndarray of shape (n_features,)
+        The input standardisation ``z = (x - x_mean) / x_scale``.
+    n_iter : int
+        Refinement iterations run.
+    path : dict
+        The selection record (``RBFNetRegressor.selection_path_``).
+    """
+
+    network: Network
+    tail_degree: int
+    x_mean: np.ndarray
+    x_scale: np.ndarray
+    n_iter: int
+    path: dict
+
+
+def fit_network(
+    X,
+    Y,
+    sample_weight,
+    *,
+    n_centers,
+    width,
+    refine,
+    alpha,
+    criterion,
+    goal,
+    tail,
+    max_candidates,
+    candidates,
+    max_samples,
+    validation_fraction,
+    max_iter,
+    tol,
+    learning_rate,
+    random_state,
+):
+    """Fit a Gaussian RBF network: selection, refinement, output weights on all rows.
+
+    The settings are the parameters of :class:`~sklearn_ifog.RBFNetRegressor` (the one place
+    their defaults are given), already validated; see its documentation for what each does.
+
+    Parameters
+    ----------
+    X : ndarray of shape (n_samples, n_features)
+        Inputs, float64, finite.
+    Y : ndarray of shape (n_samples, n_outputs)
+        Targets, float64, finite.
+    sample_weight : ndarray of shape (n_samples,)
+        Non-negative weights with a positive sum.
+    n_centers, width, refine, alpha, criterion, goal, tail, max_candidates, candidates, \
+max_samples, validation_fraction, max_iter, tol, learning_rate, random_state
+        As in :class:`~sklearn_ifog.RBFNetRegressor`.
+
+    Returns
+    -------
+    fitted : FittedNetwork
+        The network and its record.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn_ifog import RBFNetRegressor
+    >>> X = np.linspace(-1, 1, 200)[:, None]
+    >>> params = RBFNetRegressor(refine=None, random_state=0).get_params()
+    >>> fitted = fit_network(X, 2 * X + 1, np.ones(200), **params)
+    >>> fitted.tail_degree, fitted.network.tail_coef.shape
+    (2, (1, 2))
+    """
+    sw = sample_weight
+    x_mean, x_scale = standardisation(X, sw)
+    y_mean, y_scale = standardisation(Y, sw)
+    Z = (X - x_mean) / x_scale
+    Ys = (Y - y_mean) / y_scale
+    rng = check_random_state(random_state)
+    options = SelectionOptions(
+        n_centers=n_centers,
+        width=width,
+        criterion=criterion,
+        goal=goal,
+        alpha=alpha,
+        max_candidates=max_candidates,
+        candidates=candidates,
+        max_samples=max_samples,
+        validation_fraction=validation_fraction,
+    )
+
+    needs_blocks = criterion in ("holdout", "cv", None) or refine is not None
+    train, val = split_rows(sw, validation_fraction, needs_blocks=needs_blocks)
+    sel_rows = subsample(train, max_samples, rng)
+    val_rows = subsample(val, max_samples, rng) if val is not None else None
+    degrees = tail_degrees(tail, X.shape[1], sel_rows.shape[0])
+    # Selection, refinement and the blocked solve work on small or skinny matrices, where
+    # a multi-threaded BLAS spends more time synchronising than computing (3 to 20 times
+    # slower on a loaded machine).
+    with threadpool_limits(limits=1, user_api="blas"):
+        selection = select_network(
+            Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degrees=degrees, options=options
+        )
+        network, path = selection.network, selection.path
+        tail_degree = path["tail_degree"]
+        n_iter, refined = 0, False
+        if refine is not None and val_rows is not None and network.centers.shape[0]:
+            sw_sel = sw[sel_rows]
+            result = refine_network(
+                Z[sel_rows],
+                Ys[sel_rows],
+                *network,
+                method=refine,
+                sample_weight=sw_sel,
+                alpha=alpha * sw_sel.sum(),
+                Z_val=Z[val_rows],
+                Y_val=Ys[val_rows],
+                sample_weight_val=sw[val_rows],
+                max_iter=max_iter,
+                tol=tol,
+                learning_rate=learning_rate,
+                max_samples=None,
+                random_state=selection.random_state.randint(np.iinfo(np.int32).max),
+            )
+            n_iter, refined = int(result.n_iter), bool(result.improved)
+            network = result.network
+            if not result.converged:
+                warnings.warn(
+                    f"RBFNetRegressor: {refine!r} refinement stopped at "
+                    f"max_iter={max_iter} before converging; the best iterate was kept.",
+                    ConvergenceWarning,
+                    stacklevel=3,
+                )
+        coef, tail_coef, intercept = solve_output_weights_chunked(
+            Z,
+            Ys,
+            network.centers,
+            network.widths,
+            tail=tail_degree,
+            sample_weight=sw,
+            alpha=alpha * sw.sum(),
+        )
+    path["refined"] = refined
+    tail_coef = tail_coef * y_scale[:, None]
+    if tail_degree == 0:
+        # The export contract: no tail is a zero linear tail.
+        tail_coef = np.zeros((Y.shape[1], X.shape[1]))
+    network = network._replace(
+        coef=coef * y_scale[:, None], tail_coef=tail_coef, intercept=intercept * y_scale + y_mean
+    )
+    return FittedNetwork(network, tail_degree, x_mean, x_scale, n_iter, path)

@@ -1,0 +1,485 @@
+"""Model selection of a Gaussian RBF network: the number of centres, the width, the tail.
+
+For every width of a grid (and every tail degree tried), centres are chosen from a candidate
+pool by orthogonal least squares (``_ols``), every prefix of the path is re-solved, and a
+criterion picks one (width, number of centres) pair: held-out errors on contiguous blocks
+(one split, or cross-validated over contiguous folds) through the one-standard-error rule,
+or an information criterion, minimised. Plain numpy in, numpy out: the targets are already
+standardised and the inputs are ``Z``, standardised too.
+"""
+
+import copy
+import itertools
+import warnings
+from typing import NamedTuple
+
+import numpy as np
+
+from sklearn_ifog.rbf._basis import (
+    WIDTH_LIMITS,
+    Network,
+    n_tail_features,
+    squared_distances,
+    tail_features,
+)
+from sklearn_ifog.rbf._ols import (
+    candidate_pool,
+    contiguous_validation_mask,
+    median_nn_distance,
+    ols_forward_select,
+    path_criterion,
+    prefix_fits,
+    within_one_standard_error,
+)
+
+# Largest number of centres when ``n_centers="auto"``; the criterion picks along the path.
+AUTO_MAX_CENTERS = 40
+# Shared-width grid, in multiples of the candidates' median nearest-neighbour distance.
+WIDTH_MULTIPLES = (2.0, 4.0, 8.0, 16.0)
+# Below this many held-out rows a validation error ranks nothing: no held-out blocks.
+MIN_VALIDATION_ROWS = 10
+# Held-out blocks per fit (fewer when there are few rows: at least 5 rows per block).
+N_VALIDATION_BLOCKS = 2
+MIN_BLOCK_ROWS = 5
+# Tail degrees tried for each value of ``tail``.
+TAIL_DEGREES = {False: (0,), True: (1,), "linear": (1,), "quadratic": (2,), "auto": (1, 2)}
+# The quadratic tail's weights are not penalised: it needs at least this many selection rows
+# per tail column, otherwise the linear tail is used (with a warning).
+MIN_ROWS_PER_TAIL_COLUMN = 10
+# The criteria of ``select_network`` ("cv" and the ones of ``_ols.path_criterion``).
+SELECTION_CRITERIA = ("cv", "holdout", "gcv", "bic", "aicc")
+
+
+class SelectionOptions(NamedTuple):
+    """The settings of :func:`select_network`: ``RBFNetRegressor``'s parameters of that name."""
+
+    n_centers: object
+    width: object
+    criterion: str | None
+    goal: float | None
+    alpha: float
+    max_candidates: int
+    candidates: str
+    max_samples: int
+    validation_fraction: float
+
+
+class _WidthPath(NamedTuple):
+    """The selection path at one width: its OLS path, prefix fits and criterion values."""
+
+    width: float
+    path: object  # _ols.OLSPath
+    fits: object  # _ols.PrefixFits
+    values: np.ndarray
+
+
+class _Trial(NamedTuple):
+    """The network chosen with one tail degree, and its criterion value."""
+
+    score: float
+    degree: int
+    network: Network
+    path: dict
+    random_state: np.random.RandomState
+
+
+class Selection(NamedTuple):
+    """Result of :func:`select_network`.
+
+    Attributes
+    ----------
+    network : Network
+        The chosen network, on the standardised targets.
+    path : dict
+        The selection record (``RBFNetRegressor.selection_path_`` without ``"refined"``).
+    random_state : numpy.random.RandomState
+        The random state the chosen network was selected with, after selection (what the
+        refinement draws its seed from).
+    """
+
+    network: Network
+    path: dict
+    random_state: np.random.RandomState
+
+
+def split_rows(sample_weight, validation_fraction, *, needs_blocks):
+    """Training rows and held-out contiguous blocks (None when too few rows or not needed).
+
+    Parameters
+    ----------
+    sample_weight : ndarray of shape (n_samples,)
+        Non-negative weights.
+    validation_fraction : float
+        Fraction of the rows held out.
+    needs_blocks : bool
+        Whether held-out blocks are wanted at all (a held-out criterion or a refinement).
+
+    Returns
+    -------
+    train : ndarray of int
+        Training rows, in order.
+    val : ndarray of int or None
+        Held-out rows, in order; None without blocks (then ``train`` is every row).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> train, val = split_rows(np.ones(100), 0.2, needs_blocks=True)
+    >>> val.tolist()[:3], val.shape[0], train.shape[0]
+    ([20, 21, 22], 20, 80)
+    """
+    n_samples = sample_weight.shape[0]
+    n_held = round(validation_fraction * n_samples)
+    if not needs_blocks or n_held < MIN_VALIDATION_ROWS:
+        return np.arange(n_samples), None
+    n_blocks = max(1, min(N_VALIDATION_BLOCKS, n_held // MIN_BLOCK_ROWS))
+    mask = contiguous_validation_mask(n_samples, validation_fraction, n_blocks)
+    if not (sample_weight[mask].sum() > 0 and sample_weight[~mask].sum() > 0):
+        return np.arange(n_samples), None
+    return np.flatnonzero(~mask), np.flatnonzero(mask)
+
+
+def subsample(rows, size, random_state):
+    """At most ``size`` of ``rows``, drawn without replacement and kept in order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> subsample(np.arange(10), 4, np.random.RandomState(0)).tolist()
+    [2, 4, 8, 9]
+    """
+    if rows.shape[0] <= size:
+        return rows
+    return np.sort(random_state.choice(rows, size=size, replace=False))
+
+
+def tail_degrees(tail, n_features, n_rows):
+    """Tail degrees to try; the quadratic one only with enough rows per tail column.
+
+    Examples
+    --------
+    >>> tail_degrees("auto", 3, 1000)
+    (1, 2)
+    """
+    degrees = TAIL_DEGREES[tail]
+    needed = MIN_ROWS_PER_TAIL_COLUMN * (n_tail_features(n_features, 2) + 1)
+    if 2 in degrees and n_rows < needed:
+        warnings.warn(
+            f"RBFNetRegressor: tail={tail!r} needs at least {needed} selection rows "
+            f"for the {n_tail_features(n_features, 2)} unpenalised columns of a quadratic "
+            f"tail on {n_features} features, got {n_rows}; a linear tail is used.",
+            UserWarning,
+            stacklevel=4,
+        )
+        degrees = (1,)
+    return degrees
+
+
+def select_network(
+    Z, Y, sample_weight, sel_rows, val_rows, y_scale, random_state, *, degrees, options
+):
+    """Select the network: OLS paths over the width grid, for every tail degree.
+
+    Each tail degree is selected from a copy of the same random state (when there are
+    several), so they are scored on the same candidates, folds and rows (a paired
+    comparison); the lower criterion value wins, a tie keeps the lower degree.
+
+    Parameters
+    ----------
+    Z : ndarray of shape (n_samples, n_features)
+        Standardised inputs, all rows.
+    Y : ndarray of shape (n_samples, n_outputs)
+        Standardised targets.
+    sample_weight : ndarray of shape (n_samples,)
+        Non-negative weights.
+    sel_rows : ndarray of int
+        Rows the paths are run on.
+    val_rows : ndarray of int or None
+        Held-out rows (None: information criteria only).
+    y_scale : ndarray of shape (n_outputs,)
+        Standard deviations the targets were divided by (for the recorded errors).
+    random_state : numpy.random.RandomState
+        Seeds the candidate pool and the cross-validation subsamples.
+    degrees : tuple of int
+        Tail degrees to try (:func:`tail_degrees`).
+    options : SelectionOptions
+        The remaining settings.
+
+    Returns
+    -------
+    selection : Selection
+        The chosen network, its record and the random state it was selected with.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.RandomState(0)
+    >>> Z = np.linspace(-2, 2, 200)[:, None]
+    >>> Y = np.sin(2 * Z)
+    >>> train, val = split_rows(np.ones(200), 0.2, needs_blocks=True)
+    >>> options = SelectionOptions(
+    ...     n_centers="auto",
+    ...     width="auto",
+    ...     criterion="holdout",
+    ...     goal=None,
+    ...     alpha=1e-4,
+    ...     max_candidates=300,
+    ...     candidates="kmeans++",
+    ...     max_samples=3000,
+    ...     validation_fraction=0.2,
+    ... )
+    >>> sel = select_network(
+    ...     Z, Y, np.ones(200), train, val, np.ones(1), rng, degrees=(1,), options=options
+    ... )
+    >>> sel.path["criterion_name"], sel.network.tail_degree
+    ('holdout', 1)
+    """
+    trials = []
+    for degree in degrees:
+        rng = copy.deepcopy(random_state) if len(degrees) > 1 else random_state
+        network, path, score = _select_at_degree(
+            Z, Y, sample_weight, sel_rows, val_rows, y_scale, rng, degree, options
+        )
+        trials.append(_Trial(score, degree, network, path, rng))
+    best = min(trials, key=lambda trial: (trial.score, trial.degree))
+    best.path["tail_degree"] = best.degree
+    best.path["tail_scores"] = {trial.degree: trial.score for trial in trials}
+    return Selection(best.network, best.path, best.random_state)
+
+
+def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, options):
+    """OLS paths over the width grid, with a polynomial tail of degree ``degree``.
+
+    Returns the chosen network, its path record and its criterion value (lower is
+    better; comparable between tail degrees selected from the same random state).
+    """
+    Z_sel, Y_sel, sw_sel = Z[sel_rows], Ys[sel_rows], sw[sel_rows]
+    candidates = candidate_pool(
+        Z_sel,
+        sample_weight=sw_sel,
+        max_candidates=options.max_candidates,
+        method=options.candidates,
+        random_state=rng,
+    )
+    n_candidates = candidates.shape[0]
+    if options.n_centers == "auto":
+        max_centers = min(AUTO_MAX_CENTERS, n_candidates)
+    else:
+        max_centers = min(options.n_centers, n_candidates)
+        if options.n_centers > n_candidates:
+            warnings.warn(
+                f"n_centers={options.n_centers} but only {n_candidates} distinct candidate "
+                f"rows are available; at most {n_candidates} centres will be used.",
+                UserWarning,
+                stacklevel=5,
+            )
+    if options.width == "auto":
+        widths_tried = median_nn_distance(candidates) * np.asarray(WIDTH_MULTIPLES)
+    else:
+        widths_tried = np.array([float(options.width)])
+    widths_tried = np.clip(widths_tried, *WIDTH_LIMITS)
+
+    has_val = val_rows is not None
+    criterion = options.criterion
+    if criterion is None:
+        criterion = "holdout" if has_val else "gcv"
+    elif criterion in ("holdout", "cv") and not has_val:
+        criterion = "gcv"
+    alpha_sel = options.alpha * sw_sel.sum()
+    T_sel = tail_features(Z_sel, degree) if degree else None
+    D2_sel = squared_distances(Z_sel, candidates)
+    if has_val:
+        Z_val, Y_val, sw_val = Z[val_rows], Ys[val_rows], sw[val_rows]
+        D2_val = squared_distances(Z_val, candidates)
+        T_val = tail_features(Z_val, degree) if degree else None
+    fixed_size = options.criterion is None and options.goal is None
+    paths = []
+    for width in widths_tried:
+        path, fits = _select_and_score(
+            width,
+            D2_sel,
+            Y_sel,
+            T_sel,
+            sw_sel,
+            alpha_sel,
+            max_centers,
+            validation=(D2_val, T_val, Y_val, sw_val) if has_val else None,
+        )
+        values = path_criterion(fits, "holdout" if criterion == "cv" else criterion, sw_sel.sum())
+        paths.append(_WidthPath(width, path, fits, values))
+    losses = None
+    if criterion == "cv":
+        losses, sw_losses = _cross_validated_losses(
+            Z, Ys, sw, candidates, widths_tried, max_centers, fixed_size, rng, degree, options
+        )
+    if losses is not None:
+        choice = _choose_by_losses(losses, sw_losses, fixed_size, paths)
+        i_cv = choice[0]
+        k_cv = min(choice[1], losses[i_cv].shape[0] - 1)
+        score = float(losses[i_cv][k_cv] @ sw_losses / sw_losses.sum())
+        # Record the cross-validated error of each prefix (of the final paths' length).
+        paths = [
+            p._replace(values=(loss @ sw_losses / sw_losses.sum())[: len(p.path.selected) + 1])
+            for p, loss in zip(paths, losses, strict=True)
+        ]
+    else:
+        choice = _choose(paths, criterion, fixed_size, sw_val if has_val else None)
+    width, path, fits, values = paths[choice[0]]
+    k = choice[1]
+    if losses is None:
+        if criterion == "holdout":
+            score = float(fits.val_sq[k] @ sw_val / sw_val.sum())
+        else:
+            score = float(values[k])
+    width_scores = [p.values[-1] if fixed_size else p.values.min() for p in paths]
+    train_mse = (fits.train_mse * np.square(y_scale)).mean(axis=1)
+    if options.goal is not None:
+        reached = np.flatnonzero(train_mse <= options.goal)
+        k = int(reached[0]) if reached.size else len(path.selected)
+    n_tail = n_tail_features(Z.shape[1], degree)
+    W = fits.weights[k]
+    network = Network(
+        centers=candidates[path.selected[:k]],
+        widths=np.full(k, width),
+        coef=W[1 + n_tail :].T,
+        tail_coef=W[1 : 1 + n_tail].T,
+        intercept=W[0],
+    )
+    val_mse = (
+        (fits.val_mse * np.square(y_scale)).mean(axis=1)
+        if has_val
+        else np.full(len(values), np.nan)
+    )
+    record = {
+        "err": path.err,
+        "tail_err": path.tail_err,
+        "train_mse": train_mse,
+        "val_mse": val_mse,
+        "dof": fits.dof,
+        "criterion": values,
+        "criterion_name": criterion,
+        "n_centers": k,
+        "widths_tried": widths_tried,
+        "width_scores": np.asarray(width_scores),
+    }
+    return network, record, score
+
+
+def _select_and_score(width, D2, Y, T, sample_weight, alpha, max_centers, *, validation=None):
+    """OLS path at one width, and the fit of every prefix (scored on held-out rows if given).
+
+    ``D2`` are the squared distances of the selection rows to the candidates; ``validation``
+    is ``(D2_val, T_val, Y_val, sample_weight_val)`` or None.
+    """
+    P = np.exp(D2 * (-0.5 / width**2))
+    path = ols_forward_select(
+        P, Y, T=T, sample_weight=sample_weight, alpha=alpha, max_selected=max_centers
+    )
+    chosen = path.selected
+    D2_val, T_val, Y_val, sw_val = validation if validation is not None else (None,) * 4
+    fits = prefix_fits(
+        P[:, chosen],
+        Y,
+        T=T,
+        sample_weight=sample_weight,
+        alpha=alpha,
+        Phi_val=None if D2_val is None else np.exp(D2_val[:, chosen] * (-0.5 / width**2)),
+        T_val=T_val,
+        Y_val=Y_val,
+        sample_weight_val=sw_val,
+    )
+    return path, fits
+
+
+def _cross_validated_losses(
+    Z, Ys, sw, candidates, widths_tried, max_centers, fixed_size, rng, degree, options
+):
+    """Held-out squared errors of every (width, prefix) over contiguous folds.
+
+    The rows are cut into ``round(1 / validation_fraction)`` contiguous folds; each fold
+    is held out in turn, the selection paths are run on the other rows and every prefix
+    is scored on the fold. The candidate pool is the final one (centre locations only,
+    no held-out target is used), so the folds cost no extra seeding. Returns
+    ``losses[i]`` of shape (max_centers + 1, n_scored) for width ``i`` (a path that
+    stopped early repeats its last prefix) and the weights of the scored rows, which
+    are in row order.
+    """
+    n_samples = Z.shape[0]
+    n_folds = int(np.clip(round(1.0 / options.validation_fraction), 2, 10))
+    bounds = np.linspace(0, n_samples, n_folds + 1).round().astype(int)
+    losses = [[] for _ in widths_tried]
+    weights = []
+    for start, stop in itertools.pairwise(bounds):
+        rows_in = np.concatenate([np.arange(start), np.arange(stop, n_samples)])
+        rows_out = np.arange(start, stop)
+        if not (sw[rows_in].sum() > 0 and sw[rows_out].sum() > 0):
+            continue
+        rows_in = subsample(rows_in, options.max_samples, rng)
+        rows_out = subsample(rows_out, options.max_samples // n_folds, rng)
+        Z_in, Y_in, sw_in = Z[rows_in], Ys[rows_in], sw[rows_in]
+        alpha_in = options.alpha * sw_in.sum()
+        T_in = tail_features(Z_in, degree) if degree else None
+        T_out = tail_features(Z[rows_out], degree) if degree else None
+        D2_in = squared_distances(Z_in, candidates)
+        D2_out = squared_distances(Z[rows_out], candidates)
+        for i, width in enumerate(widths_tried):
+            path, fits = _select_and_score(
+                width,
+                D2_in,
+                Y_in,
+                T_in,
+                sw_in,
+                alpha_in,
+                max_centers,
+                validation=(D2_out, T_out, Ys[rows_out], sw[rows_out]),
+            )
+            chosen = path.selected
+            padded = np.empty((max_centers + 1, rows_out.shape[0]))
+            padded[: len(chosen) + 1] = fits.val_sq
+            padded[len(chosen) + 1 :] = fits.val_sq[-1]
+            losses[i].append(padded[-1:] if fixed_size else padded)
+        weights.append(sw[rows_out])
+    if not weights:  # no fold with weight on both sides: score on the one split
+        return None, None
+    return [np.hstack(loss) for loss in losses], np.concatenate(weights)
+
+
+def _smoothest_within_one_standard_error(options, losses, sample_weight):
+    """The (width index, prefix) of the smoothest network within one standard error.
+
+    ``options`` lists (width index, number of centres) pairs, ``losses`` their squared
+    held-out errors row by row. Widths are tried in increasing order, so the smoothest is
+    the widest width, then the fewest centres: the simplest network the held-out rows cannot
+    tell apart from the best one.
+    """
+    within = within_one_standard_error(losses, sample_weight)
+    return max(
+        (option for option, ok in zip(options, within, strict=True) if ok),
+        key=lambda option: (option[0], -option[1]),
+    )
+
+
+def _choose_by_losses(losses, sw_losses, fixed_size, paths):
+    """(width index, prefix) from cross-validated losses, capped to the final paths."""
+    options = [(i, k) for i, loss in enumerate(losses) for k in range(loss.shape[0])]
+    i, k = _smoothest_within_one_standard_error(options, np.vstack(losses), sw_losses)
+    n_final = len(paths[i].path.selected)
+    return i, n_final if fixed_size else min(k, n_final)
+
+
+def _choose(paths, criterion, fixed_size, sw_val):
+    """(width index, prefix) from the paths of every width and their criterion values.
+
+    Held-out errors go through the one-standard-error rule; information criteria are
+    minimised.
+    """
+    options = [
+        (i, k)
+        for i, p in enumerate(paths)
+        for k in ([len(p.path.selected)] if fixed_size else range(len(p.path.selected) + 1))
+    ]
+    if criterion == "holdout":
+        losses = np.vstack([paths[i].fits.val_sq[k] for i, k in options])
+        return _smoothest_within_one_standard_error(options, losses, sw_val)
+    values = [paths[i].values[k] for i, k in options]
+    return options[int(np.argmin(values))]
