@@ -14,7 +14,8 @@ from sklearn.preprocessing import StandardScaler
 
 import sklearn_ifog
 from sklearn_ifog import RBFNetRegressor, ThermalFeatures
-from sklearn_ifog.cli import _Progress, main
+from sklearn_ifog.cli import main
+from sklearn_ifog.cli._progress import Progress
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.metrics import mean_squared_deviation
 from sklearn_ifog.persistence import load_model, save_model
@@ -332,7 +333,7 @@ class _Terminal(io.StringIO):
 
 def test_progress_redraws_a_live_line_on_a_terminal_and_logs_otherwise():
     terminal = _Terminal()
-    progress = _Progress(n_steps=2, stream=terminal)
+    progress = Progress(n_steps=2, stream=terminal)
     with progress.step("fitting", total=4) as advance:
         advance(2)
         time.sleep(0.6)  # long enough for at least one redraw (every 0.25 s)
@@ -344,7 +345,7 @@ def test_progress_redraws_a_live_line_on_a_terminal_and_logs_otherwise():
     assert "\r[2/2] failing: failed after 0.0 s" in shown
 
     log = io.StringIO()
-    progress = _Progress(n_steps=1, stream=log)
+    progress = Progress(n_steps=1, stream=log)
     with progress.step("comparing", total=2) as advance:
         advance()
         advance()
