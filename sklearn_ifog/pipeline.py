@@ -25,6 +25,16 @@ def _traditional_terms(terms):
     return tuple(term for term in terms if term != _INTERACTION_TERM)
 
 
+def _is_regressor(estimator):
+    """scikit-learn's is_regressor, False (not an error) for what is no estimator at all."""
+    if not hasattr(estimator, "fit"):
+        return False
+    try:
+        return is_regressor(estimator)
+    except AttributeError:  # an object without scikit-learn's tags
+        return False
+
+
 def make_compensation_pipeline(
     regressor=None,
     *,
@@ -70,9 +80,9 @@ def make_compensation_pipeline(
     Raises
     ------
     TypeError
-        If ``regressor`` is not a scikit-learn regressor (its ``_estimator_type`` tag is
-        not ``"regressor"``), or ``feature_params`` holds a name ThermalFeatures does not
-        take.
+        If ``regressor`` is not a scikit-learn regressor
+        (:func:`sklearn.base.is_regressor` is False), or ``feature_params`` holds a name
+        ThermalFeatures does not take.
 
     See Also
     --------
@@ -104,7 +114,7 @@ def make_compensation_pipeline(
     """
     if regressor is None:
         regressor = RBFNetRegressor()
-    elif not is_regressor(regressor):
+    elif not _is_regressor(regressor):
         raise TypeError(
             f"regressor must be a scikit-learn regressor, got {regressor!r} (of type "
             f"{type(regressor).__name__}); e.g. RBFNetRegressor() or LinearRegression()."
