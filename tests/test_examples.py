@@ -40,7 +40,7 @@ def test_there_are_snippets_and_examples():
 
 
 @pytest.mark.parametrize("path", RST_WITH_SNIPPETS, ids=lambda path: path.name)
-def test_user_guide_snippets_run(path):
+def test_user_guide_snippets_run(path, pyplot):
     text = path.read_text(encoding="utf-8")
     blocks = [block for block in CODE_BLOCK.findall(text) if ">>>" in block]
     source = "\n".join("\n".join(line[3:] for line in block.splitlines()) for block in blocks)

@@ -8,14 +8,6 @@ from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import MinMaxScaler, StandardScaler
 
 from sklearn_ifog import RBFNetRegressor, ThermalFeatures, make_compensation_pipeline
-from sklearn_ifog.datasets import make_thermal_campaign
-
-
-@pytest.fixture(scope="module")
-def small_campaign():
-    return make_thermal_campaign(
-        n_units=1, n_runs=1, sampling_period=120.0, random_state=0, return_X_y=True
-    )
 
 
 def test_default_is_the_documented_pipeline():
@@ -29,7 +21,7 @@ def test_default_is_the_documented_pipeline():
 
 
 def test_equals_the_hand_built_pipeline_bit_for_bit(small_campaign):
-    X, y = small_campaign
+    X, y = small_campaign.data, small_campaign.target
     by_hand = Pipeline(
         [
             ("features", ThermalFeatures(temperature="temperature", time="time", run="run")),
