@@ -548,7 +548,7 @@ def test_report_failing_half_way_leaves_the_old_report_unchanged(
 def test_demo_failing_half_way_leaves_nothing(tmp_path, monkeypatch, capsys):
     from sklearn.dummy import DummyRegressor
 
-    from sklearn_ifog.cli import demo
+    from sklearn_ifog.cli import _demo as demo
 
     # two cheap models; the failure comes at the last step, every other file being written
     monkeypatch.setattr(

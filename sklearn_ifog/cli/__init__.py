@@ -19,11 +19,12 @@ behind: see ``sklearn_ifog._io`` for the exact guarantee of the multi-file outpu
 demo's directory, the report, the C export).
 
 Layout: ``_main`` parses and dispatches; ``_commands`` holds ``fit``, ``compensate``,
-``report`` and ``export``; ``demo`` the demo; ``_input`` reads and validates the CSV files;
-``_progress`` draws the progress; ``_common`` holds the exit statuses and the user's error.
+``report`` and ``export``; ``_demo`` the demo (``run_demo``, importable from here);
+``_input`` reads and validates the CSV files; ``_progress`` draws the progress;
+``_common`` holds the exit statuses and the user's error.
 """
 
+from sklearn_ifog.cli._demo import run_demo as run_demo  # importable from here, as before
 from sklearn_ifog.cli._main import main
-from sklearn_ifog.cli.demo import run_demo
 
-__all__ = ["main", "run_demo"]
+__all__ = ["main"]

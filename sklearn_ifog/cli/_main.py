@@ -19,13 +19,13 @@ from sklearn_ifog.cli._common import (
     InputError,
     one_line,
 )
-from sklearn_ifog.cli.demo import DEMO_SIZES, run_demo
+from sklearn_ifog.cli._demo import DEMO_SIZES, run_demo
 
 __all__ = ["main"]
 
 
 def command_demo(args):
-    """``demo``: :func:`~sklearn_ifog.cli.demo.run_demo` into ``--out``."""
+    """``demo``: :func:`~sklearn_ifog.cli._demo.run_demo` into ``--out``."""
     run_demo(Path(args.out), quick=args.quick, size=args.size, n_jobs=args.n_jobs)
     return EXIT_OK
 
