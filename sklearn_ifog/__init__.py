@@ -1,12 +1,15 @@
 """sklearn-ifog: temperature-drift compensation for fibre-optic gyroscopes.
 
-Public names only; see DESIGN.md for the contract.
+Public names only: the feature transformer, the RBF network, the recommended pipeline and
+model persistence. The rest lives in the submodules (``datasets``, ``metrics``,
+``model_selection``, ``export``, ...).
 """
 
 __version__ = "0.1.0.dev0"
 
 from sklearn_ifog.features import ThermalFeatures
 from sklearn_ifog.persistence import TRUSTED_TYPES, load_model, save_model
+from sklearn_ifog.pipeline import make_compensation_pipeline
 from sklearn_ifog.rbf import RBFNetRegressor
 
 __all__ = [
@@ -15,5 +18,6 @@ __all__ = [
     "ThermalFeatures",
     "__version__",
     "load_model",
+    "make_compensation_pipeline",
     "save_model",
 ]

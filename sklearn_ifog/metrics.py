@@ -26,6 +26,7 @@ __all__ = [
     "get_scorer_names",
     "mean_squared_deviation",
     "neg_mean_squared_deviation_scorer",
+    "per_run_metrics",
 ]
 
 #: Earth's sidereal rotation rate in deg/h (7.2921150e-5 rad/s, IERS / WGS 84).
@@ -35,6 +36,8 @@ EARTH_ROTATION_RATE = 15.041067
 # IEEE Std 952-1997, Annex C, Eq. (C.19).
 _BIAS_INSTABILITY_FACTOR = np.sqrt(2.0 * np.log(2.0) / np.pi)
 _SECONDS_PER_SQRT_HOUR = 60.0
+# Label of the whole-data row of the per-run table (parenthesised so no run label collides).
+_ALL_RUNS = "(all runs)"
 
 
 @validate_params(
@@ -576,3 +579,158 @@ def get_scorer_names():
     return sorted(_SCORERS) + [
         name for name in _sklearn_get_scorer_names() if name not in _SCORERS
     ]
+
+
+# -- per-run table ---------------------------------------------------------------------------
+
+
+def _sample_period(time_values):
+    """Median sampling interval, and whether sampling is uniform (within 1 %)."""
+    if time_values is None or time_values.size < 2:
+        return 1.0, time_values is None
+    steps = np.diff(time_values)
+    period = float(np.median(steps))
+    uniform = period > 0 and bool(np.all(np.abs(steps - period) <= 0.01 * period))
+    return period, uniform
+
+
+def _safe_bias_stability(values, period, uniform, window):
+    """Bias stability, or NaN where the run is too short or not uniformly sampled."""
+    if not uniform or window < period or values.size * period < 2 * window:
+        return np.nan
+    window = round(window / period) * period
+    return bias_stability(values, sample_period=period, window=window)
+
+
+def _compensation_arrays(rate, drift, reference, temperature, time):
+    """The inputs of :func:`per_run_metrics` as float arrays of one shape; time defaulted."""
+    rate = np.asarray(rate, dtype=float)
+    n_samples = rate.shape[0]
+    drift = np.asarray(drift, dtype=float)
+    reference = np.broadcast_to(np.asarray(reference, dtype=float), rate.shape)
+    temperature = np.asarray(temperature, dtype=float)
+    time_values = (
+        np.arange(n_samples, dtype=float) if time is None else np.asarray(time, dtype=float)
+    )
+    for name, values in (("drift", drift), ("temperature", temperature), ("time", time_values)):
+        if values.shape != rate.shape:
+            raise ValueError(f"{name} has shape {values.shape}, rate has shape {rate.shape}.")
+    return rate, drift, reference, temperature, time_values
+
+
+def per_run_metrics(
+    *, rate, drift, reference, temperature, time=None, run=None, bias_window=100.0
+):
+    """Measure a compensation run by run: MSD and bias stability, before and after.
+
+    For every run (in order of first appearance): its number of samples, duration,
+    temperature range, the MSD of the raw output ``rate`` and of the compensated output
+    ``rate - drift`` from the reference (the reference paper's Eq. 24), their ratio, and
+    the bias stability of the error before and after (:func:`bias_stability` of
+    ``bias_window``-second averages; NaN where the run is shorter than two windows or not
+    uniformly sampled). With ``run``, a last row ``"(all runs)"`` measures all rows
+    together (its bias stabilities are NaN).
+
+    Parameters
+    ----------
+    rate : array-like of shape (n_samples,)
+        Gyro output, deg/h.
+    drift : array-like of shape (n_samples,)
+        Predicted drift, deg/h; the compensated output is ``rate - drift``.
+    reference : float or array-like of shape (n_samples,)
+        True input rate, deg/h.
+    temperature : array-like of shape (n_samples,)
+        Coil temperature, deg C.
+    time : array-like of shape (n_samples,), default=None
+        Time, seconds; None numbers the samples (an assumed 1 s period).
+    run : array-like of shape (n_samples,), default=None
+        Run label of each row; None means one run. Rows of a run are in time order; runs
+        may be interleaved.
+    bias_window : float, default=100.0
+        Averaging window of the bias stability, seconds.
+
+    Returns
+    -------
+    table : pandas.DataFrame
+        Indexed by ``run``, with columns ``samples``, ``hours``, ``T_min``, ``T_max``,
+        ``msd_before``, ``msd_after``, ``reduction``, ``bias_stab_before``,
+        ``bias_stab_after``. Without ``run``, one row ``"(all runs)"``.
+
+    See Also
+    --------
+    mean_squared_deviation : The MSD of one output.
+    bias_stability : The bias stability of one run.
+    sklearn_ifog.report.compensation_report : This table, figures and a report.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn_ifog.metrics import per_run_metrics
+    >>> time = np.tile(np.arange(0.0, 600.0, 1.0), 2)
+    >>> run = np.repeat(["a", "b"], 600)
+    >>> temperature = 20.0 + np.where(run == "a", 0.01, -0.01) * time
+    >>> drift = 0.1 * (temperature - 20.0)
+    >>> rate = 15.0 + drift + np.where(run == "a", 0.001, -0.001)
+    >>> table = per_run_metrics(
+    ...     rate=rate, drift=drift, reference=15.0, temperature=temperature, time=time, run=run
+    ... )
+    >>> table[["samples", "msd_after"]]
+                samples  msd_after
+    run
+    a               600   1.00e-06
+    b               600   1.00e-06
+    (all runs)     1200   1.00e-06
+    >>> bool((table["reduction"] > 1000).all())
+    True
+    """
+    import pandas as pd
+
+    # The run grouping lives with the report for now (sklearn_ifog.report._run_segments).
+    from sklearn_ifog.report import _run_segments
+
+    rate, drift, reference, temperature, time_values = _compensation_arrays(
+        rate, drift, reference, temperature, time
+    )
+    n_samples = rate.shape[0]
+    compensated = rate - drift
+    segments = _run_segments(None if run is None else np.asarray(run), n_samples)
+    rows = []
+    for label, rows_of_run in segments.items():
+        period, uniform = _sample_period(time_values[rows_of_run])
+        error_before = rate[rows_of_run] - reference[rows_of_run]
+        error_after = compensated[rows_of_run] - reference[rows_of_run]
+        msd_before = float(mean_squared_deviation(reference[rows_of_run], rate[rows_of_run]))
+        msd_after = float(mean_squared_deviation(reference[rows_of_run], compensated[rows_of_run]))
+        rows.append(
+            {
+                "run": label,
+                "samples": int(rows_of_run.size),
+                "hours": float(np.ptp(time_values[rows_of_run]) / 3600.0),
+                "T_min": float(temperature[rows_of_run].min()),
+                "T_max": float(temperature[rows_of_run].max()),
+                "msd_before": msd_before,
+                "msd_after": msd_after,
+                "reduction": msd_before / msd_after if msd_after > 0 else np.inf,
+                "bias_stab_before": _safe_bias_stability(
+                    error_before, period, uniform, bias_window
+                ),
+                "bias_stab_after": _safe_bias_stability(error_after, period, uniform, bias_window),
+            }
+        )
+    table = pd.DataFrame(rows).set_index("run")
+    if run is not None:
+        overall_before = float(mean_squared_deviation(reference, rate))
+        overall_after = float(mean_squared_deviation(reference, compensated))
+        table.loc[_ALL_RUNS] = {
+            "samples": n_samples,
+            "hours": float(table["hours"].sum()),
+            "T_min": float(temperature.min()),
+            "T_max": float(temperature.max()),
+            "msd_before": overall_before,
+            "msd_after": overall_after,
+            "reduction": overall_before / overall_after if overall_after > 0 else np.inf,
+            "bias_stab_before": np.nan,
+            "bias_stab_after": np.nan,
+        }
+    table["samples"] = table["samples"].astype(int)
+    return table

@@ -5,7 +5,7 @@ A thermal-test campaign nests runs inside (unit, azimuth) pairs, so the honest q
 "... the same gyro at another heading?" (leave-one-azimuth-out, within a unit) and "... another
 gyro?" (leave-one-unit-out). The splitters here answer them. They are ordinary scikit-learn
 cross-validators: they take the labels from the columns of ``X`` when ``X`` is a DataFrame
-(the run id travels inside X, see the design notes), or from ``groups``, and work anywhere a
+(the run id travels inside X as a column), or from ``groups``, and work anywhere a
 ``cv=`` is accepted (:class:`~sklearn.model_selection.GridSearchCV`,
 :func:`~sklearn.model_selection.cross_validate`, :func:`compare_regressors`). A run never
 straddles two folds: the unit and azimuth splitters check that every run of ``X`` has one
@@ -50,7 +50,6 @@ from sklearn.kernel_ridge import KernelRidge
 from sklearn.linear_model import LinearRegression, Ridge
 from sklearn.model_selection import BaseCrossValidator, GroupKFold
 from sklearn.neural_network import MLPRegressor
-from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 from sklearn.svm import SVR
 from sklearn.utils import check_random_state, get_tags
@@ -67,6 +66,7 @@ from sklearn_ifog._compat import (
 )
 from sklearn_ifog.features import ThermalFeatures
 from sklearn_ifog.metrics import mean_squared_deviation
+from sklearn_ifog.pipeline import _traditional_terms, make_compensation_pipeline
 from sklearn_ifog.rbf import RBFNetRegressor
 
 __all__ = [
@@ -273,7 +273,7 @@ class LeaveOneUnitOut(_LeaveOneLabelOut):
 
     _label_name = "unit"
 
-    def __init__(self, unit="unit", run="run"):
+    def __init__(self, *, unit="unit", run="run"):
         self.unit = unit
         self.run = run
 
@@ -328,7 +328,7 @@ class LeaveOneAzimuthOut(_LeaveOneLabelOut):
 
     _label_name = "azimuth"
 
-    def __init__(self, unit="unit", azimuth="azimuth", run="run", within_unit=True):
+    def __init__(self, *, unit="unit", azimuth="azimuth", run="run", within_unit=True):
         self.unit = unit
         self.azimuth = azimuth
         self.run = run
@@ -370,7 +370,7 @@ class LeaveOneRunOut(_LeaveOneLabelOut):
 
     _label_name = "run"
 
-    def __init__(self, run="run", unit="unit", within_unit=False):
+    def __init__(self, *, run="run", unit="unit", within_unit=False):
         self.run = run
         self.unit = unit
         self.within_unit = within_unit
@@ -501,10 +501,6 @@ class SubsampledRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
 # --------------------------------------------------------------------------------------------
 
 
-def _traditional_terms(terms):
-    return tuple(term for term in terms if term != "TdT")
-
-
 def default_regressors(*, features=None, max_kernel_samples=600, random_state=0):
     """The models :func:`compare_regressors` compares by default, as an editable dict.
 
@@ -562,12 +558,14 @@ def default_regressors(*, features=None, max_kernel_samples=600, random_state=0)
     rng = check_random_state(random_state)
     seeds = rng.randint(np.iinfo(np.int32).max, size=6)
 
+    feature_params = clone(features).get_params(deep=False)
+
     def pipeline(regressor, *, terms=None, extra=()):
-        feature_step = clone(features)
-        if terms is not None:
-            feature_step.set_params(terms=terms)
-        steps = [("features", feature_step), ("scale", StandardScaler()), *extra]
-        return Pipeline([*steps, ("regressor", regressor)])
+        params = feature_params if terms is None else {**feature_params, "terms": terms}
+        model = make_compensation_pipeline(regressor, **params)
+        # extra steps (a polynomial expansion) go between the scaler and the regressor
+        model.steps[2:2] = list(extra)
+        return model
 
     def scaled_target(regressor):
         return TransformedTargetRegressor(regressor=regressor, transformer=StandardScaler())

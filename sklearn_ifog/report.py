@@ -19,11 +19,9 @@ import numpy as np
 
 from sklearn_ifog import _table
 from sklearn_ifog._io import atomic_path
+from sklearn_ifog.metrics import _ALL_RUNS
 
 __all__ = ["Report", "compensation_report"]
-
-# Label of the whole-data row of the per-run table (parenthesised so no run label collides).
-_ALL_RUNS = "(all runs)"
 
 
 def _format_cell(value, float_format):
@@ -281,31 +279,12 @@ def _relative(path, directory):
     return Path(os.path.relpath(Path(path), Path(directory))).as_posix()
 
 
-def _sample_period(time_values):
-    """Median sampling interval, and whether sampling is uniform (within 1 %)."""
-    if time_values is None or time_values.size < 2:
-        return 1.0, time_values is None
-    steps = np.diff(time_values)
-    period = float(np.median(steps))
-    uniform = period > 0 and bool(np.all(np.abs(steps - period) <= 0.01 * period))
-    return period, uniform
-
-
 def _run_segments(run, n_samples):
     """{run label: row positions (in time order)} in order of first appearance."""
     return {
         _ALL_RUNS if label is None else label: rows
         for label, rows in _table.run_segments(run, n_samples)
     }
-
-
-def _safe_bias_stability(values, period, uniform, window):
-    from sklearn_ifog.metrics import bias_stability
-
-    if not uniform or window < period or values.size * period < 2 * window:
-        return np.nan
-    window = round(window / period) * period
-    return bias_stability(values, sample_period=period, window=window)
 
 
 def compensation_report(
@@ -327,12 +306,13 @@ def compensation_report(
 ):
     """Measure a compensation and write its report (Markdown and HTML) with figures.
 
-    For every run: the MSD of the raw and of the compensated rate from the reference (the
-    reference paper's Eq. 24), their ratio and the bias stability before and after
-    (``bias_window``-second averages, IEEE Std 952 practice; n/a where the run is too short
-    or not uniformly sampled); the raw and compensated rate with the temperature for the
-    first ``max_runs`` runs; and the Allan deviation of the error (output minus reference)
-    before and after compensation, for the longest run.
+    For every run, the table of :func:`~sklearn_ifog.metrics.per_run_metrics`: the MSD of
+    the raw and of the compensated rate from the reference (the reference paper's Eq. 24),
+    their ratio and the bias stability before and after (``bias_window``-second averages,
+    IEEE Std 952 practice; n/a where the run is too short or not uniformly sampled); the raw
+    and compensated rate with the temperature for the first ``max_runs`` runs; and the Allan
+    deviation of the error (output minus reference) before and after compensation, for the
+    longest run.
 
     Parameters
     ----------
@@ -394,156 +374,152 @@ def compensation_report(
     >>> bool(result.table.loc["(all runs)", "reduction"] > 100)
     True
     """
-    import pandas as pd
     from sklearn.utils import Bunch
 
-    from sklearn_ifog.metrics import allan_deviation, mean_squared_deviation
-    from sklearn_ifog.plotting import plot_allan_deviation, plot_compensation, save_figure
+    from sklearn_ifog.metrics import _compensation_arrays, per_run_metrics
 
     directory = Path(directory)
-    rate = np.asarray(rate, dtype=float)
-    n_samples = rate.shape[0]
-    drift = np.asarray(drift, dtype=float)
-    reference = np.broadcast_to(np.asarray(reference, dtype=float), rate.shape)
-    temperature = np.asarray(temperature, dtype=float)
-    time_values = (
-        np.arange(n_samples, dtype=float) if time is None else np.asarray(time, dtype=float)
+    table = per_run_metrics(
+        rate=rate,
+        drift=drift,
+        reference=reference,
+        temperature=temperature,
+        time=time,
+        run=run,
+        bias_window=bias_window,
     )
-    for name, values in (("drift", drift), ("temperature", temperature), ("time", time_values)):
-        if values.shape != rate.shape:
-            raise ValueError(f"{name} has shape {values.shape}, rate has shape {rate.shape}.")
-    compensated = rate - drift
-    segments = _run_segments(None if run is None else np.asarray(run), n_samples)
-
-    rows = []
-    for label, rows_of_run in segments.items():
-        period, uniform = _sample_period(time_values[rows_of_run])
-        error_before = rate[rows_of_run] - reference[rows_of_run]
-        error_after = compensated[rows_of_run] - reference[rows_of_run]
-        msd_before = float(mean_squared_deviation(reference[rows_of_run], rate[rows_of_run]))
-        msd_after = float(mean_squared_deviation(reference[rows_of_run], compensated[rows_of_run]))
-        rows.append(
-            {
-                "run": label,
-                "samples": int(rows_of_run.size),
-                "hours": float(np.ptp(time_values[rows_of_run]) / 3600.0),
-                "T_min": float(temperature[rows_of_run].min()),
-                "T_max": float(temperature[rows_of_run].max()),
-                "msd_before": msd_before,
-                "msd_after": msd_after,
-                "reduction": msd_before / msd_after if msd_after > 0 else np.inf,
-                "bias_stab_before": _safe_bias_stability(
-                    error_before, period, uniform, bias_window
-                ),
-                "bias_stab_after": _safe_bias_stability(error_after, period, uniform, bias_window),
-            }
-        )
-    table = pd.DataFrame(rows).set_index("run")
-    overall_before = float(mean_squared_deviation(reference, rate))
-    overall_after = float(mean_squared_deviation(reference, compensated))
-    if run is not None:
-        table.loc[_ALL_RUNS] = {
-            "samples": n_samples,
-            "hours": float(table["hours"].sum()),
-            "T_min": float(temperature.min()),
-            "T_max": float(temperature.max()),
-            "msd_before": overall_before,
-            "msd_after": overall_after,
-            "reduction": overall_before / overall_after if overall_after > 0 else np.inf,
-            "bias_stab_before": np.nan,
-            "bias_stab_after": np.nan,
-        }
-    table["samples"] = table["samples"].astype(int)
-
+    rate, drift, reference, temperature, time_values = _compensation_arrays(
+        rate, drift, reference, temperature, time
+    )
+    data = Bunch(
+        rate=rate,
+        compensated=rate - drift,
+        reference=reference,
+        temperature=temperature,
+        time=time_values,
+        segments=_run_segments(None if run is None else np.asarray(run), rate.shape[0]),
+        has_runs=run is not None,
+    )
     if report is None:
         report = Report(title)
+    _add_summary(report, heading, data, table, data_name, bias_window, time is None)
+    figures = _add_compensation_figures(report, directory, data, max_runs)
+    figures += _add_allan_deviation(report, directory, data)
+    if model_metadata:
+        _add_model(report, model_metadata)
+    paths = report.write(directory)
+    return Bunch(report=report, table=table, figures=figures, paths=paths)
+
+
+# -- the sections of compensation_report -----------------------------------------------------
+
+
+def _add_summary(report, heading, data, table, data_name, bias_window, no_time):
+    """The heading, what was measured, the overall MSD and the per-run table."""
+    from sklearn_ifog.metrics import mean_squared_deviation
+
     stamp = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     report.add_heading(heading)
     source = f" of {data_name}" if data_name else ""
     report.add_paragraph(
-        f"{n_samples} samples{source} in {len(segments)} run(s), compensated with the model "
-        f"below (report made {stamp}). MSD is the mean squared deviation of the output from "
-        "the reference rate, (deg/h)^2 (the reference paper's Eq. 24); the bias stability is "
-        f"the standard deviation of {bias_window:g} s averages of the error, deg/h."
+        f"{data.rate.shape[0]} samples{source} in {len(data.segments)} run(s), compensated "
+        f"with the model below (report made {stamp}). MSD is the mean squared deviation of "
+        "the output from the reference rate, (deg/h)^2 (the reference paper's Eq. 24); the "
+        f"bias stability is the standard deviation of {bias_window:g} s averages of the "
+        "error, deg/h."
     )
-    if time is None:
+    if no_time:
         report.add_paragraph(
             "No time was given: samples are numbered, and durations, bias stability and the "
             "Allan deviation assume 1 s between samples."
         )
+    overall_before = float(mean_squared_deviation(data.reference, data.rate))
+    overall_after = float(mean_squared_deviation(data.reference, data.compensated))
     report.add_paragraph(
         f"Overall MSD: {overall_before:.3g} before, {overall_after:.3g} after compensation "
         f"(reduction {table.loc[_ALL_RUNS, 'reduction']:.3g}x)."
     )
     report.add_table(table, caption="Per-run MSD and bias stability, before and after.")
 
+
+def _add_compensation_figures(report, directory, data, max_runs):
+    """Raw and compensated output of the first ``max_runs`` runs; the figures' paths."""
+    from sklearn_ifog.plotting import plot_compensation, save_figure
+
     figures = []
-    labels = list(segments)
+    labels = list(data.segments)
     shown = labels[:max_runs]
     report.add_heading("Raw and compensated output", level=3)
     if len(shown) < len(labels):
         report.add_paragraph(f"The first {len(shown)} of {len(labels)} runs are drawn.")
     for index, label in enumerate(shown):
-        rows_of_run = segments[label]
+        rows_of_run = data.segments[label]
         ax, _ = plot_compensation(
-            time_values[rows_of_run] - time_values[rows_of_run][0],
-            rate[rows_of_run],
-            compensated[rows_of_run],
-            temperature[rows_of_run],
-            reference=reference[rows_of_run],
-            title=f"run {label}" if run is not None else None,
+            data.time[rows_of_run] - data.time[rows_of_run][0],
+            data.rate[rows_of_run],
+            data.compensated[rows_of_run],
+            data.temperature[rows_of_run],
+            reference=data.reference[rows_of_run],
+            title=f"run {label}" if data.has_runs else None,
         )
-        path = save_figure(ax, directory / f"compensation_{index + 1}.png")
+        path = save_figure(ax, Path(directory) / f"compensation_{index + 1}.png")
         figures.append(path)
         report.add_figure(
             path,
             f"Run {label}: raw (grey) and compensated output, reference (dashed) and "
             "temperature (red, right axis).",
         )
+    return figures
 
-    longest = max(labels, key=lambda label: segments[label].size)
-    rows_of_run = segments[longest]
-    period, uniform = _sample_period(time_values[rows_of_run])
+
+def _add_allan_deviation(report, directory, data):
+    """Allan deviation of the error of the longest run, before and after; [path] or []."""
+    from sklearn_ifog.metrics import _sample_period, allan_deviation
+    from sklearn_ifog.plotting import plot_allan_deviation, save_figure
+
+    longest = max(data.segments, key=lambda label: data.segments[label].size)
+    rows_of_run = data.segments[longest]
+    period, uniform = _sample_period(data.time[rows_of_run])
     report.add_heading("Allan deviation", level=3)
-    if uniform and rows_of_run.size >= 16:
-        curves = {}
-        for name, values in (("raw", rate), ("compensated", compensated)):
-            error = values[rows_of_run] - reference[rows_of_run]
-            curves[name] = allan_deviation(error, sample_period=period)
-        ax = plot_allan_deviation(curves, title=f"run {longest}" if run is not None else None)
-        path = save_figure(ax, directory / "allan_deviation.png")
-        figures.append(path)
-        report.add_figure(
-            path,
-            f"Overlapping Allan deviation of the error before and after compensation "
-            f"(run {longest}, the longest; sample period {period:g} s).",
-        )
-    else:
+    if not (uniform and rows_of_run.size >= 16):
         report.add_paragraph(f"Not computed: run {longest} is not uniformly sampled or too short.")
+        return []
+    curves = {}
+    for name, values in (("raw", data.rate), ("compensated", data.compensated)):
+        error = values[rows_of_run] - data.reference[rows_of_run]
+        curves[name] = allan_deviation(error, sample_period=period)
+    ax = plot_allan_deviation(curves, title=f"run {longest}" if data.has_runs else None)
+    path = save_figure(ax, Path(directory) / "allan_deviation.png")
+    report.add_figure(
+        path,
+        f"Overlapping Allan deviation of the error before and after compensation "
+        f"(run {longest}, the longest; sample period {period:g} s).",
+    )
+    return [path]
 
-    if model_metadata:
-        report.add_heading("Model")
-        extra = model_metadata.get("extra") or {}
-        details = {
-            "model class": model_metadata.get("model_class"),
-            "saved": model_metadata.get("created"),
-            "sklearn-ifog version": model_metadata.get("sklearn_ifog_version"),
-            "scikit-learn version": model_metadata.get("sklearn_version"),
-            "input columns": ", ".join(model_metadata.get("feature_columns") or []) or None,
-        }
-        training = extra.get("training") or {}
-        if training:
-            details["trained on"] = (
-                f"{training.get('file')} ({training.get('n_samples')} samples; training MSD "
-                f"{training.get('msd_before', np.nan):.3g} -> "
-                f"{training.get('msd_after', np.nan):.3g})"
-            )
-        report.add_table(
-            {
-                "property": list(details),
-                "value": ["n/a" if value is None else str(value) for value in details.values()],
-            },
-            index=False,
+
+def _add_model(report, model_metadata):
+    """The model's class, versions, input columns and training MSDs."""
+    report.add_heading("Model")
+    extra = model_metadata.get("extra") or {}
+    details = {
+        "model class": model_metadata.get("model_class"),
+        "saved": model_metadata.get("created"),
+        "sklearn-ifog version": model_metadata.get("sklearn_ifog_version"),
+        "scikit-learn version": model_metadata.get("sklearn_version"),
+        "input columns": ", ".join(model_metadata.get("feature_columns") or []) or None,
+    }
+    training = extra.get("training") or {}
+    if training:
+        details["trained on"] = (
+            f"{training.get('file')} ({training.get('n_samples')} samples; training MSD "
+            f"{training.get('msd_before', np.nan):.3g} -> "
+            f"{training.get('msd_after', np.nan):.3g})"
         )
-    paths = report.write(directory)
-    return Bunch(report=report, table=table, figures=figures, paths=paths)
+    report.add_table(
+        {
+            "property": list(details),
+            "value": ["n/a" if value is None else str(value) for value in details.values()],
+        },
+        index=False,
+    )

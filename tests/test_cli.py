@@ -14,7 +14,8 @@ from sklearn.preprocessing import StandardScaler
 
 import sklearn_ifog
 from sklearn_ifog import RBFNetRegressor, ThermalFeatures
-from sklearn_ifog.cli import _Progress, main
+from sklearn_ifog.cli import main
+from sklearn_ifog.cli._progress import Progress
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.metrics import mean_squared_deviation
 from sklearn_ifog.persistence import load_model, save_model
@@ -272,11 +273,9 @@ def test_python_dash_m_runs_the_cli():
 
 def test_demo_writes_what_it_says(tmp_path, capsys):
     # The test suite runs the hidden "tiny" size (same steps as --quick and the full demo on a
-    # smaller campaign and model set); `demo --quick` itself takes 20-40 s on two cores.
+    # smaller campaign and model set); `demo --quick` prints how long it took.
     out = tmp_path / "demo"
-    start = time.perf_counter()
     assert main(["demo", "--size", "tiny", "--n-jobs", "1", "--out", str(out)]) == 0
-    elapsed = time.perf_counter() - start
     captured = capsys.readouterr()
 
     said = {
@@ -300,7 +299,6 @@ def test_demo_writes_what_it_says(tmp_path, capsys):
     argv = ["compensate", str(out / "model.joblib"), str(out / "campaign.csv")]
     assert main([*argv, "--drift-column", "drift_predicted", "-o", str(out_csv)]) == 0
     assert len(_read(out_csv)) == len(_read(out / "campaign.csv"))
-    assert elapsed < 60, f"the tiny demo took {elapsed:.0f} s"
 
 
 def test_skops_model_file_round_trip(campaign_csv, tmp_path):
@@ -332,7 +330,7 @@ class _Terminal(io.StringIO):
 
 def test_progress_redraws_a_live_line_on_a_terminal_and_logs_otherwise():
     terminal = _Terminal()
-    progress = _Progress(n_steps=2, stream=terminal)
+    progress = Progress(n_steps=2, stream=terminal)
     with progress.step("fitting", total=4) as advance:
         advance(2)
         time.sleep(0.6)  # long enough for at least one redraw (every 0.25 s)
@@ -344,7 +342,7 @@ def test_progress_redraws_a_live_line_on_a_terminal_and_logs_otherwise():
     assert "\r[2/2] failing: failed after 0.0 s" in shown
 
     log = io.StringIO()
-    progress = _Progress(n_steps=1, stream=log)
+    progress = Progress(n_steps=1, stream=log)
     with progress.step("comparing", total=2) as advance:
         advance()
         advance()
@@ -394,3 +392,179 @@ def test_interleaved_runs_are_accepted_and_compensated_row_by_row(
         _read(interleaved_out)["drift"], _read(straight_out)["drift"].to_numpy()[order],
         rtol=0, atol=1e-12,
     )  # fmt: skip
+
+
+# -- exit statuses of errors that are not the user's --------------------------------------
+
+
+def _raise(error):
+    def raiser(*args, **kwargs):
+        raise error
+
+    return raiser
+
+
+def test_internal_error_exits_1_and_debug_reraises(
+    campaign_csv, fitted_model, tmp_path, monkeypatch, capsys
+):
+    out = tmp_path / "out.csv"
+    argv = ["compensate", str(fitted_model), str(campaign_csv), "-o", str(out)]
+    monkeypatch.setattr(Pipeline, "predict", _raise(RuntimeError("boom")))
+    assert main(argv) == 1
+    message = capsys.readouterr().err
+    assert message.count("\n") == 1, message
+    assert "compensate: internal error: RuntimeError: boom" in message
+    assert "--debug" in message
+    with pytest.raises(RuntimeError, match="boom"):
+        main(["--debug", *argv])
+    assert _listing(tmp_path) == []
+
+
+def test_interrupt_exits_130_and_writes_nothing(
+    campaign_csv, fitted_model, tmp_path, monkeypatch, capsys
+):
+    out = tmp_path / "out.csv"
+    monkeypatch.setattr(Pipeline, "predict", _raise(KeyboardInterrupt()))
+    assert main(["compensate", str(fitted_model), str(campaign_csv), "-o", str(out)]) == 130
+    assert capsys.readouterr().err == "sklearn-ifog compensate: interrupted\n"
+    assert _listing(tmp_path) == []
+
+
+def test_unexpected_error_while_loading_a_model_is_internal_not_bad_input(
+    campaign_csv, fitted_model, tmp_path, monkeypatch, capsys
+):
+    import joblib
+
+    # a bug (or a broken installation) inside loading is not the user's file's fault
+    monkeypatch.setattr(joblib, "load", _raise(RuntimeError("unexpected state")))
+    out = tmp_path / "out.csv"
+    assert main(["compensate", str(fitted_model), str(campaign_csv), "-o", str(out)]) == 1
+    message = capsys.readouterr().err
+    assert "internal error: RuntimeError: unexpected state" in message
+    assert "cannot load the model" not in message
+    # while a file that is not a model stays bad input
+    monkeypatch.undo()
+    truncated = tmp_path / "truncated.joblib"
+    truncated.write_bytes(fitted_model.read_bytes()[:100])
+    assert main(["compensate", str(truncated), str(campaign_csv), "-o", str(out)]) == 2
+    assert "cannot load the model" in capsys.readouterr().err
+    assert _listing(tmp_path) == ["truncated.joblib"]
+
+
+def test_export_of_a_model_it_cannot_export_exits_2(campaign_csv, tmp_path, capsys):
+    from sklearn.neighbors import KNeighborsRegressor
+
+    from sklearn_ifog import make_compensation_pipeline
+
+    frame = _read(campaign_csv)
+    model = make_compensation_pipeline(KNeighborsRegressor())
+    model.fit(frame[INPUT_COLUMNS], frame["rate"] - frame["reference"])
+    path = tmp_path / "knn.joblib"
+    save_model(model, path, metadata={"columns": {"temperature": ["temperature"]}})
+    for option, target in (("--c", tmp_path / "c"), ("--json", tmp_path / "knn.json")):
+        assert main(["export", str(path), option, str(target)]) == 2
+        message = capsys.readouterr().err
+        assert message.count("\n") == 1, message
+        assert "cannot export" in message
+        assert "KNeighborsRegressor" in message
+    assert _listing(tmp_path) == ["knn.joblib"]
+
+
+def test_export_of_an_untrusted_skops_file_exits_2(campaign_csv, tmp_path, capsys):
+    import operator
+
+    from sklearn.compose import TransformedTargetRegressor
+    from sklearn.linear_model import LinearRegression
+
+    from sklearn_ifog import make_compensation_pipeline
+
+    pytest.importorskip("skops")
+    frame = _read(campaign_csv)
+    regressor = TransformedTargetRegressor(
+        LinearRegression(), func=operator.pos, inverse_func=operator.pos, check_inverse=False
+    )
+    model = make_compensation_pipeline(regressor)
+    model.fit(frame[INPUT_COLUMNS], frame["rate"] - frame["reference"])
+    path = tmp_path / "untrusted.skops"
+    save_model(model, path)
+    assert main(["export", str(path), "--json", str(tmp_path / "m.json")]) == 2
+    message = capsys.readouterr().err
+    assert message.count("\n") == 1, message
+    assert "cannot load the model" in message
+    assert "operator.pos" in message
+    assert _listing(tmp_path) == ["untrusted.skops"]
+
+
+# -- multi-file outputs: all or nothing ----------------------------------------------------
+
+
+def _snapshot(directory):
+    return {path.name: path.read_bytes() for path in directory.iterdir()}
+
+
+def _failing_after(function, n_calls, error):
+    """``function``, raising ``error`` from its call number ``n_calls + 1`` on."""
+    calls = []
+
+    def wrapper(*args, **kwargs):
+        calls.append(1)
+        if len(calls) > n_calls:
+            raise error
+        return function(*args, **kwargs)
+
+    return wrapper
+
+
+def test_report_failing_half_way_leaves_the_old_report_unchanged(
+    campaign_csv, fitted_model, tmp_path, monkeypatch, capsys
+):
+    from sklearn_ifog import plotting
+
+    out = tmp_path / "report"
+    argv = ["report", str(fitted_model), str(campaign_csv), "--out", str(out)]
+    assert main(argv) == 0
+    (out / "notes.txt").write_text("the user's own file")
+    before = _snapshot(out)
+    assert {"report.md", "report.html", "compensation_1.png", "notes.txt"} <= set(before)
+    capsys.readouterr()
+
+    # the second figure fails: the first one is already written (in the staging directory)
+    monkeypatch.setattr(
+        plotting, "save_figure", _failing_after(plotting.save_figure, 1, OSError("disk full"))
+    )
+    assert main(argv) == 1
+    assert "OSError: disk full" in capsys.readouterr().err
+    assert _snapshot(out) == before
+    assert _listing(tmp_path) == ["report"]  # no staging directory left
+
+    fresh = tmp_path / "fresh"
+    monkeypatch.setattr(
+        plotting, "save_figure", _failing_after(plotting.save_figure, 1, OSError("disk full"))
+    )
+    assert main([*argv[:-1], str(fresh)]) == 1
+    assert _listing(tmp_path) == ["report"]  # no partial directory
+
+
+def test_demo_failing_half_way_leaves_nothing(tmp_path, monkeypatch, capsys):
+    from sklearn.dummy import DummyRegressor
+
+    from sklearn_ifog.cli import _demo as demo
+
+    # two cheap models; the failure comes at the last step, every other file being written
+    monkeypatch.setattr(
+        demo,
+        "_regressors",
+        lambda settings: {
+            "raw": DummyRegressor(strategy="constant", constant=0.0),
+            "bias": DummyRegressor(),
+        },
+    )
+    monkeypatch.setattr(demo, "_write_campaign", _raise(OSError("disk full")))
+    out = tmp_path / "demo"
+    out.mkdir()
+    (out / "campaign.csv").write_text("an older campaign")
+    before = _snapshot(out)
+    assert main(["demo", "--size", "tiny", "--n-jobs", "1", "--out", str(out)]) == 1
+    assert "[7/7] writing the campaign as CSV: failed after" in capsys.readouterr().err
+    assert _snapshot(out) == before
+    assert _listing(tmp_path) == ["demo"]

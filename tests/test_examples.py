@@ -40,7 +40,7 @@ def test_there_are_snippets_and_examples():
 
 
 @pytest.mark.parametrize("path", RST_WITH_SNIPPETS, ids=lambda path: path.name)
-def test_user_guide_snippets_run(path):
+def test_user_guide_snippets_run(path, pyplot):
     text = path.read_text(encoding="utf-8")
     blocks = [block for block in CODE_BLOCK.findall(text) if ">>>" in block]
     source = "\n".join("\n".join(line[3:] for line in block.splitlines()) for block in blocks)
@@ -98,7 +98,8 @@ def test_msd_formatting_matches_the_paper():
 
 def test_getting_started_snippet_compensates(capsys):
     text = (DOCS / "getting_started.rst").read_text(encoding="utf-8")
-    (block,) = [block for block in CODE_BLOCK.findall(text) if "make_pipeline" in block]
+    blocks = CODE_BLOCK.findall(text)
+    (block,) = [block for block in blocks if "make_compensation_pipeline" in block]
     namespace = {}
     exec("\n".join(line[3:] for line in block.splitlines()), namespace)
     before, after = (float(line) for line in capsys.readouterr().out.split())

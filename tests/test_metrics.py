@@ -4,6 +4,7 @@ import pickle
 
 import allantools
 import numpy as np
+import pandas as pd
 import pytest
 from sklearn.datasets import make_regression
 from sklearn.linear_model import Ridge
@@ -355,3 +356,69 @@ def test_get_scorer():
     assert len(names) == len(set(names))
     with pytest.raises(ValueError, match="'nope' is not a valid scoring value"):
         get_scorer("nope")
+
+
+# -- per_run_metrics ----------------------------------------------------------------------
+
+
+def _two_runs(rng):
+    n = 400
+    time = np.tile(np.arange(n, dtype=float), 2)
+    run = np.repeat([7, 3], n)
+    temperature = 20.0 + np.where(run == 7, 0.02, -0.02) * time
+    drift = 0.05 * (temperature - 20.0)
+    reference = 10.0
+    rate = reference + drift + rng.normal(0.0, 0.01, 2 * n)
+    predicted = drift + rng.normal(0.0, 0.002, 2 * n)
+    return dict(rate=rate, drift=predicted, reference=reference, temperature=temperature,
+                time=time, run=run)  # fmt: skip
+
+
+def test_per_run_metrics_measures_each_run_and_all_runs():
+    from sklearn_ifog.metrics import bias_stability, per_run_metrics
+
+    data = _two_runs(np.random.default_rng(0))
+    table = per_run_metrics(**data)
+    assert table.index.tolist() == [7, 3, "(all runs)"]  # order of first appearance
+    compensated = data["rate"] - data["drift"]
+    for label in (7, 3):
+        rows = data["run"] == label
+        before = np.mean((data["rate"][rows] - 10.0) ** 2)
+        after = np.mean((compensated[rows] - 10.0) ** 2)
+        assert table.loc[label, "samples"] == rows.sum()
+        assert table.loc[label, "hours"] == pytest.approx(399.0 / 3600.0)
+        assert table.loc[label, "T_min"] == data["temperature"][rows].min()
+        assert table.loc[label, "msd_before"] == pytest.approx(before, rel=1e-12)
+        assert table.loc[label, "msd_after"] == pytest.approx(after, rel=1e-12)
+        assert table.loc[label, "reduction"] == pytest.approx(before / after, rel=1e-12)
+        expected = bias_stability(compensated[rows] - 10.0, sample_period=1.0, window=100.0)
+        assert table.loc[label, "bias_stab_after"] == pytest.approx(expected, rel=1e-12)
+    overall = table.loc["(all runs)"]
+    assert overall["samples"] == 800
+    assert overall["msd_after"] == pytest.approx(np.mean((compensated - 10.0) ** 2), rel=1e-12)
+    assert np.isnan(overall["bias_stab_before"])
+
+
+def test_per_run_metrics_does_not_depend_on_how_runs_are_interleaved():
+    from sklearn_ifog.metrics import per_run_metrics
+
+    data = _two_runs(np.random.default_rng(1))
+    order = np.argsort(np.tile(np.arange(400), 2), kind="stable")  # rows alternate 7, 3, 7, ...
+    shuffled = {key: value[order] if np.ndim(value) else value for key, value in data.items()}
+    pd.testing.assert_frame_equal(per_run_metrics(**shuffled), per_run_metrics(**data))
+
+
+def test_per_run_metrics_without_runs_or_time_and_bad_shapes():
+    from sklearn_ifog.metrics import per_run_metrics
+
+    data = _two_runs(np.random.default_rng(2))
+    one = per_run_metrics(
+        rate=data["rate"][:50], drift=data["drift"][:50], reference=10.0,
+        temperature=data["temperature"][:50],
+    )  # fmt: skip
+    assert one.index.tolist() == ["(all runs)"]
+    assert one.loc["(all runs)", "hours"] == pytest.approx(49.0 / 3600.0)  # 1 s per sample
+    assert np.isnan(one.loc["(all runs)", "bias_stab_before"])  # shorter than two windows
+    with pytest.raises(ValueError, match="temperature has shape"):
+        per_run_metrics(rate=data["rate"], drift=data["drift"], reference=10.0,
+                        temperature=data["temperature"][:5])  # fmt: skip

@@ -320,14 +320,6 @@ def test_compare_regressors_bad_input(drift_frame):
 # ---------------------------------------------------------------------------------------------
 
 
-@pytest.fixture(scope="module")
-def small_campaign():
-    # One unit, three runs at each of two azimuths, 60 s samples (about 1 900 rows).
-    return make_thermal_campaign(
-        n_units=1, n_runs=3, azimuths=(0.0, 90.0), sampling_period=60.0, random_state=0
-    )
-
-
 @pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
 def test_default_comparison_on_a_small_campaign(small_campaign):
     X, y = small_campaign.data, small_campaign.target
@@ -396,3 +388,12 @@ def test_run_spanning_two_units_is_refused_within_unit_run_splits():
         LeaveOneRunOut(within_unit=True).get_n_splits(X)
     # Pooled leave-one-run-out keeps every run whole whatever its units.
     assert LeaveOneRunOut().get_n_splits(X) == X["run"].nunique()
+
+
+@pytest.mark.parametrize(
+    "splitter", [LeaveOneUnitOut, LeaveOneAzimuthOut, LeaveOneRunOut], ids=lambda c: c.__name__
+)
+def test_splitter_parameters_are_keyword_only(splitter):
+    with pytest.raises(TypeError, match="positional"):
+        splitter("unit")
+    assert splitter(run="id").run == "id"

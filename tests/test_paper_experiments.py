@@ -27,13 +27,12 @@ from sklearn.dummy import DummyRegressor
 from sklearn.linear_model import LinearRegression
 
 from sklearn_ifog import ThermalFeatures
-from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.experiments import run_paper_experiments
 
 
 @pytest.fixture(scope="module")
-def campaign():
-    return make_thermal_campaign(n_runs=5, sampling_period=60.0, random_state=0)  # the default
+def campaign(default_campaign):
+    return default_campaign
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,335 @@
+"""The commands ``fit``, ``compensate``, ``report`` and ``export``: wiring over the library.
+
+Each ``command_*`` function takes the parsed arguments, validates the user's input (an
+:class:`~sklearn_ifog.cli._common.InputError` for anything the user can fix), calls the
+library and prints one summary; it returns the exit status.
+"""
+
+import pickle
+import sys
+import warnings
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from sklearn_ifog.cli._common import EXIT_OK, PROGRAM, InputError, one_line, print_table
+from sklearn_ifog.cli._input import (
+    Columns,
+    _labels,
+    model_input,
+    read_csv,
+    read_rate,
+    read_reference,
+    require_columns,
+)
+
+# What loading a model raises when the file is not a model this package can read: a
+# missing or unreadable file, not a pickle or zip, truncated, refused by skops (untrusted
+# types: a TypeError), written by something else (a ValueError), or naming classes this
+# installation does not have. Anything else is a bug, reported as an internal error.
+_NOT_A_MODEL = (
+    OSError,
+    EOFError,
+    ValueError,
+    TypeError,
+    KeyError,
+    ImportError,
+    AttributeError,
+    pickle.UnpicklingError,
+    zipfile.BadZipFile,
+)
+
+
+def check_output_parent(path):
+    """An InputError unless the directory ``path`` would be written in exists."""
+    parent = Path(path).parent
+    if not parent.is_dir():
+        raise InputError(f"{path}: the directory {parent} does not exist")
+
+
+def check_output_directory(out):
+    """An InputError unless ``out`` can be made (or replaced) as an output directory."""
+    out = Path(out)
+    check_output_parent(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{out} exists and is not a directory")
+
+
+def load_model(path):
+    """(model, metadata) from ``path``; version warnings become one stderr line each."""
+    from sklearn_ifog import persistence
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such model file")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            model, metadata = persistence.load_model(path, return_metadata=True)
+        except _NOT_A_MODEL as error:
+            raise InputError(f"{path}: cannot load the model: {one_line(error)}") from None
+    for warning in caught:
+        print(f"{PROGRAM}: warning: {one_line(warning.message)}", file=sys.stderr)
+    return model, metadata
+
+
+def _predict(model, X, path):
+    try:
+        prediction = np.asarray(model.predict(X), dtype=np.float64)
+    except (ValueError, TypeError) as error:
+        raise InputError(f"{path}: {one_line(error)}") from None
+    return prediction.reshape(X.shape[0])
+
+
+def _cv_splitter(args, frame, columns, path):
+    """(splitter, groups) for --cv/--groups, or (None, None) when no CV was asked for."""
+    from sklearn.model_selection import LeaveOneGroupOut
+
+    if args.cv is None and args.groups is None:
+        return None, None
+    if args.groups is not None:
+        name, role = args.groups, "given by --groups"
+    elif args.cv == "run":
+        name, role = columns.run, f"the run column of --cv {args.cv}"
+        if name is None:
+            raise InputError("--cv run needs the run column: give --run COL (or --groups COL)")
+    elif args.cv == "azimuth" and columns.azimuth is not None:
+        name, role = columns.azimuth, "given by --azimuth"
+    else:
+        name = args.cv
+        role = f"the default group column of --cv {args.cv}; name another with --groups"
+    require_columns(frame, [(role, name)], path)
+    groups = _labels(frame, name, role, path)
+    n_groups = np.unique(groups).size
+    if n_groups < 2:
+        raise InputError(
+            f"{path}: cross-validation over column {name!r} needs at least two distinct "
+            f"values, found {n_groups}"
+        )
+    if columns.run is not None:
+        runs = _labels(frame, columns.run, "--run", path)
+        pairs = np.unique(np.column_stack([runs.astype(str), groups.astype(str)]), axis=0)
+        if np.unique(pairs[:, 0]).size != pairs.shape[0]:
+            raise InputError(
+                f"{path}: a run straddles several values of {name!r}; each run must belong "
+                "to one cross-validation group"
+            )
+    return LeaveOneGroupOut(), groups
+
+
+def _fit_columns(args):
+    """The column roles given to ``fit``, checked for consistency."""
+    if args.latitude is not None and args.reference is not None:
+        raise InputError("give either --reference COL or --latitude DEG --azimuth COL, not both")
+    if args.latitude is not None and args.azimuth is None:
+        raise InputError("--latitude needs --azimuth COL (the azimuth of each row, degrees)")
+    if args.latitude is not None and not -90.0 <= args.latitude <= 90.0:
+        raise InputError(f"--latitude must be in [-90, 90] degrees, got {args.latitude:g}")
+    columns = Columns(
+        temperature=args.temperature,
+        time=args.time,
+        run=args.run,
+        rate=args.rate or "rate",
+        reference=None if args.latitude is not None else (args.reference or "reference"),
+        latitude=args.latitude,
+        azimuth=args.azimuth,
+    )
+    if args.rate is None:
+        columns.defaulted.add("--rate")
+    if args.reference is None and args.latitude is None:
+        columns.defaulted.add("--reference")
+    return columns
+
+
+def _build_pipeline(columns, args):
+    """The package's pipeline on the given columns, with the regressor of ``--model``."""
+    from sklearn.linear_model import LinearRegression
+
+    from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
+
+    if args.model == "linear":
+        regressor = LinearRegression()
+    else:
+        regressor = RBFNetRegressor(random_state=args.random_state)
+    temperature = columns.temperature[0] if len(columns.temperature) == 1 else columns.temperature
+    return make_compensation_pipeline(
+        regressor,
+        temperature=temperature,
+        time=columns.time,
+        run=columns.run,
+        terms=tuple(args.terms),
+    )
+
+
+def _cross_validate(args, pipeline, X, target, splitter, groups, path):
+    """compare_regressors of the pipeline against no compensation and a constant bias."""
+    from sklearn.dummy import DummyRegressor
+
+    from sklearn_ifog.model_selection import compare_regressors
+
+    candidates = {
+        "raw": DummyRegressor(strategy="constant", constant=0.0),
+        "bias": DummyRegressor(strategy="mean"),
+        args.model: pipeline,
+    }
+    try:
+        summary = compare_regressors(
+            X, target, regressors=candidates, cv=splitter, groups=groups, n_jobs=args.n_jobs
+        )
+    except (ValueError, TypeError) as error:
+        raise InputError(f"{path}: cross-validation failed: {one_line(error)}") from None
+    print_table(
+        f"Cross-validated MSD ((deg/h)^2), one fold per value of the {args.cv or 'group'} "
+        "column left out:",
+        summary[["msd_before", "msd_after", "reduction", "n_folds"]],
+    )
+    row = summary.loc[args.model]
+    return {
+        "kind": args.cv or "groups",
+        "msd_before": float(row["msd_before"]),
+        "msd_after": float(row["msd_after"]),
+        "n_folds": int(row["n_folds"]),
+    }
+
+
+def command_fit(args):
+    """``fit``: read, (cross-validate,) fit, save with the column roles."""
+    from sklearn_ifog.metrics import mean_squared_deviation
+    from sklearn_ifog.persistence import save_model
+
+    columns = _fit_columns(args)
+    check_output_parent(args.output)
+    path = Path(args.data)
+    frame = read_csv(path)
+    X, _ = model_input(frame, columns, path)
+    target = read_rate(frame, columns, path) - read_reference(frame, columns, path)
+    splitter, groups = _cv_splitter(args, frame, columns, path)
+    pipeline = _build_pipeline(columns, args)
+    metadata = {"columns": columns.as_dict()}
+    if splitter is not None:
+        cross_validation = _cross_validate(args, pipeline, X, target, splitter, groups, path)
+    try:
+        pipeline.fit(X, target)
+    except (ValueError, TypeError) as error:
+        raise InputError(f"{path}: {one_line(error)}") from None
+    prediction = np.asarray(pipeline.predict(X), dtype=np.float64).reshape(-1)
+    msd_before = float(mean_squared_deviation(target, np.zeros_like(target)))
+    msd_after = float(mean_squared_deviation(target, prediction))
+    metadata["training"] = {
+        "file": path.name,
+        "n_samples": int(X.shape[0]),
+        "msd_before": msd_before,
+        "msd_after": msd_after,
+    }
+    if splitter is not None:
+        metadata["cross_validation"] = cross_validation
+    save_model(pipeline, args.output, metadata=metadata)
+    print(
+        f"\nFitted {args.model} on {X.shape[0]} rows of {path}: training MSD "
+        f"{msd_before:.3g} -> {msd_after:.3g} (deg/h)^2 (reduction {msd_before / msd_after:.3g}x)."
+    )
+    print(f"Wrote the model to {args.output}")
+    return EXIT_OK
+
+
+def _compensate_frame(model, metadata, model_path, data_path):
+    """(frame, columns, rate, drift) for a model and a CSV, everything validated."""
+    columns = Columns.from_metadata(metadata, model_path)
+    frame = read_csv(data_path)
+    X, _ = model_input(frame, columns, data_path)
+    rate = read_rate(frame, columns, data_path)
+    drift = _predict(model, X, data_path)
+    return frame, columns, rate, drift
+
+
+def command_compensate(args):
+    """``compensate``: the CSV with the predicted drift and the compensated rate added."""
+    from sklearn_ifog._io import atomic_path
+
+    model_path, data_path = Path(args.model), Path(args.data)
+    check_output_parent(args.output)
+    model, metadata = load_model(model_path)
+    frame, _, rate, drift = _compensate_frame(model, metadata, model_path, data_path)
+    for option, name in (
+        ("--drift-column", args.drift_column),
+        ("--compensated-column", args.compensated_column),
+    ):
+        if name in frame.columns:
+            raise InputError(
+                f"{data_path} already has a column {name!r}; name the new column with {option}"
+            )
+    if args.drift_column == args.compensated_column:
+        raise InputError("--drift-column and --compensated-column must differ")
+    # the input columns are written back as the text they were (no reformatted numbers)
+    output = read_csv(data_path, as_text=True)
+    output[args.drift_column] = drift
+    output[args.compensated_column] = rate - drift
+    with atomic_path(args.output) as temporary:
+        output.to_csv(temporary, index=False)
+    print(
+        f"Compensated {len(output)} rows of {data_path}; wrote {args.output} with columns "
+        f"{args.drift_column!r} and {args.compensated_column!r} added."
+    )
+    return EXIT_OK
+
+
+def command_report(args):
+    """``report``: per-run metrics, figures and the report, in one staged directory."""
+    from sklearn_ifog._io import staged_directory
+    from sklearn_ifog.report import compensation_report
+
+    model_path, data_path = Path(args.model), Path(args.data)
+    check_output_directory(args.out)
+    model, metadata = load_model(model_path)
+    frame, columns, rate, drift = _compensate_frame(model, metadata, model_path, data_path)
+    if not columns.has_reference():
+        raise InputError(f"{model_path}: the model has no reference column to measure against")
+    reference = read_reference(frame, columns, data_path)
+    time_values = None if columns.time is None else frame[columns.time].to_numpy(float)
+    runs = None if columns.run is None else frame[columns.run].to_numpy()
+    with staged_directory(args.out) as staging:
+        written = compensation_report(
+            staging,
+            rate=rate,
+            drift=drift,
+            reference=reference,
+            temperature=frame[columns.temperature[0]].to_numpy(float),
+            time=time_values,
+            run=runs,
+            title=f"Thermal compensation of {data_path.name}",
+            model_metadata=metadata,
+            data_name=str(data_path),
+        )
+    print_table("MSD per run ((deg/h)^2):", written.table)
+    print(
+        f"\nWrote the report to {Path(args.out) / written.paths['html'].name} (HTML) and "
+        f"{Path(args.out) / written.paths['markdown'].name} (Markdown), with "
+        f"{len(written.figures)} figure(s)."
+    )
+    return EXIT_OK
+
+
+def command_export(args):
+    """``export``: the model as C99 source (a .h and a .c, both or neither) or JSON."""
+    from sklearn_ifog.export import to_c, to_json
+
+    model_path = Path(args.model)
+    model, _ = load_model(model_path)
+    if args.c is not None:
+        target = Path(args.c)
+        if not target.parent.is_dir():
+            raise InputError(f"{target}: the directory {target.parent} does not exist")
+        try:
+            header, source = to_c(model, target, precision=args.precision, prefix=args.prefix)
+        except (ValueError, TypeError) as error:
+            raise InputError(f"{model_path}: cannot export to C: {one_line(error)}") from None
+        print(f"Wrote {header} and {source}")
+    else:
+        check_output_parent(args.json)
+        try:
+            written = to_json(model, args.json)
+        except (ValueError, TypeError) as error:
+            raise InputError(f"{model_path}: cannot export to JSON: {one_line(error)}") from None
+        print(f"Wrote {written}")
+    return EXIT_OK

@@ -1,0 +1,219 @@
+"""Reading and validating a CSV file of the command line.
+
+Every problem with the user's file is an :class:`~sklearn_ifog.cli._common.InputError`
+naming the file, the line, the column and the option (or model) the column name came from.
+The column readers (``_numeric``, ``_labels``, ``_check_time_order``) live here together.
+"""
+
+from pathlib import Path
+
+import numpy as np
+
+from sklearn_ifog.cli._common import PROGRAM, InputError, one_line
+
+__all__ = [
+    "Columns",
+    "model_input",
+    "read_csv",
+    "read_rate",
+    "read_reference",
+    "require_columns",
+]
+
+
+def _pandas():
+    try:
+        import pandas as pd
+    except ImportError as error:  # pragma: no cover - depends on the installation
+        raise InputError(
+            "the command line reads CSV files with pandas: pip install 'sklearn-ifog[pandas]'"
+        ) from error
+    return pd
+
+
+def read_csv(path, *, as_text=False):
+    """The CSV at ``path`` as a DataFrame, or an InputError naming what is wrong.
+
+    ``as_text=True`` keeps every cell as the text it was (empty cells as ""), so a file can
+    be written back with its columns exactly as they came.
+    """
+    pd = _pandas()
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: no such file")
+    if not path.is_file():
+        raise InputError(f"{path}: not a file")
+    options = {"dtype": str, "keep_default_na": False} if as_text else {}
+    try:
+        frame = pd.read_csv(path, **options)
+    except pd.errors.EmptyDataError:
+        raise InputError(f"{path} is empty") from None
+    except (pd.errors.ParserError, UnicodeDecodeError) as error:
+        raise InputError(f"{path} is not a readable CSV file: {one_line(error)}") from None
+    if frame.shape[0] == 0:
+        raise InputError(f"{path} has a header but no data rows")
+    return frame
+
+
+def _line_number(position):
+    """CSV line of the data row at ``position`` (line 1 is the header)."""
+    return int(position) + 2
+
+
+def require_columns(frame, columns, path):
+    """``columns``: (role, name) pairs; the role says where the name came from."""
+    for role, name in columns:
+        if name not in frame.columns:
+            available = ", ".join(map(str, frame.columns))
+            raise InputError(f"{path}: no column {name!r} ({role}); its columns: {available}")
+
+
+def _numeric(frame, name, option, path):
+    """Column ``name`` as finite float64, or an InputError naming the first bad line."""
+    pd = _pandas()
+    column = frame[name]
+    values = pd.to_numeric(column, errors="coerce")
+    not_numbers = np.flatnonzero(values.isna().to_numpy() & column.notna().to_numpy())
+    if not_numbers.size:
+        position = not_numbers[0]
+        raise InputError(
+            f"{path}, line {_line_number(position)}: column {name!r} ({option}) holds "
+            f"{column.iloc[position]!r}, not a number"
+        )
+    values = values.to_numpy(dtype=np.float64)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        position = bad[0]
+        what = "is empty" if np.isnan(values[position]) else "is infinite"
+        raise InputError(
+            f"{path}, line {_line_number(position)}: column {name!r} ({option}) {what}"
+        )
+    return values
+
+
+def _labels(frame, name, option, path):
+    column = frame[name]
+    missing = np.flatnonzero(column.isna().to_numpy())
+    if missing.size:
+        raise InputError(
+            f"{path}, line {_line_number(missing[0])}: column {name!r} ({option}) is empty"
+        )
+    return column.to_numpy()
+
+
+def _check_time_order(time_values, runs, time_name, run_name, path):
+    """Time must increase strictly within each run (runs may be interleaved)."""
+    n = time_values.size
+    if runs is None:
+        run_codes = np.zeros(n, dtype=np.intp)
+    else:
+        _, run_codes = np.unique(runs, return_inverse=True)
+        run_codes = run_codes.ravel()
+    order = np.argsort(run_codes, kind="stable")
+    same_run = run_codes[order][1:] == run_codes[order][:-1]
+    not_increasing = same_run & (np.diff(time_values[order]) <= 0)
+    if not_increasing.any():
+        candidates = order[1:][not_increasing]
+        position = candidates.min()
+        previous = order[:-1][not_increasing][np.argmin(candidates)]
+        where = "" if runs is None else f" of {run_name!r} {runs[position]!r}"
+        raise InputError(
+            f"{path}, line {_line_number(position)}: column {time_name!r} does not increase "
+            f"within the run{where} ({time_values[position]:g} after "
+            f"{time_values[previous]:g} on line {_line_number(previous)}); sort the rows of "
+            "each run by time"
+        )
+
+
+class Columns:
+    """The column roles of a model, as stored in its metadata by ``fit``."""
+
+    def __init__(
+        self,
+        *,
+        temperature,
+        time=None,
+        run=None,
+        rate="rate",
+        reference=None,
+        latitude=None,
+        azimuth=None,
+    ):
+        self.temperature = list(temperature)
+        self.time = time
+        self.run = run
+        self.rate = rate
+        self.reference = reference
+        self.latitude = latitude
+        self.azimuth = azimuth
+        self.from_model = False
+        self.defaulted = set()
+
+    def as_dict(self):
+        names = ("temperature", "time", "run", "rate", "reference", "latitude", "azimuth")
+        return {name: getattr(self, name) for name in names}
+
+    def role(self, option):
+        """Where a column name came from, for messages: the command line or the model."""
+        if self.from_model:
+            return f"read by the model as {option}"
+        if option in self.defaulted:
+            return f"the default of {option}"
+        return f"given by {option}"
+
+    @classmethod
+    def from_metadata(cls, metadata, model_path):
+        stored = (metadata.get("extra") or {}).get("columns")
+        if not isinstance(stored, dict) or "temperature" not in stored:
+            raise InputError(
+                f"{model_path}: the model does not say which columns it reads (it was not "
+                f"saved by '{PROGRAM} fit'); use the Python API for it"
+            )
+        columns = cls(**stored)
+        columns.from_model = True
+        return columns
+
+    def model_columns(self):
+        """The columns the fitted pipeline reads, in order."""
+        extra = [name for name in (self.time, self.run) if name is not None]
+        return [*self.temperature, *extra]
+
+    def has_reference(self):
+        return self.reference is not None or self.latitude is not None
+
+
+def model_input(frame, columns, path):
+    """Validate and select the pipeline's input columns; return (X, runs)."""
+    roles = [(columns.role("--temperature"), name) for name in columns.temperature]
+    if columns.time is not None:
+        roles.append((columns.role("--time"), columns.time))
+    if columns.run is not None:
+        roles.append((columns.role("--run"), columns.run))
+    require_columns(frame, roles, path)
+    X = frame[columns.model_columns()].copy()
+    for name in columns.temperature:
+        X[name] = _numeric(frame, name, columns.role("--temperature"), path)
+    runs = None
+    if columns.run is not None:
+        runs = _labels(frame, columns.run, columns.role("--run"), path)
+    if columns.time is not None:
+        X[columns.time] = _numeric(frame, columns.time, columns.role("--time"), path)
+        _check_time_order(X[columns.time].to_numpy(), runs, columns.time, columns.run, path)
+    return X, runs
+
+
+def read_rate(frame, columns, path):
+    require_columns(frame, [(columns.role("--rate"), columns.rate)], path)
+    return _numeric(frame, columns.rate, columns.role("--rate"), path)
+
+
+def read_reference(frame, columns, path):
+    """The true input rate of every row: a column, or the Earth rate at the azimuth."""
+    if columns.latitude is not None:
+        from sklearn_ifog.metrics import earth_rate
+
+        require_columns(frame, [(columns.role("--azimuth"), columns.azimuth)], path)
+        azimuth = _numeric(frame, columns.azimuth, columns.role("--azimuth"), path)
+        return np.broadcast_to(earth_rate(columns.latitude, azimuth), azimuth.shape).copy()
+    require_columns(frame, [(columns.role("--reference"), columns.reference)], path)
+    return _numeric(frame, columns.reference, columns.role("--reference"), path)

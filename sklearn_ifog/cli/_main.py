@@ -1,0 +1,192 @@
+"""The ``sklearn-ifog`` entry point: parse the command line and dispatch to a command."""
+
+import argparse
+import sys
+from pathlib import Path
+
+from sklearn_ifog.cli._commands import (
+    command_compensate,
+    command_export,
+    command_fit,
+    command_report,
+)
+from sklearn_ifog.cli._common import (
+    EXIT_BAD_INPUT,
+    EXIT_INTERNAL,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    PROGRAM,
+    InputError,
+    one_line,
+)
+from sklearn_ifog.cli._demo import DEMO_SIZES, run_demo
+
+__all__ = ["main"]
+
+
+def command_demo(args):
+    """``demo``: :func:`~sklearn_ifog.cli._demo.run_demo` into ``--out``."""
+    run_demo(Path(args.out), quick=args.quick, size=args.size, n_jobs=args.n_jobs)
+    return EXIT_OK
+
+
+def _build_parser():
+    from sklearn_ifog import __version__
+
+    parser = argparse.ArgumentParser(
+        prog=PROGRAM,
+        description="Learn and remove the temperature drift of fibre-optic gyroscopes.",
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    parser.add_argument(
+        "--debug", action="store_true", help="show the traceback of internal errors"
+    )
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    demo = commands.add_parser(
+        "demo", help="simulate a thermal-test campaign, compare models, write plots and a report"
+    )
+    demo.add_argument(
+        "--out",
+        default="sklearn_ifog_demo",
+        metavar="DIR",
+        help="output directory (default: ./sklearn_ifog_demo)",
+    )
+    demo.add_argument("--quick", action="store_true", help="a smaller campaign (under a minute)")
+    demo.add_argument("--size", choices=tuple(DEMO_SIZES), default=None, help=argparse.SUPPRESS)
+    demo.add_argument("--n-jobs", type=int, default=None, help="parallel jobs (default: cores)")
+    demo.set_defaults(handler=command_demo)
+
+    fit = commands.add_parser(
+        "fit",
+        help="fit a drift model to a thermal-test CSV",
+        description="Fit ThermalFeatures -> StandardScaler -> RBFNetRegressor (or a linear "
+        "model) to the drift, rate - reference (or rate - Earth rate), and save it with the "
+        "column roles, so that 'compensate', 'report' and 'export' need only the model file. "
+        "With --cv or --groups, first cross-validate it against no compensation and a "
+        "constant bias.",
+        epilog="example: sklearn-ifog fit campaign.csv --temperature temperature --time time "
+        "--run run --cv azimuth -o model.joblib",
+    )
+    fit.add_argument("data", metavar="DATA.csv")
+    fit.add_argument(
+        "--temperature",
+        nargs="+",
+        required=True,
+        metavar="COL",
+        help="temperature column(s), deg C",
+    )
+    fit.add_argument("--time", metavar="COL", help="time column, seconds")
+    fit.add_argument("--run", metavar="COL", help="run (recording) id column")
+    fit.add_argument("--rate", metavar="COL", help="gyro output, deg/h (default: 'rate')")
+    fit.add_argument(
+        "--reference", metavar="COL", help="true input rate, deg/h (default: 'reference')"
+    )
+    fit.add_argument(
+        "--latitude",
+        type=float,
+        metavar="DEG",
+        help="use the Earth rate at this latitude as the reference (needs --azimuth)",
+    )
+    fit.add_argument("--azimuth", metavar="COL", help="azimuth of the sensitive axis, deg")
+    fit.add_argument(
+        "--groups",
+        metavar="COL",
+        help="column whose values form the CV folds (default for --cv unit: 'unit'; "
+        "azimuth: the --azimuth column or 'azimuth'; run: the --run column)",
+    )
+    fit.add_argument(
+        "--cv",
+        choices=("unit", "azimuth", "run"),
+        help="cross-validate leaving out one unit, azimuth or run at a time",
+    )
+    fit.add_argument(
+        "--terms",
+        nargs="+",
+        default=["T", "dT", "TdT"],
+        metavar="TERM",
+        help="thermal terms (default: T dT TdT; 'T dT' is the traditional model)",
+    )
+    fit.add_argument("--model", choices=("rbf", "linear"), default="rbf", help="regressor")
+    fit.add_argument("--random-state", type=int, default=0, help="seed of the RBF network")
+    fit.add_argument("--n-jobs", type=int, default=None, help="parallel CV jobs")
+    fit.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        metavar="MODEL",
+        help="model file: skops format for a .skops suffix, joblib otherwise",
+    )
+    fit.set_defaults(handler=command_fit)
+
+    compensate = commands.add_parser(
+        "compensate", help="add the predicted drift and the compensated rate to a CSV"
+    )
+    compensate.add_argument("model", metavar="MODEL")
+    compensate.add_argument("data", metavar="DATA.csv")
+    compensate.add_argument("-o", "--output", required=True, metavar="OUT.csv")
+    compensate.add_argument("--drift-column", default="drift", metavar="NAME")
+    compensate.add_argument("--compensated-column", default="compensated", metavar="NAME")
+    compensate.set_defaults(handler=command_compensate)
+
+    report = commands.add_parser(
+        "report", help="MSD, bias stability, Allan deviation and plots of a compensation"
+    )
+    report.add_argument("model", metavar="MODEL")
+    report.add_argument("data", metavar="DATA.csv")
+    report.add_argument("--out", required=True, metavar="DIR")
+    report.set_defaults(handler=command_report)
+
+    export = commands.add_parser("export", help="write a model as C99 source or JSON")
+    export.add_argument("model", metavar="MODEL")
+    target = export.add_mutually_exclusive_group(required=True)
+    target.add_argument("--c", metavar="DIR", help="directory for the .h/.c files")
+    target.add_argument("--json", metavar="FILE", help="JSON file")
+    export.add_argument("--precision", choices=("double", "float"), default="double")
+    export.add_argument("--prefix", default="ifog", help="C identifier prefix")
+    export.set_defaults(handler=command_export)
+    return parser
+
+
+def main(argv=None):
+    """Run the ``sklearn-ifog`` command line.
+
+    Parameters
+    ----------
+    argv : list of str, default=None
+        Arguments (without the program name); None reads ``sys.argv[1:]``.
+
+    Returns
+    -------
+    status : int
+        0 on success, 2 on bad input (one line on stderr says what), 1 on an internal error,
+        130 when interrupted.
+
+    Examples
+    --------
+    >>> from sklearn_ifog.cli import main
+    >>> main(["compensate", "no-such-model.joblib", "data.csv", "-o", "out.csv"])
+    2
+    """
+    parser = _build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exit_request:  # --help, --version, or a usage error
+        return exit_request.code if isinstance(exit_request.code, int) else EXIT_BAD_INPUT
+    try:
+        return args.handler(args)
+    except InputError as error:
+        print(f"{PROGRAM} {args.command}: error: {one_line(error)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print(f"{PROGRAM} {args.command}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception as error:
+        if args.debug:
+            raise
+        print(
+            f"{PROGRAM} {args.command}: internal error: {type(error).__name__}: "
+            f"{one_line(error)} (rerun with --debug for the traceback)",
+            file=sys.stderr,
+        )
+        return EXIT_INTERNAL
