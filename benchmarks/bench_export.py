@@ -30,11 +30,9 @@ from pathlib import Path
 
 import numpy as np
 from sklearn.linear_model import Ridge
-from sklearn.pipeline import make_pipeline
-from sklearn.preprocessing import StandardScaler
 from threadpoolctl import threadpool_limits
 
-from sklearn_ifog import RBFNetRegressor, ThermalFeatures
+from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
 from sklearn_ifog._io import write_text_files
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.export import to_c
@@ -95,7 +93,6 @@ def _pin_to_one_core():
 
 
 def _models(frame, quick):
-    features = ThermalFeatures(temperature="temperature", time="time", run="run")
     # A fixed number of Gaussian units (criterion=None): the cost measured is that of a
     # network of this size (40 is the "auto" maximum), whatever the selection would keep.
     rbf = RBFNetRegressor(
@@ -105,8 +102,8 @@ def _models(frame, quick):
         random_state=0,
     )
     return {
-        "RBF network": make_pipeline(features, StandardScaler(), rbf),
-        "Ridge baseline": make_pipeline(features, StandardScaler(), Ridge(alpha=1e-3)),
+        "RBF network": make_compensation_pipeline(rbf),
+        "Ridge baseline": make_compensation_pipeline(Ridge(alpha=1e-3)),
     }
 
 

@@ -374,7 +374,7 @@ def thermal_worker(quick):
     from sklearn.pipeline import make_pipeline
     from sklearn.preprocessing import StandardScaler
 
-    from sklearn_ifog import RBFNetRegressor, ThermalFeatures
+    from sklearn_ifog import RBFNetRegressor, ThermalFeatures, make_compensation_pipeline
     from sklearn_ifog.datasets import make_thermal_campaign
 
     campaign = make_thermal_campaign(
@@ -424,7 +424,7 @@ def thermal_worker(quick):
                         pipe.fit(features_all[kernel_rows], y_all[kernel_rows])
                         prediction = pipe.predict(features_all[test])
                     else:
-                        pipe = make_pipeline(features, StandardScaler(), build())
+                        pipe = make_compensation_pipeline(build())
                         pipe.fit(X_all[train], y_all[train])
                         prediction = pipe.predict(X_all[test])
                     fold["fit_s"][name] = time.perf_counter() - start

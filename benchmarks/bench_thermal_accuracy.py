@@ -32,7 +32,7 @@ from sklearn.neural_network import MLPRegressor
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
-from sklearn_ifog import RBFNetRegressor, ThermalFeatures
+from sklearn_ifog import RBFNetRegressor, ThermalFeatures, make_compensation_pipeline
 from sklearn_ifog._io import write_text_files
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.metrics import mean_squared_deviation
@@ -64,17 +64,15 @@ def features():
 
 def models(seed):
     return {
-        "RBFNet (default)": make_pipeline(
-            features(), StandardScaler(), RBFNetRegressor(random_state=seed)
+        "RBFNet (default)": make_compensation_pipeline(RBFNetRegressor(random_state=seed)),
+        "RBFNet tail=linear": make_compensation_pipeline(
+            RBFNetRegressor(tail="linear", random_state=seed)
         ),
-        "RBFNet tail=linear": make_pipeline(
-            features(), StandardScaler(), RBFNetRegressor(tail="linear", random_state=seed)
+        "RBFNet tail=auto": make_compensation_pipeline(
+            RBFNetRegressor(tail="auto", random_state=seed)
         ),
-        "RBFNet tail=auto": make_pipeline(
-            features(), StandardScaler(), RBFNetRegressor(tail="auto", random_state=seed)
-        ),
-        "RBFNet refine=None": make_pipeline(
-            features(), StandardScaler(), RBFNetRegressor(refine=None, random_state=seed)
+        "RBFNet refine=None": make_compensation_pipeline(
+            RBFNetRegressor(refine=None, random_state=seed)
         ),
         "poly3 Ridge": make_pipeline(
             features(), StandardScaler(), PolynomialFeatures(3), StandardScaler(), Ridge()
@@ -84,18 +82,14 @@ def models(seed):
         ),
         # The target is standardised for the MLP: on the raw drift (~0.1 deg/h) its loss is
         # so small that adam's tolerance stops it after a few epochs.
-        "MLP (20,)": make_pipeline(
-            features(),
-            StandardScaler(),
+        "MLP (20,)": make_compensation_pipeline(
             TransformedTargetRegressor(
                 MLPRegressor(hidden_layer_sizes=(20,), random_state=seed),
                 transformer=StandardScaler(),
-            ),
+            )
         ),
-        "KernelRidge rbf": make_pipeline(
-            features(),
-            StandardScaler(),
-            _Strided(KernelRidge(kernel="rbf", alpha=1e-2, gamma=0.5), KERNEL_RIDGE_ROWS),
+        "KernelRidge rbf": make_compensation_pipeline(
+            _Strided(KernelRidge(kernel="rbf", alpha=1e-2, gamma=0.5), KERNEL_RIDGE_ROWS)
         ),
     }
 

@@ -17,10 +17,8 @@ the sensor's own noise, alone.
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-from sklearn.pipeline import make_pipeline
-from sklearn.preprocessing import StandardScaler
 
-from sklearn_ifog import RBFNetRegressor, ThermalFeatures
+from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
 from sklearn_ifog.compensation import compensate
 from sklearn_ifog.datasets import make_thermal_campaign
 
@@ -36,11 +34,7 @@ print(f"{len(frame)} samples in {frame['run'].nunique()} runs")
 # Fit on the runs at 0°, compensate a run at 90°
 # ----------------------------------------------
 train = (frame["azimuth"] == 0.0).to_numpy()
-model = make_pipeline(
-    ThermalFeatures(temperature="temperature", time="time", run="run"),
-    StandardScaler(),
-    RBFNetRegressor(random_state=0),
-).fit(X[train], y[train])
+model = make_compensation_pipeline(RBFNetRegressor(random_state=0)).fit(X[train], y[train])
 
 test_run = frame.loc[~train, "run"].iloc[0]
 run = frame[frame["run"] == test_run]

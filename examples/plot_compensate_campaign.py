@@ -67,22 +67,17 @@ print(features.fit_transform(campaign.data).describe().round(3))
 # %%
 # A drift model
 # -------------
-# The model is a Pipeline: features, a scaler, and the RBF network. Train it on the runs at
+# The model is a Pipeline: features, a scaler, and the RBF network, as
+# :func:`~sklearn_ifog.make_compensation_pipeline` builds it (its defaults read the
+# ``temperature``, ``time`` and ``run`` columns, as above). Train it on the runs at
 # azimuths 0°, 45° and 135°, and keep the runs at 90° to test it: a model calibrated at some
 # headings must hold at another. The target is the measured drift, ``rate − reference``.
-from sklearn.pipeline import make_pipeline
-from sklearn.preprocessing import StandardScaler
-
-from sklearn_ifog import RBFNetRegressor
+from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
 
 X, y = campaign.data, campaign.target  # y = rate - reference
 test = (X["azimuth"] == 90.0).to_numpy()
 
-model = make_pipeline(
-    ThermalFeatures(temperature="temperature", time="time", run="run"),
-    StandardScaler(),
-    RBFNetRegressor(random_state=0),
-)
+model = make_compensation_pipeline(RBFNetRegressor(random_state=0))
 model.fit(X[~test], y[~test])
 network = model[-1]
 print(

@@ -30,22 +30,15 @@ print(X.groupby("azimuth")["run"].unique())
 # size: the default cross-validation over *contiguous blocks* of samples (``"cv"``), and
 # generalised cross-validation (``"gcv"``), which assumes independent errors.
 from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut
-from sklearn.pipeline import Pipeline
-from sklearn.preprocessing import StandardScaler
 
-from sklearn_ifog import RBFNetRegressor, ThermalFeatures
+from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
 from sklearn_ifog.metrics import neg_mean_squared_deviation_scorer
 
-pipe = Pipeline(
-    [
-        ("features", ThermalFeatures(temperature="temperature", time="time", run="run")),
-        ("scale", StandardScaler()),
-        ("rbf", RBFNetRegressor(random_state=0)),
-    ]
-)
+# Steps "features", "scale" and "regressor": their parameters are named after them.
+pipe = make_compensation_pipeline(RBFNetRegressor(random_state=0))
 grid = {
     "features__terms": [("T", "dT"), ("T", "dT", "TdT")],
-    "rbf__criterion": ["cv", "gcv"],
+    "regressor__criterion": ["cv", "gcv"],
 }
 search = GridSearchCV(
     pipe, grid, cv=LeaveOneGroupOut(), scoring=neg_mean_squared_deviation_scorer, n_jobs=2
@@ -63,7 +56,7 @@ fold_columns = [f"split{i}_test_score" for i in range(search.n_splits_)]
 table = pd.DataFrame(
     {
         "terms": results["param_features__terms"].map(", ".join),
-        "criterion": results["param_rbf__criterion"],
+        "criterion": results["param_regressor__criterion"],
         "mean MSD": -results["mean_test_score"],
         "worst fold MSD": -results[fold_columns].min(axis=1),
     }
@@ -93,7 +86,7 @@ fig.tight_layout()
 best_terms = search.best_params_["features__terms"]
 fig, ax = plt.subplots(figsize=(7, 3.5))
 for criterion in ("cv", "gcv"):
-    model = pipe.set_params(features__terms=best_terms, rbf__criterion=criterion)
+    model = pipe.set_params(features__terms=best_terms, regressor__criterion=criterion)
     network = model.fit(X, y)[-1]
     path = network.selection_path_
     scores = np.asarray(path["criterion"])

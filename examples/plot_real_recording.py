@@ -58,18 +58,14 @@ fig.tight_layout()
 # quadratic tail and with a linear one (see :ref:`rbf`).
 from sklearn.dummy import DummyRegressor
 from sklearn.linear_model import LinearRegression
-from sklearn.pipeline import make_pipeline
-from sklearn.preprocessing import StandardScaler
 
-from sklearn_ifog import RBFNetRegressor, ThermalFeatures
+from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
 
 X, y = recording.data, recording.target
 
 
 def thermal_model(regressor):
-    return make_pipeline(
-        ThermalFeatures(temperature="temperature", terms=("T",)), StandardScaler(), regressor
-    )
+    return make_compensation_pipeline(regressor, time=None, run=None, terms=("T",))
 
 
 models = {

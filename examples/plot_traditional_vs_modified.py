@@ -54,18 +54,12 @@ print({key: round(params[key], 4) for key in ("k0", "k1")})
 # model (a linear model in T·ΔT is exactly ``(k0 + k1·T)·ΔT``).
 from sklearn.dummy import DummyRegressor
 from sklearn.linear_model import LinearRegression
-from sklearn.pipeline import make_pipeline
-from sklearn.preprocessing import StandardScaler
 
-from sklearn_ifog import RBFNetRegressor, ThermalFeatures
+from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
 
 
 def drift_model(terms, regressor):
-    return make_pipeline(
-        ThermalFeatures(temperature="temperature", time="time", run="run", terms=terms),
-        StandardScaler(),
-        regressor,
-    )
+    return make_compensation_pipeline(regressor, terms=terms)
 
 
 TRADITIONAL, MODIFIED = ("T", "dT"), ("T", "dT", "TdT")

@@ -13,6 +13,7 @@ from sklearn.metrics import get_scorer_names as _sklearn_get_scorer_names
 from sklearn.metrics import make_scorer, mean_squared_error
 from sklearn.utils import check_array
 
+from sklearn_ifog import _table
 from sklearn_ifog._compat import Interval, StrOptions, _check_sample_weight, validate_params
 
 __all__ = [
@@ -685,17 +686,13 @@ def per_run_metrics(
     """
     import pandas as pd
 
-    # The run grouping lives with the report for now (sklearn_ifog.report._run_segments).
-    from sklearn_ifog.report import _run_segments
-
     rate, drift, reference, temperature, time_values = _compensation_arrays(
         rate, drift, reference, temperature, time
     )
     n_samples = rate.shape[0]
     compensated = rate - drift
-    segments = _run_segments(None if run is None else np.asarray(run), n_samples)
     rows = []
-    for label, rows_of_run in segments.items():
+    for label, rows_of_run in _table.run_segments(run, n_samples):
         period, uniform = _sample_period(time_values[rows_of_run])
         error_before = rate[rows_of_run] - reference[rows_of_run]
         error_after = compensated[rows_of_run] - reference[rows_of_run]
@@ -703,7 +700,7 @@ def per_run_metrics(
         msd_after = float(mean_squared_deviation(reference[rows_of_run], compensated[rows_of_run]))
         rows.append(
             {
-                "run": label,
+                "run": _ALL_RUNS if label is None else label,
                 "samples": int(rows_of_run.size),
                 "hours": float(np.ptp(time_values[rows_of_run]) / 3600.0),
                 "T_min": float(temperature[rows_of_run].min()),

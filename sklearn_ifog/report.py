@@ -279,14 +279,6 @@ def _relative(path, directory):
     return Path(os.path.relpath(Path(path), Path(directory))).as_posix()
 
 
-def _run_segments(run, n_samples):
-    """{run label: row positions (in time order)} in order of first appearance."""
-    return {
-        _ALL_RUNS if label is None else label: rows
-        for label, rows in _table.run_segments(run, n_samples)
-    }
-
-
 def compensation_report(
     directory,
     *,
@@ -397,7 +389,11 @@ def compensation_report(
         reference=reference,
         temperature=temperature,
         time=time_values,
-        segments=_run_segments(None if run is None else np.asarray(run), rate.shape[0]),
+        # {run label: row positions in time order}, in order of first appearance.
+        segments={
+            _ALL_RUNS if label is None else label: rows
+            for label, rows in _table.run_segments(run, rate.shape[0])
+        },
         has_runs=run is not None,
     )
     if report is None:

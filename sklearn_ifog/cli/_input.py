@@ -2,13 +2,16 @@
 
 Every problem with the user's file is an :class:`~sklearn_ifog.cli._common.InputError`
 naming the file, the line, the column and the option (or model) the column name came from.
-The column readers (``_numeric``, ``_labels``, ``_check_time_order``) live here together.
+The column readers (``_numeric``, ``_labels``, ``_check_time_order``) are
+:mod:`sklearn_ifog._table`'s, their errors reworded with the CSV line number.
 """
 
 from pathlib import Path
 
 import numpy as np
 
+from sklearn_ifog import _table
+from sklearn_ifog._table import TableError
 from sklearn_ifog.cli._common import PROGRAM, InputError, one_line
 
 __all__ = [
@@ -70,59 +73,42 @@ def require_columns(frame, columns, path):
 
 def _numeric(frame, name, option, path):
     """Column ``name`` as finite float64, or an InputError naming the first bad line."""
-    pd = _pandas()
-    column = frame[name]
-    values = pd.to_numeric(column, errors="coerce")
-    not_numbers = np.flatnonzero(values.isna().to_numpy() & column.notna().to_numpy())
-    if not_numbers.size:
-        position = not_numbers[0]
+    try:
+        return _table.numeric_column(frame, name, param=option, parse_text=True)
+    except TableError as error:
+        if isinstance(error.value, str):
+            what = f"holds {error.value!r}, not a number"
+        elif np.isnan(error.value):
+            what = "is empty"
+        else:
+            what = "is infinite"
         raise InputError(
-            f"{path}, line {_line_number(position)}: column {name!r} ({option}) holds "
-            f"{column.iloc[position]!r}, not a number"
-        )
-    values = values.to_numpy(dtype=np.float64)
-    bad = np.flatnonzero(~np.isfinite(values))
-    if bad.size:
-        position = bad[0]
-        what = "is empty" if np.isnan(values[position]) else "is infinite"
-        raise InputError(
-            f"{path}, line {_line_number(position)}: column {name!r} ({option}) {what}"
-        )
-    return values
+            f"{path}, line {_line_number(error.row)}: column {name!r} ({option}) {what}"
+        ) from None
 
 
 def _labels(frame, name, option, path):
-    column = frame[name]
-    missing = np.flatnonzero(column.isna().to_numpy())
-    if missing.size:
+    """Column ``name`` as labels, or an InputError naming the first empty line."""
+    try:
+        return _table.label_column(frame, name, param=option)
+    except TableError as error:
         raise InputError(
-            f"{path}, line {_line_number(missing[0])}: column {name!r} ({option}) is empty"
-        )
-    return column.to_numpy()
+            f"{path}, line {_line_number(error.row)}: column {name!r} ({option}) is empty"
+        ) from None
 
 
 def _check_time_order(time_values, runs, time_name, run_name, path):
     """Time must increase strictly within each run (runs may be interleaved)."""
-    n = time_values.size
-    if runs is None:
-        run_codes = np.zeros(n, dtype=np.intp)
-    else:
-        _, run_codes = np.unique(runs, return_inverse=True)
-        run_codes = run_codes.ravel()
-    order = np.argsort(run_codes, kind="stable")
-    same_run = run_codes[order][1:] == run_codes[order][:-1]
-    not_increasing = same_run & (np.diff(time_values[order]) <= 0)
-    if not_increasing.any():
-        candidates = order[1:][not_increasing]
-        position = candidates.min()
-        previous = order[:-1][not_increasing][np.argmin(candidates)]
-        where = "" if runs is None else f" of {run_name!r} {runs[position]!r}"
+    try:
+        _table.check_time_increasing(time_values, runs)
+    except TableError as error:
+        where = "" if runs is None else f" of {run_name!r} {runs[error.row]!r}"
         raise InputError(
-            f"{path}, line {_line_number(position)}: column {time_name!r} does not increase "
-            f"within the run{where} ({time_values[position]:g} after "
-            f"{time_values[previous]:g} on line {_line_number(previous)}); sort the rows of "
-            "each run by time"
-        )
+            f"{path}, line {_line_number(error.row)}: column {time_name!r} does not increase "
+            f"within the run{where} ({error.value:g} after "
+            f"{time_values[error.previous_row]:g} on line {_line_number(error.previous_row)}); "
+            "sort the rows of each run by time"
+        ) from None
 
 
 class Columns:

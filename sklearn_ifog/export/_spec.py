@@ -67,7 +67,6 @@ import sklearn_ifog
 from sklearn_ifog._contract import VALID_TERMS, seconds_per_unit, sensor_keys
 from sklearn_ifog.features import ThermalFeatures
 from sklearn_ifog.rbf import RBFNetRegressor
-from sklearn_ifog.rbf._basis import tail_degree_from_size
 
 SCHEMA_NAME = "sklearn-ifog-pipeline"
 SCHEMA_VERSION = 1
@@ -202,7 +201,7 @@ def _rbf_network(step):
     network = step._network()  # the fitted network as one value, 2-D weights
     n_outputs, n_inputs = network.coef.shape[0], network.centers.shape[1]
     tail = network.tail_coef
-    tail_degree = tail_degree_from_size(tail.shape[1], n_inputs)
+    tail_degree = network.tail_degree
     if tail_degree == 0 or not np.any(tail):
         # No tail, or an all-zero one: written as a zero linear tail (one schema shape).
         tail_degree, tail = 1, np.zeros((n_outputs, n_inputs))
