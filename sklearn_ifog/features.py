@@ -43,7 +43,6 @@ __all__ = [
     "causal_rate",
     "compute_thermal_features",
     "group_rows_by_run",
-    "grouped_features",
     "validate_terms",
 ]
 
@@ -268,7 +267,7 @@ def assemble_terms(temperature, rate, terms, *, deficit=None, time_constants=())
     return np.column_stack(columns)
 
 
-def grouped_features(temperature, time, run_starts, *, terms, smoothing, seconds_per_unit):
+def _grouped_features(temperature, time, run_starts, *, terms, smoothing, seconds_per_unit):
     """Thermal features of rows grouped by run (each run contiguous, in time order).
 
     ``dT`` is :func:`causal_rate` (``smoothing == 0``) or
@@ -299,9 +298,9 @@ def grouped_features(temperature, time, run_starts, *, terms, smoothing, seconds
     Examples
     --------
     >>> import numpy as np
-    >>> from sklearn_ifog.features import grouped_features
+    >>> from sklearn_ifog.features import _grouped_features
     >>> T = np.array([[20.0], [21.0], [22.0]])
-    >>> grouped_features(
+    >>> _grouped_features(
     ...     T,
     ...     np.array([0.0, 60.0, 120.0]),
     ...     None,
@@ -391,9 +390,9 @@ def compute_thermal_features(
         _table.check_time_increasing(time, run, order=order, run_starts=run_starts)
     params = {"terms": terms, "smoothing": smoothing, "seconds_per_unit": seconds_per_unit}
     if order is None:
-        return grouped_features(temperature, time, None, **params)
+        return _grouped_features(temperature, time, None, **params)
     grouped_time = None if time is None else time[order]
-    grouped = grouped_features(temperature[order], grouped_time, run_starts, **params)
+    grouped = _grouped_features(temperature[order], grouped_time, run_starts, **params)
     features = np.empty_like(grouped)
     features[order] = grouped
     return features
