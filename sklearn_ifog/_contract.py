@@ -6,12 +6,16 @@ term or a unit is added in one place:
 
 - :data:`TERMS`: every term by name, with its output column name, how it is computed from a
   sensor's raw temperature and rate, its C expression and whether it needs the rate (the
-  smoothed temperature and the last time stamp carried between samples);
+  last temperature and time stamp carried between samples);
+- :data:`TERM_FAMILIES`: terms with a parameter in their name, such as the thermal-state
+  term ``T_lag600s`` (the excess ``T - lag_600s(T)`` of the temperature over its first-order
+  lag at 600 s); :func:`get_term` reads a name against :data:`TERMS`, then these patterns;
 - :data:`SECONDS_PER_UNIT` and :func:`seconds_per_unit`: the time units of ``rate_unit`` (and
   of the plots' time axis);
 - :func:`sensor_keys`: the temperature column(s) of a ``temperature`` parameter, as a list.
 """
 
+import re
 from collections.abc import Callable
 from typing import NamedTuple
 
@@ -20,13 +24,20 @@ import numpy as np
 __all__ = [
     "SECONDS_PER_UNIT",
     "TERMS",
+    "TERM_FAMILIES",
     "VALID_TERMS",
     "SensorInputs",
     "Term",
+    "TermFamily",
+    "check_needs_time",
+    "format_seconds",
     "get_term",
+    "lag_time_constants",
     "seconds_per_unit",
     "sensor_keys",
+    "state_time_constants",
     "uses_rate",
+    "valid_terms_text",
 ]
 
 #: Seconds in one time unit, by name (``rate_unit`` of ThermalFeatures, plots' time axis).
@@ -42,6 +53,8 @@ class SensorInputs(NamedTuple):
     """Its causal rate (of the smoothed temperature), see ``features.causal_rate``."""
     first: np.ndarray
     """Raw temperature of the first sensor."""
+    lag: dict | None = None
+    """Deficit ``T - lag_tau(T)`` of the sensor by time constant ``tau`` (s), for lag terms."""
 
 
 class Term(NamedTuple):
@@ -54,11 +67,16 @@ class Term(NamedTuple):
     compute: Callable[[SensorInputs], np.ndarray]
     """The column of one sensor from its :class:`SensorInputs`."""
     c_expression: str
-    """The same in C, from ``raw``, ``delta`` and ``temperature[0]`` (the export's names)."""
+    """The same in C, from ``raw``, ``delta``, ``temperature[0]`` and ``deficit[{lag}]`` (the
+    export's names; ``{lag}`` is replaced by the index of the term's time constant in
+    :func:`lag_time_constants`)."""
     uses_rate: bool
-    """True if the term needs the rate: the smoothed temperature and last time as state."""
+    """True if the term needs the rate: the last temperature and time as state."""
     first_sensor: bool = True
     """False if the first sensor has no column of this term (identically zero)."""
+    time_constant: float | None = None
+    """Time constant (s) of the first-order lag the term reads, or None: a lag term needs a
+    time column and carries the lag's deficit as state."""
 
 
 #: Every term ThermalFeatures knows, by name, in the order the documentation lists them.
@@ -84,13 +102,103 @@ TERMS = {
 VALID_TERMS = tuple(TERMS)
 
 
+def format_seconds(seconds):
+    """A time constant in seconds as a term name writes it: ``600``, ``90.5``.
+
+    Parameters
+    ----------
+    seconds : float
+        A finite number of seconds.
+
+    Returns
+    -------
+    text : str
+        The integer without a decimal point, otherwise Python's shortest ``repr``.
+
+    Examples
+    --------
+    >>> from sklearn_ifog._contract import format_seconds
+    >>> format_seconds(600.0), format_seconds(90.5)
+    ('600', '90.5')
+    """
+    seconds = float(seconds)
+    return str(int(seconds)) if seconds.is_integer() else repr(seconds)
+
+
+class TermFamily(NamedTuple):
+    """Terms with a parameter in their name (e.g. a time constant), read by a pattern."""
+
+    pattern: re.Pattern
+    """The full name, with groups for the parameters."""
+    form: str
+    """The name's form, for error messages (e.g. ``"T_lag<tau>s"``)."""
+    examples: tuple
+    """Valid names, for error messages."""
+    make: Callable[[re.Match], Term]
+    """The :class:`Term` of a matching name; raises ValueError on a bad parameter."""
+
+
+def _lag_term(match):
+    tau = float(match.group(1))
+    if not (np.isfinite(tau) and tau > 0):
+        raise ValueError(
+            f"Term {match.group(0)!r}: the time constant must be > 0 seconds, got {tau!r}."
+        )
+    return Term(
+        name=match.group(0),
+        output=f"T_lag{format_seconds(tau)}s",
+        compute=lambda s: s.lag[tau],
+        c_expression="deficit[{lag}]",
+        uses_rate=False,
+        time_constant=tau,
+    )
+
+
+#: Parametrised terms: ``T_lag<tau>s`` is the excess ``T - lag_tau(T)`` of the temperature
+#: over its causal first-order lag at time constant ``tau`` seconds (an integer or decimal
+#: number), exact between samples for a temperature linear between them, 0 at a run's first
+#: row (see :mod:`sklearn_ifog._lags`).
+TERM_FAMILIES = (
+    TermFamily(
+        pattern=re.compile(r"T_lag([0-9]+(?:\.[0-9]+)?)s"),
+        form="T_lag<tau>s",
+        examples=("T_lag600s", "T_lag90.5s"),
+        make=_lag_term,
+    ),
+)
+
+
+def valid_terms_text():
+    """The valid term names and forms, as error messages list them.
+
+    Returns
+    -------
+    text : str
+        The fixed names, then each parametrised form with examples.
+
+    Examples
+    --------
+    >>> from sklearn_ifog._contract import valid_terms_text
+    >>> print(valid_terms_text())  # doctest: +NORMALIZE_WHITESPACE
+    ['T', 'dT', 'TdT', 'T2', 'gradient'], or 'T_lag<tau>s' with tau in seconds, an integer or
+    decimal number > 0 (e.g. 'T_lag600s', 'T_lag90.5s')
+    """
+    forms = "; ".join(
+        f"{family.form!r} with tau in seconds, an integer or decimal number > 0 (e.g. "
+        + ", ".join(repr(example) for example in family.examples)
+        + ")"
+        for family in TERM_FAMILIES
+    )
+    return f"{list(VALID_TERMS)}, or {forms}"
+
+
 def get_term(name):
     """The :class:`Term` called ``name``.
 
     Parameters
     ----------
     name : str
-        A term name, one of :data:`VALID_TERMS`.
+        A term name: one of :data:`VALID_TERMS` or of the forms of :data:`TERM_FAMILIES`.
 
     Returns
     -------
@@ -107,11 +215,40 @@ def get_term(name):
     >>> from sklearn_ifog._contract import get_term
     >>> get_term("TdT").output, get_term("TdT").uses_rate
     ('T_dT', True)
+    >>> get_term("T_lag600.0s").output, get_term("T_lag600.0s").time_constant
+    ('T_lag600s', 600.0)
     """
-    try:
-        return TERMS[name]
-    except (KeyError, TypeError):
-        raise ValueError(f"Unknown term {name!r}; valid terms are {list(VALID_TERMS)}.") from None
+    if isinstance(name, str):
+        if name in TERMS:
+            return TERMS[name]
+        for family in TERM_FAMILIES:
+            match = family.pattern.fullmatch(name)
+            if match:
+                return family.make(match)
+    raise ValueError(f"Unknown term {name!r}; valid terms are {valid_terms_text()}.")
+
+
+def lag_time_constants(terms):
+    """The distinct time constants (s) of the lag terms among ``terms``, sorted.
+
+    Parameters
+    ----------
+    terms : sequence of str
+        Term names.
+
+    Returns
+    -------
+    time_constants : tuple of float
+        Sorted, without duplicates; empty when no term is a lag.
+
+    Examples
+    --------
+    >>> from sklearn_ifog._contract import lag_time_constants
+    >>> lag_time_constants(["T", "T_lag3600s", "dT", "T_lag600s"])
+    (600.0, 3600.0)
+    """
+    taus = {get_term(term).time_constant for term in terms}
+    return tuple(sorted(tau for tau in taus if tau is not None))
 
 
 def uses_rate(terms):
@@ -198,3 +335,78 @@ def sensor_keys(temperature):
     if not keys:
         raise ValueError("temperature is empty; give at least one temperature column.")
     return keys
+
+
+def state_time_constants(terms, smoothing=0.0):
+    """Every first-order lag (s) ThermalFeatures carries per sensor: lag terms and smoothing.
+
+    The lag terms' time constants and, when ``smoothing > 0``, the smoothing time constant
+    (``dT`` is then the smoothed rate, the deficit at that constant over it), sorted, without
+    duplicates. Streaming, C and JSON carry one deficit per sensor and per entry.
+
+    Parameters
+    ----------
+    terms : sequence of str
+        Term names.
+    smoothing : float, default=0.0
+        Smoothing time constant, s (0: none).
+
+    Returns
+    -------
+    time_constants : tuple of float
+        Sorted, distinct; empty when nothing is lagged.
+
+    Examples
+    --------
+    >>> from sklearn_ifog._contract import state_time_constants
+    >>> state_time_constants(["T", "dT", "T_lag600s"], smoothing=60.0)
+    (60.0, 600.0)
+    """
+    taus = set(lag_time_constants(terms))
+    if smoothing > 0:
+        taus.add(float(smoothing))
+    return tuple(sorted(taus))
+
+
+def check_needs_time(terms, smoothing, has_time):
+    """Raise unless the terms and the smoothing have the time column they need.
+
+    Time constants are in seconds; a lag or a smoothing counted in rows would change with
+    the sample period, so without a time column they are refused.
+
+    Parameters
+    ----------
+    terms : sequence of str
+        Term names.
+    smoothing : float
+        Smoothing time constant, s (0: none).
+    has_time : bool
+        Whether a time column is given.
+
+    Raises
+    ------
+    ValueError
+        If a lag term or ``smoothing > 0`` comes without a time column.
+
+    Examples
+    --------
+    >>> from sklearn_ifog._contract import check_needs_time
+    >>> check_needs_time(["T", "dT"], 0.0, has_time=False)
+    >>> check_needs_time(["T_lag600s"], 0.0, has_time=False)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: The lag term(s) ['T_lag600s'] need a time column (time=...): ...
+    """
+    if has_time:
+        return
+    lags = [term for term in terms if get_term(term).time_constant is not None]
+    if lags:
+        raise ValueError(
+            f"The lag term(s) {lags} need a time column (time=...): their time constants are "
+            "in seconds, and a lag counted in rows would change with the sample period."
+        )
+    if smoothing > 0:
+        raise ValueError(
+            f"smoothing={smoothing!r} is a time constant in seconds and needs a time column "
+            "(time=...); without one, use smoothing=0."
+        )

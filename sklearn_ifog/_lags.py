@@ -285,6 +285,39 @@ def _solve_recurrence(a, b):
     return partial.transpose(1, 0, 2).reshape(n_blocks * _BLOCK, m)[:n]
 
 
+def _solve_by_run(a, b, starts):
+    """:func:`_solve_recurrence` with every run scanned from its own first row.
+
+    Runs (segments starting at row 0 and at every ``starts``) are laid side by side as
+    columns, one block per power-of-two class of run length (padding at most doubles the
+    memory; at most ``log2(n) + 1`` classes), each starting at row 0: a run's result is then
+    bit for bit the result of that run alone (and of any prefix of it), whatever the other
+    runs in the batch.
+    """
+    n, m = a.shape
+    segment_starts = np.flatnonzero(starts)
+    if segment_starts.size == 0 or segment_starts[0] != 0:
+        segment_starts = np.concatenate(([0], segment_starts))
+    if segment_starts.size <= 1:
+        return _solve_recurrence(a, b)
+    lengths = np.diff(np.append(segment_starts, n))
+    length_class = np.ceil(np.log2(lengths)).astype(np.intp)
+    out = np.empty_like(b)
+    for cls in np.unique(length_class):
+        members = np.flatnonzero(length_class == cls)
+        width = int(lengths[members].max())
+        offsets = np.arange(width)
+        rows = segment_starts[members][None, :] + offsets[:, None]  # (width, n_runs)
+        valid = offsets[:, None] < lengths[members][None, :]
+        rows = np.where(valid, rows, 0)
+        # (width, n_runs, m): padding rows after a run's end are zero maps (never read back).
+        a_block = np.where(valid[:, :, None], a[rows], 0.0).reshape(width, -1)
+        b_block = np.where(valid[:, :, None], b[rows], 0.0).reshape(width, -1)
+        solved = _solve_recurrence(a_block, b_block).reshape(width, members.size, m)
+        out[rows[valid]] = solved[valid]
+    return out
+
+
 # ---------------------------------------------------------------------------------------------
 # Batch lags.
 # ---------------------------------------------------------------------------------------------
@@ -437,7 +470,7 @@ def lag_deficit(
     a[starts] = 0.0
     b[starts] = 0.0
     width = n_columns * tau.size
-    deficit = _solve_recurrence(a.reshape(n_samples, width), b.reshape(n_samples, width))
+    deficit = _solve_by_run(a.reshape(n_samples, width), b.reshape(n_samples, width), starts)
     deficit = deficit.reshape(n_samples, n_columns, tau.size)
     if one_d:
         deficit = deficit[:, 0]

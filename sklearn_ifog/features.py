@@ -1,14 +1,16 @@
-"""Causal thermal features of a gyro's temperature: T, its rate dT and T·dT, per run.
+"""Causal thermal features of a gyro's temperature: T, its rate dT, T·dT and lags, per run.
 
 The estimator, :class:`ThermalFeatures`, holds the scikit-learn surface (columns, validation,
 names, output containers). The numerics are plain numpy functions below it, shared with the
 streaming compensator and the C exporter:
 
 - :func:`group_rows_by_run`: a stable order that makes every run's rows contiguous;
-- :func:`ema_smooth`: causal exponential smoothing that restarts at every run;
 - :func:`causal_rate`: backward difference (per sample or per unit time) that restarts at every
   run;
-- :func:`assemble_terms`: the feature columns from the temperature and its rate;
+- :func:`sklearn_ifog._lags.lag_deficit` and :func:`~sklearn_ifog._lags.smoothed_rate`: exact
+  first-order lags at time constants in seconds (the ``T_lag<tau>s`` terms and the smoothed
+  ``dT``);
+- :func:`assemble_terms`: the feature columns from the temperature, its rate and its lags;
 - :func:`compute_thermal_features`: all of the above on rows in any run interleaving.
 """
 
@@ -16,18 +18,20 @@ import numbers
 from typing import ClassVar
 
 import numpy as np
-from scipy.signal import lfilter
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import validate_data
 
-from sklearn_ifog import _contract, _table
+from sklearn_ifog import _contract, _lags, _table
 from sklearn_ifog._compat import Interval, StrOptions, _check_feature_names_in, _fit_context
 from sklearn_ifog._contract import (
     SECONDS_PER_UNIT,
     VALID_TERMS,
     SensorInputs,
+    check_needs_time,
     get_term,
     sensor_keys,
+    state_time_constants,
+    valid_terms_text,
 )
 from sklearn_ifog._table import group_rows_by_run
 
@@ -38,7 +42,6 @@ __all__ = [
     "assemble_terms",
     "causal_rate",
     "compute_thermal_features",
-    "ema_smooth",
     "group_rows_by_run",
     "validate_terms",
 ]
@@ -59,7 +62,8 @@ def validate_terms(terms, n_sensors):
     Parameters
     ----------
     terms : sequence of str
-        Term names, each one of :data:`VALID_TERMS`, no duplicates, at least one.
+        Term names, each one of :data:`VALID_TERMS` or a lag term ``"T_lag<tau>s"`` (see
+        :data:`sklearn_ifog._contract.TERM_FAMILIES`), no duplicates, at least one.
     n_sensors : int
         Number of temperature columns; ``"gradient"`` needs at least two.
 
@@ -71,13 +75,15 @@ def validate_terms(terms, n_sensors):
     Raises
     ------
     ValueError
-        On an empty sequence, an unknown or duplicate term, or ``"gradient"`` with one sensor.
+        On an empty sequence, an unknown or duplicate term (two names of one time constant,
+        such as ``"T_lag600s"`` and ``"T_lag600.0s"``, are duplicates), or ``"gradient"``
+        with one sensor.
 
     Examples
     --------
     >>> from sklearn_ifog.features import validate_terms
-    >>> validate_terms(["T", "dT"], n_sensors=1)
-    ('T', 'dT')
+    >>> validate_terms(["T", "dT", "T_lag600s"], n_sensors=1)
+    ('T', 'dT', 'T_lag600s')
     """
     if isinstance(terms, str):
         raise ValueError(
@@ -86,17 +92,24 @@ def validate_terms(terms, n_sensors):
         )
     terms = tuple(terms)
     if not terms:
-        raise ValueError(f"terms is empty; give at least one of {list(VALID_TERMS)}.")
-    unknown = [term for term in terms if term not in VALID_TERMS]
+        raise ValueError(f"terms is empty; give at least one of {valid_terms_text()}.")
+    definitions = {}
+    unknown = []
+    for term in terms:
+        try:
+            definitions[term] = get_term(term)
+        except ValueError:
+            unknown.append(term)
     if unknown:
         raise ValueError(
-            f"Unknown term(s) {unknown} in terms; valid terms are {list(VALID_TERMS)}."
+            f"Unknown term(s) {unknown} in terms; valid terms are {valid_terms_text()}."
         )
-    duplicates = sorted({term for term in terms if terms.count(term) > 1})
+    outputs = [definitions[term].output for term in terms]
+    duplicates = sorted({term for term in terms if outputs.count(definitions[term].output) > 1})
     if duplicates:
         raise ValueError(f"Duplicate term(s) {duplicates} in terms={terms!r}.")
     for term in terms:
-        if not get_term(term).first_sensor and n_sensors < 2:
+        if not definitions[term].first_sensor and n_sensors < 2:
             raise ValueError(
                 f"The {term!r} term has no column for the first sensor (for 'gradient': each "
                 "sensor minus the first one), so it needs at least two temperature columns; "
@@ -113,92 +126,6 @@ def _start_mask(n_samples, run_starts):
         if run_starts.shape != (n_samples,):
             raise ValueError(f"run_starts must have shape ({n_samples},), got {run_starts.shape}.")
     return run_starts
-
-
-def ema_smooth(temperature, run_starts=None, smoothing=0.0, *, initial=None):
-    """Causal exponential moving average that restarts at every run.
-
-    ``s[0] = T[0]`` at the first row of a run, then ``s[i] = a*T[i] + (1 - a)*s[i-1]``
-    (the same as ``s[i-1] + a*(T[i] - s[i-1])``) with ``a = 1 / (1 + smoothing)``, computed
-    with :func:`scipy.signal.lfilter`.
-
-    Parameters
-    ----------
-    temperature : array-like of shape (n_samples,) or (n_samples, n_sensors)
-        Temperatures, rows of each run contiguous and in time order (see
-        :func:`group_rows_by_run`). Each sensor (column) is smoothed on its own.
-    run_starts : array-like of bool of shape (n_samples,), default=None
-        True at the first row of every run. None: one run (or the continuation of one, see
-        ``initial``).
-    smoothing : float, default=0.0
-        Time constant in samples (>= 0); 0 returns the temperature unchanged.
-    initial : float or array-like of shape (n_sensors,), default=None
-        Smoothed value just before row 0, to continue a run across chunks (streaming): row 0
-        then follows the recursion instead of restarting, unless ``run_starts[0]`` is True.
-        None: row 0 starts a run.
-
-    Returns
-    -------
-    smoothed : ndarray of float64, same shape as ``temperature``
-        The smoothed temperature. Row i depends only on rows <= i of its run.
-
-    Notes
-    -----
-    Runs are filtered together as the rows of 2-D blocks (one block per power-of-two class of
-    run length, so padding at most doubles the memory and the loop runs at most
-    ``log2(n_samples) + 1`` times), so every run's result is bit for bit the result of that run
-    alone, and of any prefix of it. A sample-by-sample implementation (streaming, C) matches
-    it bit for bit with ``alpha = 1 / (1 + smoothing)``, ``keep = 1 - alpha`` and
-    ``s = alpha * T + keep * s`` (no fused multiply-add).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from sklearn_ifog.features import ema_smooth
-    >>> T = np.array([20.0, 22.0, 22.0, 30.0, 34.0])
-    >>> ema_smooth(T, run_starts=[True, False, False, True, False], smoothing=1.0)
-    array([20. , 21. , 21.5, 30. , 32. ])
-    """
-    values = np.asarray(temperature, dtype=np.float64)
-    one_d = values.ndim == 1
-    values = values.reshape(values.shape[0], -1)
-    n_samples, n_sensors = values.shape
-    run_starts = _start_mask(n_samples, run_starts)
-    if smoothing < 0:
-        raise ValueError(f"smoothing must be >= 0, got {smoothing}.")
-    smoothed = values.copy()
-    if smoothing == 0 or n_samples == 0:
-        return smoothed[:, 0] if one_d else smoothed
-
-    alpha = 1.0 / (1.0 + smoothing)
-    keep = 1.0 - alpha
-    continues = initial is not None and not run_starts[0]
-    segment_starts = np.flatnonzero(run_starts)
-    if segment_starts.size == 0 or segment_starts[0] != 0:
-        segment_starts = np.concatenate(([0], segment_starts))
-    lengths = np.diff(np.append(segment_starts, n_samples))
-    # Each segment's first row is the filter's initial state: s[start] = T[start] exactly, or
-    # the streaming state carried in ``initial``.
-    first_state = values[segment_starts].copy()
-    if continues:
-        initial = np.broadcast_to(np.asarray(initial, dtype=np.float64), (n_sensors,))
-        first_state[0] = keep * initial + alpha * values[0]
-        smoothed[0] = first_state[0]
-    length_class = np.ceil(np.log2(lengths)).astype(np.intp)
-    for cls in np.unique(length_class):
-        in_class = np.flatnonzero(length_class == cls)
-        starts = segment_starts[in_class]
-        width = int(lengths[in_class].max())
-        if width < 2:
-            continue
-        offsets = np.arange(1, width)
-        rows = starts[:, None] + offsets[None, :]
-        valid = offsets[None, :] < lengths[in_class][:, None]
-        block = values[np.minimum(rows, n_samples - 1)]  # (n_runs, width - 1, n_sensors)
-        zi = keep * first_state[in_class][:, None, :]
-        filtered, _ = lfilter([alpha, 0.0], [1.0, -keep], block, axis=1, zi=zi)
-        smoothed[rows[valid]] = filtered[valid]
-    return smoothed[:, 0] if one_d else smoothed
 
 
 def causal_rate(values, run_starts=None, time=None, seconds_per_unit=60.0):
@@ -264,8 +191,8 @@ def causal_rate(values, run_starts=None, time=None, seconds_per_unit=60.0):
     return rate[:, 0] if one_d else rate
 
 
-def assemble_terms(temperature, rate, terms):
-    """Feature columns from the raw temperature and its rate.
+def assemble_terms(temperature, rate, terms, *, deficit=None, time_constants=()):
+    """Feature columns from the raw temperature, its rate and its lags.
 
     Columns are laid out sensor by sensor (in the given order) and, within a sensor, term by
     term (in the given order). ``"gradient"`` (sensor minus the first sensor) gives no column
@@ -278,12 +205,24 @@ def assemble_terms(temperature, rate, terms):
     rate : array-like, same shape as ``temperature``
         Temperature rate ``dT`` of every sensor (see :func:`causal_rate`).
     terms : sequence of str
-        Any of ``"T"``, ``"dT"``, ``"TdT"`` (T·dT), ``"T2"`` (T²) and ``"gradient"``.
+        Any of ``"T"``, ``"dT"``, ``"TdT"`` (T·dT), ``"T2"`` (T²), ``"gradient"`` and
+        ``"T_lag<tau>s"`` (the deficit ``T - lag_tau(T)``, read from ``deficit``).
+    deficit : array-like of shape (n_samples, n_sensors, n_time_constants), default=None
+        Deficit of every sensor's temperature behind its first-order lag at every time
+        constant of ``time_constants`` (see :func:`sklearn_ifog._lags.lag_deficit`). Needed
+        by the lag terms only.
+    time_constants : sequence of float, default=()
+        The time constants (s) of the last axis of ``deficit``.
 
     Returns
     -------
     features : ndarray of shape (n_samples, n_features_out), dtype float64
         The feature columns.
+
+    Raises
+    ------
+    ValueError
+        On bad ``terms``, or a lag term whose time constant is not in ``time_constants``.
 
     Examples
     --------
@@ -295,20 +234,95 @@ def assemble_terms(temperature, rate, terms):
     """
     temperature = np.asarray(temperature, dtype=np.float64)
     temperature = temperature.reshape(temperature.shape[0], -1)
+    n_samples, n_sensors = temperature.shape
     rate = np.asarray(rate, dtype=np.float64).reshape(temperature.shape)
-    terms = validate_terms(terms, temperature.shape[1])
+    terms = validate_terms(terms, n_sensors)
     definitions = [get_term(term) for term in terms]
+    time_constants = tuple(float(tau) for tau in time_constants)
+    missing = [
+        term.name
+        for term in definitions
+        if term.time_constant is not None and term.time_constant not in time_constants
+    ]
+    if missing:
+        raise ValueError(
+            f"The lag term(s) {missing} need their deficit: give deficit and time_constants "
+            f"(got time constants {list(time_constants)})."
+        )
+    if time_constants:
+        deficit = np.asarray(deficit, dtype=np.float64).reshape(
+            n_samples, n_sensors, len(time_constants)
+        )
     columns = []
-    for sensor in range(temperature.shape[1]):
+    for sensor in range(n_sensors):
+        lag = {tau: deficit[:, sensor, k] for k, tau in enumerate(time_constants)}
         inputs = SensorInputs(
-            T=temperature[:, sensor], dT=rate[:, sensor], first=temperature[:, 0]
+            T=temperature[:, sensor], dT=rate[:, sensor], first=temperature[:, 0], lag=lag
         )
         columns += [
             term.compute(inputs) for term in definitions if sensor > 0 or term.first_sensor
         ]
     if not columns:
-        return np.empty((temperature.shape[0], 0))
+        return np.empty((n_samples, 0))
     return np.column_stack(columns)
+
+
+def _grouped_features(temperature, time, run_starts, *, terms, smoothing, seconds_per_unit):
+    """Thermal features of rows grouped by run (each run contiguous, in time order).
+
+    ``dT`` is :func:`causal_rate` (``smoothing == 0``) or
+    :func:`sklearn_ifog._lags.smoothed_rate` at ``smoothing`` seconds; the lag terms are
+    :func:`sklearn_ifog._lags.lag_deficit` at their time constants; every recursion restarts
+    at each run.
+
+    Parameters
+    ----------
+    temperature : ndarray of shape (n_samples, n_sensors)
+        Raw temperature, deg C.
+    time : ndarray of shape (n_samples,) or None
+        Time, s, strictly increasing within each run (checked by the caller).
+    run_starts : ndarray of bool of shape (n_samples,) or None
+        True at the first row of every run. None: one run.
+    terms : tuple of str
+        Validated terms.
+    smoothing : float
+        Smoothing time constant, s (0: none).
+    seconds_per_unit : float
+        Seconds in the rate's time unit.
+
+    Returns
+    -------
+    features : ndarray of shape (n_samples, n_features_out)
+        The features, rows as given.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn_ifog.features import _grouped_features
+    >>> T = np.array([[20.0], [21.0], [22.0]])
+    >>> _grouped_features(
+    ...     T,
+    ...     np.array([0.0, 60.0, 120.0]),
+    ...     None,
+    ...     terms=("dT",),
+    ...     smoothing=0.0,
+    ...     seconds_per_unit=60.0,
+    ... )
+    array([[0.],
+           [1.],
+           [1.]])
+    """
+    check_needs_time(terms, smoothing, time is not None)
+    taus = state_time_constants(terms, smoothing)
+    deficit = None
+    if taus:
+        deficit = _lags.lag_deficit(temperature, time, run_starts, np.asarray(taus))
+    if smoothing > 0:
+        rate = deficit[:, :, taus.index(float(smoothing))] / np.float64(smoothing)
+        rate = rate * seconds_per_unit
+    else:
+        rate = causal_rate(temperature, run_starts, time, seconds_per_unit)
+    return assemble_terms(temperature, rate, terms, deficit=deficit, time_constants=taus)
 
 
 def compute_thermal_features(
@@ -322,7 +336,7 @@ def compute_thermal_features(
 ):
     """Thermal features of rows in any run interleaving (numpy in, numpy out).
 
-    Groups the rows by run (stable), smooths and differentiates each run on its own, and
+    Groups the rows by run (stable), computes rates and lags on each run on its own, and
     returns the features in the input row order.
 
     Parameters
@@ -330,13 +344,15 @@ def compute_thermal_features(
     temperature : array-like of shape (n_samples,) or (n_samples, n_sensors)
         Raw temperature, deg C, finite.
     time : array-like of shape (n_samples,), default=None
-        Time in seconds, strictly increasing within each run. None: per-sample ``dT``.
+        Time in seconds, strictly increasing within each run. None: per-sample ``dT`` (and
+        neither lag terms nor smoothing).
     run : array-like of shape (n_samples,), default=None
         Run id of every row. None: all rows are one run.
     terms : sequence of str, default=("T", "dT", "TdT")
         Terms to compute (see :func:`assemble_terms`).
     smoothing : float, default=0.0
-        EMA time constant in samples (see :func:`ema_smooth`).
+        Time constant of the rate's smoothing, s (0: none; > 0 needs ``time``), see
+        :func:`sklearn_ifog._lags.smoothed_rate`.
     seconds_per_unit : float, default=60.0
         Seconds in the rate's time unit (see :func:`causal_rate`).
 
@@ -349,7 +365,8 @@ def compute_thermal_features(
     ------
     ValueError
         If ``time`` does not increase strictly within a run (naming the run and the row,
-        a position in the input), or on bad ``terms``.
+        a position in the input), on bad ``terms``, or on lag terms or ``smoothing > 0``
+        without ``time``.
 
     Examples
     --------
@@ -366,28 +383,30 @@ def compute_thermal_features(
     temperature = np.asarray(temperature, dtype=np.float64)
     temperature = temperature.reshape(temperature.shape[0], -1)
     terms = validate_terms(terms, temperature.shape[1])
+    check_needs_time(terms, smoothing, time is not None)
     order, run_starts = group_rows_by_run(run)
     if time is not None:
         time = np.asarray(time, dtype=np.float64).reshape(temperature.shape[0])
         _table.check_time_increasing(time, run, order=order, run_starts=run_starts)
+    params = {"terms": terms, "smoothing": smoothing, "seconds_per_unit": seconds_per_unit}
     if order is None:
-        smoothed = ema_smooth(temperature, None, smoothing)
-        rate = causal_rate(smoothed, None, time, seconds_per_unit)
-    else:
-        smoothed = ema_smooth(temperature[order], run_starts, smoothing)
-        grouped_time = None if time is None else time[order]
-        rate = np.empty_like(temperature)
-        rate[order] = causal_rate(smoothed, run_starts, grouped_time, seconds_per_unit)
-    return assemble_terms(temperature, rate, terms)
+        return _grouped_features(temperature, time, None, **params)
+    grouped_time = None if time is None else time[order]
+    grouped = _grouped_features(temperature[order], grouped_time, run_starts, **params)
+    features = np.empty_like(grouped)
+    features[order] = grouped
+    return features
 
 
 class ThermalFeatures(TransformerMixin, BaseEstimator):
-    """Causal thermal features per run: temperature T, its rate dT, T·dT and extra terms.
+    """Causal thermal features per run: temperature T, its rate dT, T·dT, lags and extra terms.
 
     The features of the paper's temperature compensation model for fibre-optic gyroscopes:
     the coil temperature T, its variation dT (the Shupe effect) and their product T·dT (the
-    Shupe coefficient varies with T). ``dT`` is computed run by run and never crosses a run
-    boundary, whatever the interleaving of the runs' rows; output row i is input row i.
+    Shupe coefficient varies with T), plus thermal-state terms: the excess of T over its
+    first-order lags at time constants in seconds, which carry the temperature distribution
+    inside the coil. Everything is computed run by run and never crosses a run boundary,
+    whatever the interleaving of the runs' rows; output row i is input row i.
 
     Parameters
     ----------
@@ -396,16 +415,23 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         list/tuple of them for several sensors.
     time : str, int or None, default=None
         Time column, in seconds, strictly increasing within each run. None: ``dT`` is the
-        per-sample difference (the reference paper's Eq. 22).
+        per-sample difference (the reference paper's Eq. 22); lag terms and ``smoothing > 0``
+        then raise a ValueError (their time constants are in seconds).
     run : str, int or None, default=None
         Column with the run id of every row (numbers or strings). None: X is one run.
     terms : list or tuple of str, default=("T", "dT", "TdT")
         Terms to output, any subset in any order of ``"T"`` (raw temperature), ``"dT"``,
-        ``"TdT"`` (T·dT), ``"T2"`` (T²) and ``"gradient"`` (this sensor minus the first
-        sensor; needs several sensors). ``("T", "dT")`` is the paper's traditional model.
+        ``"TdT"`` (T·dT), ``"T2"`` (T²), ``"gradient"`` (this sensor minus the first
+        sensor; needs several sensors) and ``"T_lag<tau>s"``: ``T - lag_tau(T)``, the excess
+        of the temperature over its causal first-order lag at time constant ``tau`` seconds
+        (an integer or decimal number, e.g. ``"T_lag600s"``, ``"T_lag90.5s"``; needs
+        ``time``). ``("T", "dT")`` is the paper's traditional model.
     smoothing : float, default=0.0
-        Time constant, in samples, of a causal exponential moving average of the temperature
-        applied before differencing (0: none). Tunable by GridSearchCV.
+        Time constant, in seconds, of the smoothing of ``dT`` (0: none, ``dT`` is the
+        backward difference). With ``smoothing > 0`` (needs ``time``), ``dT`` is the rate of
+        the temperature's first-order lag at that time constant,
+        ``(T - lag_smoothing(T)) / smoothing`` in deg C per ``rate_unit``: exact between
+        samples, the same at any sample period. Tunable by GridSearchCV.
     rate_unit : {"s", "min", "h"} or float, default="min"
         Time unit of ``dT`` when ``time`` is given (a float is the unit in seconds).
 
@@ -419,30 +445,41 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
     See Also
     --------
     compute_thermal_features : The same computation on numpy arrays.
-    ema_smooth : The causal smoothing.
-    causal_rate : The causal rate.
+    causal_rate : The causal rate without smoothing.
+    sklearn_ifog._lags.lag_deficit : The lag terms.
+    sklearn_ifog._lags.smoothed_rate : The smoothed rate.
     sklearn_ifog.RBFNetRegressor : The drift model usually fed by these features.
 
     Notes
     -----
     **Causality.** Row i of a run depends only on rows <= i of that run (rows of a run are in
-    time order); transforming the first k rows of a run gives the first k rows of the whole
-    run's result, bit for bit.
+    time order). Transforming the first k rows of a run gives the first k rows of the whole
+    run's result: bit for bit without lags and smoothing, to rounding (1e-12 relative) with
+    them (their batch algorithm is a blocked prefix scan).
 
-    **First row.** A run's first row has no history: its ``dT`` is 0 (and its smoothed value
-    is its temperature).
+    **First row.** A run's first row has no history: its ``dT`` is 0 and its lags start in
+    equilibrium (every ``T_lag<tau>s`` is 0).
 
-    **Smoothing.** Per run and per sensor, ``s[0] = T[0]`` and
-    ``s[i] = s[i-1] + a (T[i] - s[i-1])`` with ``a = 1 / (1 + smoothing)``. ``dT`` is computed
-    from ``s``; the ``"T"``, ``"TdT"``, ``"T2"`` and ``"gradient"`` terms use the raw T.
+    **Lags.** Per run and per sensor, ``lag_tau`` solves ``tau dy/dt = T - y`` exactly for a
+    temperature linear between samples (any, irregular, time steps); the term is the deficit
+    ``e = T - y``, carried from sample to sample as
+    ``e1 = a e0 + g (T1 - T0)``, ``x = (t1 - t0) / tau``, ``a = exp(-x)``,
+    ``g = -expm1(-x) / x`` (see :mod:`sklearn_ifog._lags`).
 
-    **Units.** Without ``time``: ``dT[i] = s[i] - s[i-1]`` in deg C per sample. With ``time``
-    (seconds): ``dT[i] = (s[i] - s[i-1]) / (t[i] - t[i-1])`` in deg C per ``rate_unit``.
+    **Smoothing.** With ``smoothing > 0``, ``dT = e_s / smoothing`` per second (times the
+    seconds of ``rate_unit``), ``e_s`` the deficit at ``tau = smoothing``: the derivative of
+    the lagged temperature, the same at any sample period. The ``"T"``, ``"TdT"``, ``"T2"``,
+    ``"gradient"`` and lag terms use the raw T.
 
-    **Names.** One sensor: ``"T"``, ``"dT"``, ``"T_dT"``, ``"T2"``. Several sensors: each
+    **Units.** Without ``time``: ``dT[i] = T[i] - T[i-1]`` in deg C per sample. With ``time``
+    (seconds) and no smoothing: ``dT[i] = (T[i] - T[i-1]) / (t[i] - t[i-1])`` in deg C per
+    ``rate_unit``. Lag terms are in deg C.
+
+    **Names.** One sensor: ``"T"``, ``"dT"``, ``"T_dT"``, ``"T2"``, ``"T_lag600s"`` (the
+    time constant as an integer, or a decimal number, of seconds). Several sensors: each
     prefixed with the sensor's column name (``"x<position>"`` for arrays), e.g.
-    ``"coil_T_dT"``, sensor by sensor, term by term; ``"<sensor>_gradient"`` is that sensor
-    minus the first one, which gets no gradient column.
+    ``"coil_T_dT"``, ``"coil_T_lag600s"``, sensor by sensor, term by term;
+    ``"<sensor>_gradient"`` is that sensor minus the first one, which gets no gradient column.
 
     **Fitting.** Nothing is learnt: :meth:`transform` works without :meth:`fit`
     (``__sklearn_is_fitted__`` is True, the ``requires_fit`` tag False). :meth:`fit`
@@ -471,6 +508,14 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
     2  21.0  1.0  21.0
     3  29.0 -2.0 -58.0
     4  23.0  2.0  46.0
+    >>> lagged = ThermalFeatures(time="time", run="run", terms=("T", "T_lag600s"))
+    >>> lagged.set_output(transform="pandas").fit_transform(X).round(4)
+          T  T_lag600s
+    0  20.0     0.0000
+    1  30.0     0.0000
+    2  21.0     0.9516
+    3  29.0    -0.9754
+    4  23.0     2.7643
     """
 
     _parameter_constraints: ClassVar[dict] = {

@@ -1,12 +1,13 @@
 """Online (sample-by-sample or chunked) drift compensation with a fitted Pipeline.
 
 The only stateful step of a compensation Pipeline is :class:`~sklearn_ifog.ThermalFeatures`
-(smoothing and differences are causal recursions); every later step acts row by row. The
-compensator therefore carries, between calls, the last smoothed temperature of each sensor, the
-last time stamp and a first-row flag, computes the features of a chunk with the same plain
-functions as the batch transformer, started from that state, and hands the rows to the fitted
-steps after ThermalFeatures unchanged. Its output is the batch Pipeline's, whatever the
-chunking.
+(differences, lags and the smoothing are causal recursions); every later step acts row by row.
+The compensator therefore carries, between calls, the last temperature of each sensor, the
+last time stamp, the deficit of every first-order lag (per sensor and per time constant: the
+lag terms and the smoothing, :class:`sklearn_ifog._lags.LagState`) and a first-row flag,
+computes the features of a chunk with the same plain functions as the batch transformer,
+started from that state, and hands the rows to the fitted steps after ThermalFeatures
+unchanged. Its output is the batch Pipeline's, whatever the chunking.
 """
 
 import copy
@@ -16,28 +17,36 @@ from sklearn.pipeline import Pipeline
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from sklearn_ifog import _table
-from sklearn_ifog._contract import seconds_per_unit, sensor_keys
+from sklearn_ifog._contract import (
+    check_needs_time,
+    seconds_per_unit,
+    sensor_keys,
+    state_time_constants,
+)
+from sklearn_ifog._lags import LagState, lag_deficit
 from sklearn_ifog.features import (
     ThermalFeatures,
     assemble_terms,
     causal_rate,
-    ema_smooth,
     validate_terms,
 )
 
 __all__ = ["StreamingCompensator", "advance_features"]
 
 STATE_SCHEMA = "sklearn-ifog-streaming-state"
-STATE_VERSION = 1
+#: 2: the lags' deficits and the last raw temperature (version 1 held an EMA in samples).
+STATE_VERSION = 2
 
 
 def advance_features(temperature, time, state, *, terms, smoothing, seconds_per_unit):
     """ThermalFeatures of consecutive rows of one run, continued from a state.
 
-    The batch numerics of :mod:`sklearn_ifog.features`: ``ema_smooth`` started from the carried
-    smoothed value, ``causal_rate`` on the rows preceded by the carried last row, then
-    ``assemble_terms``; so a run cut into chunks gives bit for bit the features of the whole
-    run.
+    The batch numerics of :mod:`sklearn_ifog.features`: ``causal_rate`` on the rows preceded
+    by the carried last row, or, for the lag terms and the smoothing,
+    :func:`sklearn_ifog._lags.lag_deficit` continued from the carried
+    :class:`~sklearn_ifog._lags.LagState`; then ``assemble_terms``. A run given whole gives bit
+    for bit the batch features; cut into chunks, the features without lags bit for bit and
+    the lags to rounding (1e-12 relative: the batch scan groups the products differently).
 
     Parameters
     ----------
@@ -46,12 +55,15 @@ def advance_features(temperature, time, state, *, terms, smoothing, seconds_per_
     time : ndarray of shape (n_samples,) or None
         Time stamps, s (``None``: per-sample differences).
     state : dict
-        ``{"has_history": bool, "smoothed": list or None, "last_time": float or None}``, the
-        end of the run's previous rows (``has_history=False`` for a new run). Not modified.
+        ``{"has_history": bool, "temperature": list or None, "last_time": float or None,
+        "deficit": list or None}``: the end of the run's previous rows (``has_history=False``
+        for a new run): the last raw temperature per sensor, the last time and the deficit
+        ``T - lag_tau(T)`` per sensor and per time constant of
+        :func:`sklearn_ifog._contract.state_time_constants`. Not modified.
     terms : sequence of str
         Feature terms (see :func:`~sklearn_ifog.features.assemble_terms`).
     smoothing : float
-        EMA time constant in samples (see :func:`~sklearn_ifog.features.ema_smooth`).
+        Smoothing time constant, s (0: none).
     seconds_per_unit : float or None
         Seconds per unit of the rate's time base (used when ``time`` is given).
 
@@ -66,43 +78,60 @@ def advance_features(temperature, time, state, *, terms, smoothing, seconds_per_
     --------
     >>> import numpy as np
     >>> from sklearn_ifog.streaming import advance_features
-    >>> state = {"has_history": False, "smoothed": None, "last_time": None}
-    >>> rows = np.array([[20.0], [20.5], [21.5]])
-    >>> features, state = advance_features(
-    ...     rows[:2], None, state, terms=("T", "dT"), smoothing=0.0, seconds_per_unit=None
-    ... )
-    >>> more, state = advance_features(
-    ...     rows[2:], None, state, terms=("T", "dT"), smoothing=0.0, seconds_per_unit=None
-    ... )
-    >>> np.vstack([features, more])
-    array([[20. ,  0. ],
-           [20.5,  0.5],
-           [21.5,  1. ]])
-    >>> state["smoothed"], state["has_history"]
-    ([21.5], True)
+    >>> state = {"has_history": False, "temperature": None, "last_time": None, "deficit": None}
+    >>> rows, time = np.array([[20.0], [20.5], [21.5]]), np.array([0.0, 60.0, 120.0])
+    >>> params = {"terms": ("T", "dT", "T_lag600s"), "smoothing": 0.0, "seconds_per_unit": 60.0}
+    >>> features, state = advance_features(rows[:2], time[:2], state, **params)
+    >>> more, state = advance_features(rows[2:], time[2:], state, **params)
+    >>> np.vstack([features, more]).round(6)
+    array([[20.      ,  0.      ,  0.      ],
+           [20.5     ,  0.5     ,  0.475813],
+           [21.5     ,  1.      ,  1.382159]])
+    >>> state["temperature"], state["last_time"]
+    ([21.5], 120.0)
     """
     temperature = np.asarray(temperature, dtype=np.float64)
-    n_samples = temperature.shape[0]
+    n_samples, n_sensors = temperature.shape
+    check_needs_time(terms, smoothing, time is not None)
+    taus = state_time_constants(terms, smoothing)
     if n_samples == 0:
-        return assemble_terms(temperature, temperature, terms), dict(state)
+        deficit = np.zeros((0, n_sensors, len(taus)))
+        return assemble_terms(
+            temperature, temperature, terms, deficit=deficit, time_constants=taus
+        ), dict(state)
     if time is not None:
         time = np.asarray(time, dtype=np.float64)
+    deficit = None
     if state["has_history"]:
-        previous = np.asarray(state["smoothed"], dtype=np.float64)
-        smoothed = ema_smooth(temperature, None, smoothing, initial=previous)
-        # The carried last row in front: the first difference is exactly the batch one.
-        extended = np.concatenate([previous[None, :], smoothed])
-        extended_time = None if time is None else np.concatenate([[state["last_time"]], time])
-        rate = causal_rate(extended, None, extended_time, seconds_per_unit)[1:]
+        previous = np.asarray(state["temperature"], dtype=np.float64)
+        if taus:
+            initial = LagState(
+                time=float(state["last_time"]),
+                value=previous,
+                deficit=np.asarray(state["deficit"], dtype=np.float64),
+            )
+            deficit = lag_deficit(temperature, time, None, np.asarray(taus), initial=initial)
+        if smoothing <= 0:
+            # The carried last row in front: the first difference is exactly the batch one.
+            extended = np.concatenate([previous[None, :], temperature])
+            extended_time = None if time is None else np.concatenate([[state["last_time"]], time])
+            rate = causal_rate(extended, None, extended_time, seconds_per_unit)[1:]
     else:
-        smoothed = ema_smooth(temperature, None, smoothing)
-        rate = causal_rate(smoothed, None, time, seconds_per_unit)
+        if taus:
+            deficit = lag_deficit(temperature, time, None, np.asarray(taus))
+        if smoothing <= 0:
+            rate = causal_rate(temperature, None, time, seconds_per_unit)
+    if smoothing > 0:
+        rate = deficit[:, :, taus.index(float(smoothing))] / np.float64(smoothing)
+        rate = rate * seconds_per_unit
     new_state = {
         "has_history": True,
-        "smoothed": smoothed[-1].tolist(),
+        "temperature": temperature[-1].tolist(),
         "last_time": None if time is None else float(time[-1]),
+        "deficit": None if deficit is None else deficit[-1].tolist(),
     }
-    return assemble_terms(temperature, rate, terms), new_state
+    features = assemble_terms(temperature, rate, terms, deficit=deficit, time_constants=taus)
+    return features, new_state
 
 
 class StreamingCompensator:
@@ -111,8 +140,9 @@ class StreamingCompensator:
     Built from a fitted Pipeline ``ThermalFeatures → ... → regressor`` (e.g. StandardScaler
     and :class:`~sklearn_ifog.RBFNetRegressor`, or a linear baseline). Its outputs equal the
     batch ``pipeline.predict`` on the same run whatever the chunking, and across
-    :meth:`get_state` / :meth:`set_state`: the features bit for bit, the drift to the last
-    bits (BLAS may sum a one-row product in another order than a long one).
+    :meth:`get_state` / :meth:`set_state`: the features bit for bit (the lag terms and the
+    smoothed rate to rounding, 1e-12 relative), the drift to the last bits (BLAS may sum a
+    one-row product in another order than a long one).
 
     Runs: the compensator follows one run at a time. With a ``run`` column in the
     ThermalFeatures, a change of run id — between chunks or inside a chunk — starts a new run
@@ -176,15 +206,19 @@ class StreamingCompensator:
         self.pipeline = pipeline
         self.n_sensors = len(sensors)
         self._thermal = features
+        terms = validate_terms(features.terms, self.n_sensors)
+        smoothing = float(features.smoothing)
+        check_needs_time(terms, smoothing, features.time is not None)
         self._features = {
             "temperature": sensors,
             "time": features.time,
-            "terms": validate_terms(features.terms, self.n_sensors),
-            "smoothing": float(features.smoothing),
+            "terms": terms,
+            "smoothing": smoothing,
             "seconds_per_unit": (
                 None if features.time is None else seconds_per_unit(features.rate_unit)
             ),
         }
+        self._time_constants = list(state_time_constants(terms, smoothing))
         self._rest = pipeline[1:]
         self._names_in = getattr(self._first_later_step(), "feature_names_in_", None)
         self.reset()
@@ -207,10 +241,12 @@ class StreamingCompensator:
             "schema": STATE_SCHEMA,
             "version": STATE_VERSION,
             "n_sensors": self.n_sensors,
+            "time_constants": list(self._time_constants),
             "run": None,
             "has_history": False,
-            "smoothed": None,
+            "temperature": None,
             "last_time": None,
+            "deficit": None,
             "finished_runs": [],
         }
         return self
@@ -221,9 +257,12 @@ class StreamingCompensator:
         Returns
         -------
         state : dict
-            Keys: ``schema``, ``version``, ``n_sensors``, ``run`` (current run id),
-            ``has_history`` (False before a run's first row), ``smoothed`` (last smoothed
-            temperature per sensor), ``last_time``, ``finished_runs``.
+            Keys: ``schema``, ``version``, ``n_sensors``, ``time_constants`` (s, of the
+            lags carried per sensor: the lag terms' and the smoothing's), ``run`` (current run
+            id), ``has_history`` (False before a run's first row), ``temperature`` (last raw
+            temperature per sensor), ``last_time``, ``deficit`` (per sensor, per time
+            constant: ``T - lag_tau(T)`` after the last sample; None without lags),
+            ``finished_runs``.
         """
         return copy.deepcopy(self.state)
 
@@ -241,24 +280,39 @@ class StreamingCompensator:
             The compensator.
         """
         expected = set(self.state)
+        if isinstance(state, dict) and (
+            state.get("schema", STATE_SCHEMA) != STATE_SCHEMA
+            or state.get("version", STATE_VERSION) != STATE_VERSION
+        ):
+            # First, so that a state of an older version is named as such.
+            raise ValueError(
+                f"state is of schema {state.get('schema')!r} version {state.get('version')!r}; "
+                f"expected {STATE_SCHEMA!r} version {STATE_VERSION}."
+            )
         if not isinstance(state, dict) or set(state) != expected:
             got = sorted(state) if isinstance(state, dict) else type(state).__name__
             raise ValueError(f"state must be a dict with keys {sorted(expected)}, got {got}.")
-        if state["schema"] != STATE_SCHEMA or state["version"] != STATE_VERSION:
-            raise ValueError(
-                f"state is of schema {state['schema']!r} version {state['version']!r}; "
-                f"expected {STATE_SCHEMA!r} version {STATE_VERSION}."
-            )
         if state["n_sensors"] != self.n_sensors:
             raise ValueError(
                 f"state is for {state['n_sensors']} sensor(s); this model has {self.n_sensors}."
             )
+        if list(state["time_constants"]) != self._time_constants:
+            raise ValueError(
+                f"state carries lags at time constants {state['time_constants']} s; this "
+                f"model's are {self._time_constants} s (lag terms and smoothing)."
+            )
         if state["has_history"]:
-            smoothed = state["smoothed"]
-            if smoothed is None or len(smoothed) != self.n_sensors:
-                raise ValueError(f"state['smoothed'] must hold {self.n_sensors} value(s).")
+            temperature = state["temperature"]
+            if temperature is None or len(temperature) != self.n_sensors:
+                raise ValueError(f"state['temperature'] must hold {self.n_sensors} value(s).")
             if self._features["time"] is not None and state["last_time"] is None:
                 raise ValueError("state['last_time'] is missing: the model uses time.")
+            expected = (self.n_sensors, len(self._time_constants))
+            if self._time_constants and np.shape(state["deficit"]) != expected:
+                raise ValueError(
+                    f"state['deficit'] must have shape {expected} (sensors, time constants), "
+                    f"got {np.shape(state['deficit'])}."
+                )
         self.state = copy.deepcopy(state)
         return self
 
@@ -382,8 +436,9 @@ class StreamingCompensator:
             **state,
             "run": run_id,
             "has_history": False,
-            "smoothed": None,
+            "temperature": None,
             "last_time": None,
+            "deficit": None,
             "finished_runs": finished,
         }
 

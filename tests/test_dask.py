@@ -54,7 +54,7 @@ def _pipe():
     )
 
 
-GRID = {"features__smoothing": [0.0, 20.0], "rbf__alpha": [1e-4, 1e-1]}
+GRID = {"features__smoothing": [0.0, 1200.0], "rbf__alpha": [1e-4, 1e-1]}
 
 
 def test_grid_search_under_dask_equals_default_backend(client, campaign):

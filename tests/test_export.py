@@ -9,6 +9,7 @@ and so may a compensated rate (at 90 deg azimuth), where a per-sample ratio mean
 """
 
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -106,7 +107,9 @@ int main(int argc, char **argv)
 @pytest.fixture(scope="module")
 def campaign():
     frame = make_thermal_campaign(n_units=1, n_runs=3, sampling_period=10.0, random_state=0).frame
-    frame = frame.iloc[:N_SAMPLES].copy()
+    # Irregular time steps: a random 60 % of the 10 s samples (steps of 10 s to a few minutes).
+    keep = np.random.default_rng(0).random(len(frame)) < 0.6
+    frame = frame[keep].iloc[:N_SAMPLES].reset_index(drop=True)
     # A second sensor for the multi-sensor models: the reading of a lagging neighbour.
     frame["temperature_2"] = (
         frame.groupby("run")["temperature"].shift(30).fillna(frame["temperature"])
@@ -140,12 +143,38 @@ MODELS = {
         StandardScaler(),
         PolynomialFeatures(degree=2),
         Ridge(alpha=1e-3),
-        features=_features(smoothing=3.0, rate_unit="h"),
+        features=_features(smoothing=120.0, rate_unit="h"),
     ),
     # The default (quadratic) tail, with exactly 15 Gaussian units.
     "rbf": lambda c: _fitted(c, StandardScaler(), _rbf(criterion=None)),
     "rbf-no-tail": lambda c: _fitted(
-        c, StandardScaler(), _rbf(tail=False, refine=None), features=_features(smoothing=5.0)
+        c, StandardScaler(), _rbf(tail=False, refine=None), features=_features(smoothing=300.0)
+    ),
+    # Thermal-state terms and a smoothed rate whose time constant is also a lag term's.
+    "lags-rbf": lambda c: _fitted(
+        c,
+        StandardScaler(),
+        _rbf(tail="linear"),
+        features=_features(
+            terms=("T", "dT", "TdT", "T_lag600s", "T_lag3600s", "T_lag90.5s"), smoothing=600.0
+        ),
+    ),
+    "lags-2-sensors-poly": lambda c: _fitted(
+        c,
+        StandardScaler(),
+        PolynomialFeatures(degree=2),
+        Ridge(alpha=1e-3),
+        features=ThermalFeatures(
+            temperature=["temperature", "temperature_2"],
+            time="time",
+            run="run",
+            terms=("T", "dT", "T_lag300s", "gradient"),
+            smoothing=60.0,
+            rate_unit="s",
+        ),
+    ),
+    "lags-only": lambda c: _fitted(
+        c, StandardScaler(), Ridge(alpha=1e-3), features=_features(terms=("T", "T_lag1800s"))
     ),
     # A linear tail: an unpenalised quadratic one on these ten nearly collinear features
     # sums terms ~900 times the drift, which alone costs float its 1e-4.
@@ -154,7 +183,7 @@ MODELS = {
         MinMaxScaler(clip=True),
         _rbf(tail="linear"),
         features=ThermalFeatures(
-            temperature=["temperature", "temperature_2"], time="time", run="run", smoothing=2.0
+            temperature=["temperature", "temperature_2"], time="time", run="run", smoothing=60.0
         ),
         target=("drift", "drift_2"),
     ),
@@ -411,27 +440,40 @@ def evaluate_json(spec, frame):
     run = None if features["run"] is None else _column_values(frame, features["run"])
     run = np.zeros(len(frame)) if run is None else np.asarray(run)
     rows = np.empty((len(frame), spec["n_features"]))
-    alpha = features["alpha"]
+    taus = features["time_constants"]
+    smoothing = features["smoothing"]
     for run_id in np.unique(run):
         index = np.flatnonzero(run == run_id)
         raw = temperature[index]
-        smoothed = raw.copy()
-        for i in range(1, len(raw)):  # the recursion as written in the schema
-            smoothed[i] = smoothed[i - 1] + alpha * (raw[i] - smoothed[i - 1])
+        n, n_sensors = raw.shape
+        # The deficit recursion as written in the schema, sample by sample, in plain Python.
+        deficit = np.zeros((n, n_sensors, len(taus)))
         delta = np.zeros_like(raw)
-        delta[1:] = smoothed[1:] - smoothed[:-1]
-        if time is not None:
-            elapsed = np.diff(np.asarray(time, dtype=float)[index])
-            delta[1:] = delta[1:] / elapsed[:, None] * features["seconds_per_unit"]
+        for i in range(1, n):
+            elapsed = (
+                None if time is None else float(time.iloc[index[i]] - time.iloc[index[i - 1]])
+            )
+            for sensor in range(n_sensors):
+                change = raw[i, sensor] - raw[i - 1, sensor]
+                for k, tau in enumerate(taus):
+                    x = elapsed / tau
+                    g = -math.expm1(-x) / x if x > 0 else 1.0
+                    deficit[i, sensor, k] = math.exp(-x) * deficit[i - 1, sensor, k] + g * change
+                if smoothing > 0:
+                    e = deficit[i, sensor, taus.index(smoothing)]
+                    delta[i, sensor] = e / smoothing * features["seconds_per_unit"]
+                elif time is not None:
+                    delta[i, sensor] = change / elapsed * features["seconds_per_unit"]
+                else:
+                    delta[i, sensor] = change
         columns = []
-        for sensor in range(raw.shape[1]):
+        for sensor in range(n_sensors):
             T, dT = raw[:, sensor], delta[:, sensor]
             terms = {"T": T, "dT": dT, "TdT": T * dT, "T2": T * T, "gradient": T - raw[:, 0]}
-            columns += [
-                terms[term]
-                for term in features["terms"]
-                if not (term == "gradient" and sensor == 0)
-            ]
+            for term, tau in zip(features["terms"], features["term_time_constants"], strict=True):
+                if term == "gradient" and sensor == 0:
+                    continue
+                columns.append(terms[term] if tau is None else deficit[:, sensor, taus.index(tau)])
         rows[index] = np.column_stack(columns)
     x = rows
     for step in spec["steps"]:
@@ -482,6 +524,20 @@ def test_json_holds_exact_parameters(campaign, tmp_path):
     np.testing.assert_array_equal(network["widths"], model[-1].widths_)
     np.testing.assert_array_equal(spec["steps"][0]["scale"], model[1].scale_)
     assert spec["features"]["feature_names"] == list(model[0].get_feature_names_out())
+
+
+def test_json_carries_the_time_constants(campaign, tmp_path):
+    model = MODELS["lags-rbf"](campaign)
+    features = json.loads(to_json(model, tmp_path / "model.json").read_text())["features"]
+    assert features["terms"] == ["T", "dT", "TdT", "T_lag600s", "T_lag3600s", "T_lag90.5s"]
+    assert features["term_time_constants"] == [None, None, None, 600.0, 3600.0, 90.5]
+    assert features["smoothing"] == 600.0
+    assert features["time_constants"] == [90.5, 600.0, 3600.0]  # the smoothing shares 600 s
+    assert features["seconds_per_unit"] == 60.0
+    source = to_c(model, tmp_path)[1].read_text()
+    assert "#define IFOG_N_LAGS 3" in (tmp_path / "ifog.h").read_text()
+    assert "ifog_time_constants[3] = {\n    90.5, 600.0, 3600.0\n}" in source
+    assert "gain[k] = (x > 0.0) ? -expm1(-x) / x : 1.0;" in source
 
 
 @pytest.mark.parametrize("regressor", LINEAR_REGRESSORS, ids=lambda cls: cls.__name__)

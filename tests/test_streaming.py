@@ -2,16 +2,18 @@
 
 "Equal to 1e-12 relative", sample by sample, for the drift and the compensated rate, with an
 absolute floor of 1e-12 times the largest value on the run (a value near zero has no
-meaningful ratio). The features are bit for bit the batch ones; the rows after ThermalFeatures
-go through the same fitted steps, but BLAS may sum a 1-row product in another order than a
-1,500-row one, hence a tolerance rather than equality (equality is asserted where the shapes
-are the same).
+meaningful ratio). The features are bit for bit the batch ones, except the lag terms and the
+smoothed rate of a run cut into chunks (1e-12 relative: the batch prefix scan groups its
+products differently); the rows after ThermalFeatures go through the same fitted steps, but
+BLAS may sum a 1-row product in another order than a 1,500-row one, hence a tolerance rather
+than equality (equality is asserted where the shapes are the same).
 """
 
 import json
 import warnings
 
 import numpy as np
+import pandas as pd
 import pytest
 from sklearn.linear_model import Ridge
 from sklearn.pipeline import Pipeline, make_pipeline
@@ -24,9 +26,12 @@ from sklearn.preprocessing import (
 )
 
 from sklearn_ifog import RBFNetRegressor, ThermalFeatures
+from sklearn_ifog._lags import lag_deficit, lag_step
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.features import compute_thermal_features
 from sklearn_ifog.streaming import StreamingCompensator, advance_features
+
+LAG_TERMS = ("T", "dT", "TdT", "T_lag600s", "T_lag3600s")
 
 RTOL = 1e-12
 
@@ -57,16 +62,23 @@ def models(campaign):
     y = campaign["drift"]
     return {
         # The default (quadratic) tail, with exactly 15 Gaussian units.
-        "rbf": make_pipeline(_features(smoothing=2.0), StandardScaler(), _rbf(criterion=None)).fit(
-            campaign, y
-        ),
+        "rbf": make_pipeline(
+            _features(smoothing=120.0), StandardScaler(), _rbf(criterion=None)
+        ).fit(campaign, y),
         "poly-ridge": make_pipeline(
             _features(), StandardScaler(), PolynomialFeatures(2), Ridge(alpha=1e-3)
+        ).fit(campaign, y),
+        # Thermal-state terms and a smoothed rate: five lags per sensor carried.
+        "lags": make_pipeline(
+            _features(terms=LAG_TERMS, smoothing=300.0),
+            StandardScaler(),
+            PolynomialFeatures(2),
+            Ridge(alpha=1e-3),
         ).fit(campaign, y),
     }
 
 
-@pytest.fixture(scope="module", params=["rbf", "poly-ridge"])
+@pytest.fixture(scope="module", params=["rbf", "poly-ridge", "lags"])
 def model(request, models):
     return models[request.param]
 
@@ -126,7 +138,9 @@ def test_save_and_restore_mid_run(model, campaign):
     drift = np.concatenate([head[1], tail[1]])
     _assert_equal_to_batch(model, run, compensated, drift)
     assert saved["has_history"] is True
-    assert len(saved["smoothed"]) == 1
+    assert len(saved["temperature"]) == 1
+    n_lags = len(saved["time_constants"])
+    assert np.shape(saved["deficit"]) == ((1, n_lags) if n_lags else ())
 
 
 def test_step_equals_update(models, campaign):
@@ -219,7 +233,7 @@ def test_set_state_validates(models):
         compensator.set_state({"run": 0})
     with pytest.raises(ValueError, match="sensor"):
         compensator.set_state({**state, "n_sensors": 2})
-    with pytest.raises(ValueError, match="smoothed"):
+    with pytest.raises(ValueError, match=r"state\['temperature'\] must hold 1 value"):
         compensator.set_state({**state, "has_history": True})
 
 
@@ -228,8 +242,8 @@ def test_several_sensors_and_outputs(campaign):
         temperature=["temperature", "temperature_2"],
         time="time",
         run="run",
-        terms=("T", "dT", "TdT", "T2", "gradient"),
-        smoothing=1.0,
+        terms=("T", "dT", "TdT", "T2", "gradient", "T_lag900s"),
+        smoothing=60.0,
     )
     y = np.column_stack([campaign["drift"], 0.5 * campaign["drift"] + 0.01])
     # A linear tail: an unpenalised quadratic one on these ten nearly collinear features sums
@@ -269,23 +283,76 @@ def test_array_input_by_position(campaign):
     _assert_close(np.concatenate([c for c, _ in chunks]), rate - expected)
 
 
-def test_advance_features_continues_exactly():
+@pytest.mark.parametrize("smoothing", [0.0, 3.0])
+def test_advance_features_continues_exactly(smoothing):
     rng = np.random.default_rng(0)
-    temperature = 20 + np.cumsum(rng.normal(0, 0.01, (50, 2)), axis=0)
-    time = np.cumsum(rng.uniform(0.5, 1.5, 50))
-    params = {"terms": ("T", "dT", "TdT"), "smoothing": 3.0, "seconds_per_unit": 60.0}
-    start = {"has_history": False, "smoothed": None, "last_time": None}
+    temperature = 20 + np.cumsum(rng.normal(0, 0.01, (150, 2)), axis=0)
+    time = np.cumsum(rng.uniform(0.5, 1.5, 150))  # irregular steps
+    terms = ("T", "dT", "TdT", "T_lag2s", "T_lag40.5s")
+    params = {"terms": terms, "smoothing": smoothing, "seconds_per_unit": 60.0}
+    start = {"has_history": False, "temperature": None, "last_time": None, "deficit": None}
     whole, _ = advance_features(temperature, time, start, **params)
-    head, state = advance_features(temperature[:17], time[:17], start, **params)
-    tail, _ = advance_features(temperature[17:], time[17:], state, **params)
-    np.testing.assert_array_equal(np.vstack([head, tail]), whole)
     batch = compute_thermal_features(temperature, time=time, **params)
     np.testing.assert_array_equal(whole, batch)
-    # First row: dT = 0; second: the smoothed step over the elapsed minutes.
-    np.testing.assert_array_equal(whole[0, [1, 4]], 0.0)
-    smoothed = temperature[0] + 0.25 * (temperature[1] - temperature[0])
-    expected = (smoothed - temperature[0]) / (time[1] - time[0]) * 60.0
-    np.testing.assert_allclose(whole[1, [1, 4]], expected, rtol=1e-9)
+    for cut in (1, 17, 64, 65, 149):
+        head, state = advance_features(temperature[:cut], time[:cut], start, **params)
+        tail, _ = advance_features(temperature[cut:], time[cut:], state, **params)
+        np.testing.assert_array_equal(head, batch[:cut])
+        scale = np.abs(batch).max(axis=0)
+        assert np.all(np.abs(tail - batch[cut:]) <= 1e-12 * scale)
+    # The carried state is the LagState convention: the deficit after the last row.
+    _, state = advance_features(temperature[:17], time[:17], start, **params)
+    assert state["temperature"] == temperature[16].tolist()
+    assert state["last_time"] == time[16]
+    taus = [2.0, 40.5] if smoothing == 0 else [2.0, 3.0, 40.5]
+    np.testing.assert_array_equal(
+        state["deficit"], lag_deficit(temperature[:17], time[:17], None, taus)[-1]
+    )
+    # One more sample: one exact step of every lag (the step streaming and C take).
+    step, _ = advance_features(temperature[17:18], time[17:18], state, **params)
+    expected = lag_step(
+        np.asarray(state["deficit"]),
+        temperature[16][:, None],
+        temperature[17][:, None],
+        time[17] - time[16],
+        np.asarray(taus),
+    )
+    np.testing.assert_allclose(step[0, [3, 8]], expected[:, 0], rtol=1e-15)
+    np.testing.assert_allclose(step[0, [4, 9]], expected[:, -1], rtol=1e-15)
+    # First row: dT = 0 and every lag 0.
+    np.testing.assert_array_equal(whole[0, [1, 3, 4, 6, 8, 9]], 0.0)
+
+
+def test_irregular_steps_and_interleaved_runs_stream_like_batch(models, campaign):
+    """Two runs with irregular time steps, interleaved: one compensator per run."""
+    model = models["lags"]
+    rng = np.random.default_rng(5)
+    parts = []
+    for run_id in campaign["run"].unique():
+        run = campaign[campaign["run"] == run_id].iloc[:700].copy()
+        keep = np.sort(rng.choice(len(run), size=400, replace=False))
+        parts.append(run.iloc[keep])  # irregular steps: 10 s to over a minute
+    assert np.ptp(np.diff(parts[0]["time"])) > 30.0
+    order = rng.permutation(np.r_[np.zeros(400, int), np.ones(400, int)])
+    interleaved = []
+    counters = [0, 0]
+    for which in order:
+        interleaved.append(parts[which].iloc[counters[which]])
+        counters[which] += 1
+    frame = pd.DataFrame(interleaved).reset_index(drop=True)
+    expected = model.predict(frame)
+    compensators = {run_id: StreamingCompensator(model) for run_id in frame["run"].unique()}
+    drift = np.empty(len(frame))
+    for position, row in frame.iterrows():
+        _, drift[position] = compensators[row["run"]].step(
+            row["time"], row["temperature"], row["rate"], run=row["run"]
+        )
+    _assert_close(drift, expected)
+    # The batch features of the interleaved rows are each run's alone, bit for bit.
+    features = model[0].transform(frame)
+    for run_id in frame["run"].unique():
+        rows = (frame["run"] == run_id).to_numpy()
+        np.testing.assert_array_equal(features[rows], model[0].transform(frame[rows]))
 
 
 def test_pandas_output_pipeline_gets_named_features(campaign):
@@ -323,7 +390,7 @@ def _run_frame(campaign, n_samples=400):
 )
 def test_streaming_equals_batch_for_other_steps(campaign, steps):
     run = _run_frame(campaign)
-    model = make_pipeline(_features(smoothing=1.0), *steps()).fit(run, run["drift"])
+    model = make_pipeline(_features(smoothing=60.0), *steps()).fit(run, run["drift"])
     compensated, drift = _stream(StreamingCompensator(model), run, 9)
     _assert_equal_to_batch(model, run, compensated, drift)
     # Whole-run chunk: the same shapes as batch, so equal to the last bit.
@@ -333,7 +400,7 @@ def test_streaming_equals_batch_for_other_steps(campaign, steps):
 
 def test_streaming_without_time_column_equals_batch(campaign):
     run = _run_frame(campaign)
-    features = ThermalFeatures(temperature="temperature", run="run", smoothing=2.0)
+    features = ThermalFeatures(temperature="temperature", run="run")
     model = make_pipeline(features, StandardScaler(), Ridge(alpha=1e-3)).fit(run, run["drift"])
     compensated, drift = _stream(StreamingCompensator(model), run, 7)
     _assert_equal_to_batch(model, run, compensated, drift)
@@ -364,8 +431,8 @@ def test_streaming_with_passthrough_steps_equals_batch(campaign):
 @pytest.mark.parametrize(
     ("change", "message"),
     [
-        ({"schema": "other-schema"}, r"schema 'other-schema' version 1; expected"),
-        ({"version": 2}, r"version 2; expected 'sklearn-ifog-streaming-state' version 1"),
+        ({"schema": "other-schema"}, r"schema 'other-schema' version 2; expected"),
+        ({"version": 1}, r"version 1; expected 'sklearn-ifog-streaming-state' version 2"),
     ],
 )
 def test_set_state_refuses_wrong_schema_or_version(models, change, message):
@@ -378,7 +445,16 @@ def test_set_state_refuses_wrong_schema_or_version(models, change, message):
 
 @pytest.mark.parametrize(
     "field",
-    ["schema", "version", "n_sensors", "run", "has_history", "smoothed", "last_time"],
+    [
+        "n_sensors",
+        "time_constants",
+        "run",
+        "has_history",
+        "temperature",
+        "last_time",
+        "deficit",
+        "finished_runs",
+    ],
 )
 def test_set_state_refuses_a_missing_field(models, campaign, field):
     compensator = StreamingCompensator(models["rbf"])
@@ -397,3 +473,23 @@ def test_set_state_refuses_a_missing_time_when_the_model_uses_time(models, campa
     state = {**compensator.get_state(), "last_time": None}
     with pytest.raises(ValueError, match=r"state\['last_time'\] is missing: the model uses time"):
         compensator.set_state(state)
+
+
+def test_set_state_refuses_an_old_version_and_other_lags(models, campaign):
+    compensator = StreamingCompensator(models["lags"])
+    compensator.update(_one_run(campaign, 5))
+    state = compensator.get_state()
+    assert state["time_constants"] == [300.0, 600.0, 3600.0]
+    old = {key: state[key] for key in ("schema", "n_sensors", "run", "has_history")}
+    old.update(version=1, smoothed=[20.0], last_time=40.0, finished_runs=[])
+    with pytest.raises(ValueError, match=r"version 1; expected .* version 2"):
+        compensator.set_state(old)
+    with pytest.raises(ValueError, match=r"time constants \[300\.0, 600\.0\]"):
+        compensator.set_state({**state, "time_constants": [300.0, 600.0]})
+    with pytest.raises(ValueError, match=r"state\['deficit'\] must have shape \(1, 3\)"):
+        compensator.set_state({**state, "deficit": [[0.0, 0.0]]})
+    # A state of a model with other lags is refused too.
+    other = StreamingCompensator(models["rbf"])
+    with pytest.raises(ValueError, match="this model's are \\[120\\.0\\] s"):
+        other.set_state(state)
+    assert compensator.get_state() == state

@@ -114,38 +114,78 @@ class _Writer:
 
 
 def _features_body(features, prefix, real):
+    """ThermalFeatures' causal step in C: differences, exact lags, then the terms."""
     terms = features["terms"]
+    taus = features["time_constants"]
+    n_lags = len(taus)
+    lags = f"{prefix.upper()}_N_LAGS"
     needs_delta = uses_rate(terms)
-    uses_time = needs_delta and features["time"] is not None
-    smooths = needs_delta and features["smoothing"] > 0
+    needs_previous = needs_delta or n_lags > 0
+    uses_time = features["time"] is not None and needs_previous
+    smoothing = features["smoothing"]
     lines = ["    int sensor;", "    int column = 0;"]
+    if n_lags:
+        lines += [
+            f"    double decay[{lags}] = {{0.0}};",
+            f"    double gain[{lags}] = {{0.0}};",
+            "    int k;",
+        ]
     if uses_time:
         lines.append("    const double elapsed = time - state->last_time;")
     else:
         lines.append("    (void)time;")
+    if n_lags:
+        # One exact step of every first-order lag (_lags.lag_step): the coefficients are
+        # shared by the sensors.
+        lines += [
+            "    if (state->has_history) {",
+            f"        for (k = 0; k < {lags}; ++k) {{",
+            f"            const double x = elapsed / {prefix}_time_constants[k];",
+            "            decay[k] = exp(-x);",
+            "            gain[k] = (x > 0.0) ? -expm1(-x) / x : 1.0;",
+            "        }",
+            "    }",
+        ]
     lines.append(f"    for (sensor = 0; sensor < {prefix.upper()}_N_SENSORS; ++sensor) {{")
     lines.append("        const double raw = temperature[sensor];")
+    if n_lags:
+        # Deficits T - lag_tau(T), 0 at a run's first row (reset).
+        lines.append("        double *deficit = state->deficit[sensor];")
     if needs_delta:
+        lines.append("        double delta = 0.0;")
+    if needs_previous:
         lines += [
-            "        double smoothed = raw;",
-            "        double delta = 0.0;",
             "        if (state->has_history) {",
-            "            const double previous = state->smoothed[sensor];",
+            "            const double change = raw - state->last_temperature[sensor];",
         ]
-        if smooths:
-            # The batch recursion's own form and constants (ema_smooth: lfilter with
-            # b = [alpha], a = [1, -(1 - alpha)]), so double agrees with it to the last bit.
-            alpha = features["alpha"]
-            gain, keep = format_c_literal(alpha), format_c_literal(1.0 - alpha)
-            lines.append(f"            smoothed = {gain} * raw + {keep} * previous;")
-        if uses_time:
-            per_unit = format_c_literal(features["seconds_per_unit"])
-            lines.append(f"            delta = (smoothed - previous) / elapsed * {per_unit};")
-        else:
-            lines.append("            delta = smoothed - previous;")
-        lines += ["        }", "        state->smoothed[sensor] = smoothed;"]
+        if n_lags:
+            lines += [
+                f"            for (k = 0; k < {lags}; ++k) {{",
+                "                deficit[k] = decay[k] * deficit[k] + gain[k] * change;",
+                "            }",
+            ]
+        if needs_delta:
+            per_unit = (
+                None
+                if features["time"] is None
+                else format_c_literal(features["seconds_per_unit"])
+            )
+            if smoothing > 0:
+                index = taus.index(smoothing)
+                lines.append(
+                    f"            delta = deficit[{index}] / {format_c_literal(smoothing)} * "
+                    f"{per_unit};"
+                )
+            elif uses_time:
+                lines.append(f"            delta = change / elapsed * {per_unit};")
+            else:
+                lines.append("            delta = change;")
+        lines += ["        }", "        state->last_temperature[sensor] = raw;"]
     for term in map(get_term, terms):
-        assignment = f"features[column++] = ({real})({term.c_expression});"
+        expression = term.c_expression
+        if term.time_constant is not None:
+            expression = expression.format(lag=taus.index(term.time_constant))
+        assignment = f"features[column++] = ({real})({expression});"
         if not term.first_sensor:
             # The first sensor has no column of this term (e.g. its gradient is zero).
             lines += ["        if (sensor > 0) {", f"            {assignment}", "        }"]
@@ -156,6 +196,30 @@ def _features_body(features, prefix, real):
         lines.append("    state->last_time = time;")
     lines.append("    state->has_history = 1;")
     return "\n".join(lines)
+
+
+def _state_parts(features, prefix):
+    """The state struct's lag fields, the reset of them, and the time-constant table."""
+    taus = features["time_constants"]
+    upper = prefix.upper()
+    if not taus:
+        return "", "", "", ""
+    define = f"#define {upper}_N_LAGS {len(taus)}\n"
+    field = (
+        "    /* Deficit T - lag_tau(T) of each sensor at each time constant, degC. */\n"
+        f"    double deficit[{upper}_N_SENSORS][{upper}_N_LAGS];\n"
+    )
+    reset = (
+        "        {\n"
+        "            int k;\n"
+        f"            for (k = 0; k < {upper}_N_LAGS; ++k) {{\n"
+        "                state->deficit[sensor][k] = 0.0;\n"
+        "            }\n"
+        "        }\n"
+    )
+    table = _array(f"{prefix}_time_constants", taus, "double", "double")
+    table = "/* Time constants of the first-order lags, s. */\n" + table
+    return define, field, reset, table
 
 
 def _center_scale(writer, tag, spec, source, target):
@@ -327,6 +391,7 @@ def render_c(spec, prefix="ifog", precision="double"):
         f" *   -> {_comment(step['name'])} ({step['class']})" for step in steps
     ]
     time_column = features["time"]
+    lag_define, lag_field, lag_reset, lag_table = _state_parts(features, prefix)
     fields = {
         "prefix": prefix,
         "PREFIX": prefix.upper(),
@@ -345,7 +410,12 @@ def render_c(spec, prefix="ifog", precision="double"):
             else f" (column {_comment(str(time_column))})"
         ),
         "time_null": " (may be NULL)" if time_column is None else "",
-        "parameters": "\n".join(writer.parameters),
+        "parameters": "\n".join(
+            [lag_table, *writer.parameters] if lag_table else writer.parameters
+        ),
+        "lag_define": lag_define,
+        "lag_field": lag_field,
+        "lag_reset": lag_reset,
         "features_body": _features_body(features, prefix, writer.real),
         "predict_body": "\n".join(predict_lines),
         "batch_time": "0.0" if time_column is None else "time[sample]",
@@ -365,7 +435,8 @@ def to_c(pipeline, directory, precision="double", prefix="ifog"):
     ``{prefix}_step`` (one sample in, the drift out) and ``{prefix}_compensate``, the batch
     ``{prefix}_batch`` (one whole run), and ``{prefix}_predict_features`` (the stateless part
     after ThermalFeatures). Parameters are written with round-trip precision. The causal front
-    end (smoothing, differences of time and temperature) is computed in double even for
+    end (differences of time and temperature, the exact first-order lags of the lag terms and
+    of the smoothing, with fixed-size state arrays) is computed in double even for
     ``precision="float"``: differencing 0.01 °C steps of a 30 °C reading in single precision
     would alone cost about 1e-4 relative.
 

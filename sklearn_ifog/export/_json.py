@@ -11,9 +11,15 @@ def to_json(pipeline, path):
     """Write the parameters of a fitted compensation Pipeline to a JSON file.
 
     The file holds exactly what :func:`to_c` compiles in, for implementations in other
-    languages: the ThermalFeatures rules (sensor columns, time column, terms, smoothing,
-    time unit), then every step in order with its operation and parameters, under a
-    ``"schema"`` name and a ``"schema_version"`` (currently 1). Floats are written with
+    languages: the ThermalFeatures rules (sensor columns, time column, terms, the smoothing
+    and the lags' time constants in seconds, time unit), then every step in order with its
+    operation and parameters, under a ``"schema"`` name and a ``"schema_version"``
+    (currently 2). Per sensor and per time constant ``tau`` of ``time_constants``, the
+    deficit ``e`` of the temperature ``u`` behind its first-order lag is 0 at a run's first
+    row, then ``x = (t - t_prev) / tau``, ``a = exp(-x)``, ``g = -expm1(-x) / x`` (1 when
+    ``x == 0``), ``e = a * e + g * (u - u_prev)``; a ``"T_lag<tau>s"`` term is that ``e``
+    and, with ``smoothing > 0``, ``dT = e / smoothing * seconds_per_unit`` at
+    ``tau = smoothing``. Floats are written with
     round-trip precision (Python's ``repr``). The schema is documented in
     ``sklearn_ifog/export/_spec.py``; in short, per step ``op``:
 
@@ -60,7 +66,7 @@ def to_json(pipeline, path):
     >>> with tempfile.TemporaryDirectory() as directory:
     ...     spec = json.loads(to_json(model, Path(directory) / "model.json").read_text())
     >>> spec["schema_version"], [step["op"] for step in spec["steps"]]
-    (1, ['linear'])
+    (2, ['linear'])
     """
     spec = describe_pipeline(pipeline)
     path = Path(path)

@@ -6,20 +6,21 @@ carry exactly the same numbers. Every float goes through ``float(...)`` of a flo
 ``json`` (which writes ``repr``) and the C generator (``repr`` / ``%.9g``) keep round-trip
 precision.
 
-Schema (version 1)::
+Schema (version 2; version 1 had an EMA ``smoothing`` in samples and its ``alpha``)::
 
     {
       "schema": "sklearn-ifog-pipeline",
-      "schema_version": 1,
+      "schema_version": 2,
       "generator": "sklearn-ifog <version>",
       "features": {
         "op": "thermal_features",
         "temperature": [<column name or position>, ...],   # one per sensor, in order
         "time": <column> | null,
         "run": <column> | null,
-        "terms": [...],              # among "T", "dT", "TdT", "T2", "gradient"
-        "smoothing": float,          # EMA time constant, in samples
-        "alpha": float,              # 1 / (1 + smoothing): s[i] = s[i-1] + alpha*(T[i]-s[i-1])
+        "terms": [...],              # among "T", "dT", "TdT", "T2", "gradient", "T_lag<tau>s"
+        "term_time_constants": [...],  # per term: its lag's time constant, s, or null
+        "smoothing": float,          # time constant of dT's smoothing, s (0: none)
+        "time_constants": [...],     # s: the lags carried per sensor (lag terms, smoothing)
         "seconds_per_unit": float | null,   # null when time is null (per-sample difference)
         "feature_names": [...]       # output columns: for each sensor, for each term
       },
@@ -48,12 +49,21 @@ Each step is ``{"name", "class", "op", "n_inputs", "n_outputs", ...}`` with ``op
   the order of scikit-learn's ``PolynomialFeatures(degree=2, include_bias=False)``;
   ``n_tail = n_inputs + n_inputs (n_inputs + 1) / 2``).
 
-The feature rules are those of :class:`sklearn_ifog.ThermalFeatures`: per sensor, ``s`` is the
-smoothed temperature (``s[0] = T[0]`` at a run's first row); the first row of a run has
-``dT = 0``, later rows ``dT = (s[i] - s[i-1]) / (t[i] - t[i-1]) * seconds_per_unit``, or
-``s[i] - s[i-1]`` without time. Terms: ``"T"`` the raw temperature, ``"dT"``, ``"TdT"`` =
+The feature rules are those of :class:`sklearn_ifog.ThermalFeatures`. Per sensor and per
+time constant ``tau`` of ``time_constants``, a deficit ``e`` (the temperature minus its
+first-order lag) is carried: ``e = 0`` at a run's first row, then at each sample, with
+``u`` the raw temperature::
+
+    x = (t - t_prev) / tau;  a = exp(-x);  g = (x > 0) ? -expm1(-x) / x : 1;
+    e = a * e + g * (u - u_prev)
+
+The first row of a run has ``dT = 0``; later rows ``dT = e_smoothing / smoothing *
+seconds_per_unit`` when ``smoothing > 0`` (``e_smoothing``: the deficit at
+``tau = smoothing``), else ``dT = (u - u_prev) / (t - t_prev) * seconds_per_unit``, or
+``u - u_prev`` without time. Terms: ``"T"`` the raw temperature, ``"dT"``, ``"TdT"`` =
 ``T * dT``, ``"T2"`` = ``T * T``, ``"gradient"`` = ``T - T_first_sensor`` (no column for the
-first sensor). Columns: sensor by sensor, term by term within a sensor.
+first sensor), ``"T_lag<tau>s"`` = the deficit at its ``term_time_constants`` entry. Columns:
+sensor by sensor, term by term within a sensor.
 """
 
 import numbers
@@ -64,12 +74,18 @@ from sklearn.pipeline import Pipeline
 from sklearn.utils.validation import check_is_fitted
 
 import sklearn_ifog
-from sklearn_ifog._contract import VALID_TERMS, seconds_per_unit, sensor_keys
+from sklearn_ifog._contract import (
+    get_term,
+    seconds_per_unit,
+    sensor_keys,
+    state_time_constants,
+    valid_terms_text,
+)
 from sklearn_ifog.features import ThermalFeatures
 from sklearn_ifog.rbf import RBFNetRegressor
 
 SCHEMA_NAME = "sklearn-ifog-pipeline"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
 # Regressors whose predict is exactly ``X @ coef_.T + intercept_``.
 LINEAR_REGRESSORS = (
@@ -125,12 +141,15 @@ def describe_features(step, name="thermalfeatures"):
     check_is_fitted(step)
     sensors = sensor_keys(step.temperature)
     terms = [str(term) for term in step.terms]
-    unknown = [term for term in terms if term not in VALID_TERMS]
-    if unknown:
-        raise ValueError(
-            f"Cannot export {_step_label(name, step)}: unknown feature term(s) {unknown}; "
-            f"the exporters compute {list(VALID_TERMS)}."
-        )
+    definitions = {}
+    for term in terms:
+        try:
+            definitions[term] = get_term(term)
+        except ValueError:
+            raise ValueError(
+                f"Cannot export {_step_label(name, step)}: unknown feature term {term!r}; "
+                f"the exporters compute {valid_terms_text()}."
+            ) from None
     smoothing = float(step.smoothing)
     return {
         "op": "thermal_features",
@@ -138,8 +157,9 @@ def describe_features(step, name="thermalfeatures"):
         "time": _column(step.time),
         "run": _column(step.run),
         "terms": terms,
+        "term_time_constants": [definitions[term].time_constant for term in terms],
         "smoothing": smoothing,
-        "alpha": 1.0 / (1.0 + smoothing),
+        "time_constants": list(state_time_constants(terms, smoothing)),
         "seconds_per_unit": None if step.time is None else seconds_per_unit(step.rate_unit),
         "feature_names": [str(name) for name in step.get_feature_names_out()],
     }

@@ -15,8 +15,8 @@ $pipeline_lines
  * Do not edit: regenerate with sklearn_ifog.export.to_c.
  *
  * Self-contained C99: no dynamic allocation, no library beyond <math.h>.
- * Network arithmetic and parameters: $real. The causal front end (smoothing and the
- * differences of time and temperature) stays in double whatever the precision: in float, a
+ * Network arithmetic and parameters: $real. The causal front end (the differences of time
+ * and temperature and the first-order lags) stays in double whatever the precision: in float, a
  * 0.01 degC step of a 30 degC reading is only known to 2e-4, and a 10 s step of a time stamp
  * to 2e-4 after 4.5 hours (2e-3 after 2 days).
  *
@@ -34,14 +34,14 @@ $pipeline_lines
 #define ${PREFIX}_N_SENSORS $n_sensors
 #define ${PREFIX}_N_FEATURES $n_features
 #define ${PREFIX}_N_OUTPUTS $n_outputs
-
+$lag_define
 typedef $real ${prefix}_real;
 
 /* Everything the compensator remembers between samples of one run. */
 typedef struct ${prefix}_state {
-    /* Last smoothed temperature of each sensor, degC. */
-    double smoothed[${PREFIX}_N_SENSORS];
-    /* Time of the last sample, s. */
+    /* Last temperature of each sensor, degC. */
+    double last_temperature[${PREFIX}_N_SENSORS];
+$lag_field    /* Time of the last sample, s. */
     double last_time;
     /* 0: the next sample is the first of a run. */
     int has_history;
@@ -98,13 +98,17 @@ void ${prefix}_reset(${prefix}_state *state)
 {
     int sensor;
     for (sensor = 0; sensor < ${PREFIX}_N_SENSORS; ++sensor) {
-        state->smoothed[sensor] = 0.0;
-    }
+        state->last_temperature[sensor] = 0.0;
+$lag_reset    }
     state->last_time = 0.0;
     state->has_history = 0;
 }
 
-/* ThermalFeatures, one causal step (first row of a run: dT = 0). */
+/* ThermalFeatures, one causal step (first row of a run: dT = 0, every lag deficit 0).
+ * Each lag deficit e (temperature minus its first-order lag at time constant tau) steps
+ * exactly for a temperature linear between samples:
+ *   x = (t - t_prev) / tau; a = exp(-x); g = (x > 0) ? -expm1(-x) / x : 1;
+ *   e = a * e + g * (T - T_prev). */
 static void ${prefix}_features(
     ${prefix}_state *state, double time, const double temperature[${PREFIX}_N_SENSORS],
     ${prefix}_real features[${PREFIX}_N_FEATURES])
