@@ -36,7 +36,7 @@ from sklearn_ifog.datasets._layered import (
 )
 from sklearn_ifog.metrics import earth_rate
 
-__all__ = ["make_thermal_campaign"]
+__all__ = ["make_thermal_campaign", "noise_floor"]
 
 PROFILES = ("paper", "cycle", "staircase")
 PHYSICS = ("lumped", "layered", "layered_glass")
@@ -611,3 +611,50 @@ def make_thermal_campaign(
         components=components,
         DESCR=_DESCR,
     )
+
+
+def noise_floor(frame, rows=None):
+    """Mean squared gyro noise of a simulated campaign: the MSD of a perfect drift model.
+
+    The noise is ``rate - reference - drift`` (turn-on bias, bias instability, angle random
+    walk, quantisation): what no thermal model can remove. A model's mean squared deviation
+    divided by this floor is 1 for a perfect model.
+
+    Parameters
+    ----------
+    frame : DataFrame or mapping of str to array-like
+        A campaign's ``frame`` (columns ``rate``, ``reference`` and ``drift``).
+    rows : array-like of bool or int, default=None
+        Rows to average over (a boolean mask or positions, e.g. a test fold); None means all.
+
+    Returns
+    -------
+    floor : float
+        Mean of the squared noise, (deg/h)².
+
+    Examples
+    --------
+    >>> from sklearn_ifog.datasets import make_thermal_campaign, noise_floor
+    >>> campaign = make_thermal_campaign(n_units=1, n_runs=1, azimuths=[0.0], random_state=0)
+    >>> floor = noise_floor(campaign.frame)
+    >>> bool(1e-5 < floor < 1e-2)
+    True
+    >>> quiet = make_thermal_campaign(n_units=1, n_runs=1, noise=False, random_state=0)
+    >>> bool(noise_floor(quiet.frame) < 1e-20)
+    True
+    """
+    missing = [name for name in ("rate", "reference", "drift") if name not in frame]
+    if missing:
+        raise ValueError(
+            f"frame must have the columns rate, reference and drift of a simulated campaign; "
+            f"missing {missing}."
+        )
+    noise = np.asarray(frame["rate"], dtype=np.float64) - np.asarray(
+        frame["reference"], dtype=np.float64
+    )
+    noise = noise - np.asarray(frame["drift"], dtype=np.float64)
+    if rows is not None:
+        noise = noise[np.asarray(rows)]
+    if noise.size == 0:
+        raise ValueError("rows selects no row: the noise floor of no sample is undefined.")
+    return float(np.mean(np.square(noise)))
