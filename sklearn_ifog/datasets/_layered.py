@@ -5,10 +5,72 @@ Per run (one recording of one unit at one azimuth)::
     chamber air (set-point + controller fluctuation)
       -> housing  -> coil layer 0 (outer) <-> layer 1 <-> ... <-> layer N-1 (inner)
       -> temperature sensor on the housing (lag, offset, 0.01 degC)
-    drift = static_bias(Tm) + Shupe(sum_i w_i k(T_i) dT_i/dt) + stress(Tm) * (T_0 - T_{N-1})
+    drift = b(Tm) + sum_i w_i k(T_i) dT_i/dt + s(Tm) E(Tm) (T_0 - T_{N-1})
 
-The heat network is :mod:`sklearn_ifog.datasets._thermal`; everything is computed on a fine
-grid (step <= ``MAX_FINE_STEP``) and the gyro rate is the mean over each sample period.
+with ``Tm`` the mean coil temperature, ``k(T) = 1 + k1 (T - T0)``, ``w_i = G x_i + a / N``
+(``x_i`` from +1 at the outer layer to -1 at the inner one), ``s(T) = s0 (1 + s1 (T - T0))``,
+``E`` the potting's relative stiffness (1 without a glass transition) and ``b`` the static
+bias (plus ``beta_g w softplus((Tm - Tg) / w)`` with a glass transition). The heat network is
+:mod:`sklearn_ifog.datasets._thermal`; everything is computed on a fine grid (step <= 1 s)
+and the gyro rate is the mean over each sample period (the Shupe term exactly, as a
+difference of its potential; the others by the trapezoidal rule).
+
+Per-unit coefficients, drawn uniformly ("±": random sign). *Typical* = representative of a
+navigation-grade IFOG (coil ~1 km on a ~100 mm spool, potted, in a housing) rather than taken
+from one device.
+
+=========================  ==========================  =======================================
+coefficient                range                       source / justification
+=========================  ==========================  =======================================
+N (radial layers)          5                           thermal lumps of the winding (each
+                                                       holds many fibre layers)
+tau_housing                15-40 min                   typical: chamber air to housing, "tens
+                                                       of minutes" (reference paper, s. 4)
+tau_contact                10-30 min                   typical: coil as one lump against the
+                                                       housing (mount, air gap, shield)
+tau_diffusion              3-8 min                     radial diffusion through ~10 mm of
+                                                       potted fibre, diffusivity ~1.5e-7 m²/s
+                                                       (L²/alpha ~ 10 min; slowest mode
+                                                       4 L² / (pi² alpha))
+C_coil / C_housing         0.2-0.5                     typical
+slowest mode (result)      ~15-70 min                  Lefèvre, *The Fiber-Optic Gyroscope*,
+                                                       ch. on thermal transients: coil
+                                                       responses of tens of minutes
+tau_sensor                 0.5-2 min                   typical thermistor on the housing/mount
+sensor_offset              ±0.1 degC                   typical calibration error
+sensor resolution          0.01 degC                   reference paper, s. 4
+G (shupe_gradient)         ±0.1-0.3 deg/h per degC/min quadrupole residual on the radial
+                                                       distribution of dT/dt (Shupe 1980;
+                                                       Lefèvre ch. 3: the quadrupole winding
+                                                       cancels the uniform term to first
+                                                       order only)
+a (shupe_asymmetry)        ±0.02-0.1 deg/h per         residual winding asymmetry: drift of a
+                           degC/min                    uniform rate; with G gives 0.01-0.3
+                                                       deg/h in ramps, cf. the paper's Fig. 3
+k1                         0.01-0.025 /degC            temperature dependence of dn/dT and of
+                                                       the potting (hence T·dT, paper Eq. 13)
+T0                         15 degC                     middle of the -10..40 degC range
+s0 (stress_coefficient)    ±0.005-0.02 deg/h per degC  elasto-optic bias of a radial thermal
+                                                       gradient (Mohr & Schadt 1996); gives
+                                                       0.005-0.1 deg/h for 1-5 degC gradients
+s1 (stress_k1)             0.01-0.03 /degC             typical: potting modulus vs temperature
+b0, b1, b2                 ±0.05-0.15 deg/h,           typical bias temperature sensitivity
+                           ±(2-4)e-3 deg/h/degC,       (as the lumped physics)
+                           ±(1-5)e-5 deg/h/degC²
+Tg                         10-25 degC                  glass transition of a soft potting or
+                                                       coating inside the test range (Mohr &
+                                                       Schadt; Lefèvre on potting compounds)
+w (glass_width)            1.5-4 degC                  typical breadth of a polymer transition
+E_rubbery / E_glassy       0.1-0.4                     typical drop of the modulus across Tg
+beta_g (glass_bias_slope)  ±(3-8)e-3 deg/h/degC        chosen of the order of b1
+ARW, bias instability,     as the lumped physics       IEEE Std 952-1997 (navigation grade)
+turn-on, quantum
+=========================  ==========================  =======================================
+
+References: D. M. Shupe, Applied Optics 19(5), 654-655, 1980; F. Mohr and F. Schadt, "Bias
+error in fiber optic gyroscopes due to elasto-optic interactions in the sensor fiber", Proc.
+SPIE 5502, 2004 (and F. Mohr, J. Lightwave Technol. 14(1), 1996, on thermo-optically induced
+bias drift); H. C. Lefèvre, *The Fiber-Optic Gyroscope*, 2nd ed., Artech House, 2014.
 """
 
 import numpy as np

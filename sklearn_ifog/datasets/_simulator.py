@@ -382,6 +382,23 @@ def make_thermal_campaign(
         Whether to add the chamber fluctuation, turn-on bias, bias instability, angle random
         walk and output quantisation. With ``noise=False`` the output is exactly
         ``reference + drift`` (the temperature reading stays quantised).
+    physics : {"lumped", "layered", "layered_glass"}, default="lumped"
+        Thermal model. ``"lumped"``: the two-lag model described above (unchanged, bit for
+        bit). ``"layered"``: chamber air -> housing (first-order lag) -> a coil of 5 radial
+        layers with heat diffusion between neighbours (a linear network solved exactly by
+        modal decomposition); Shupe drift from each layer's own rate with quadrupole
+        weights (signed by distance from the mid-radius, plus a per-unit residual
+        asymmetry) times ``k(T) = 1 + k1 (T - T0)``; a thermo-elastic stress term on the
+        radial gradient (outer minus inner layer) with a temperature-dependent coefficient
+        (Mohr & Schadt); a static bias polynomial in the mean coil temperature; the sensor
+        on the housing, outside the coil; gyro samples are means over the sample period
+        (internal step <= 1 s). ``"layered_glass"``: as "layered", plus a glass transition of
+        the potting at Tg (10-25 degC): the stress coefficient falls to the rubbery stiffness
+        (logistic step) and the bias slope changes above Tg. The layered presets draw two
+        seeds per run, so a seed gives the same thermal history at every sample period, and
+        "layered" and "layered_glass" share every unit and run. Their coefficients and
+        sources are listed under ``sklearn_ifog.datasets._layered`` (see
+        :ref:`physics`).
     random_state : int, RandomState instance or None, default=None
         Seed of every random draw (unit coefficients first, then runs); an int gives the same
         campaign bit for bit.
@@ -419,7 +436,10 @@ def make_thermal_campaign(
         components : DataFrame or dict of ndarray
             Per row, the hidden truth: coil_outer, coil_inner, coil_mean (degC), coil_rate
             (the rate driving the Shupe drift, degC/min), static_bias, shupe, turn_on_bias,
-            bias_instability, angle_random_walk, quantisation (deg/h).
+            bias_instability, angle_random_walk, quantisation (deg/h). The layered presets
+            add stress (deg/h), housing, sensor (true sensor temperature, before offset and
+            quantisation) and layer_0 (outer) .. layer_4 (inner), degC; their coil_rate
+            and drift terms are means over the sample period, temperatures instantaneous.
         DESCR : str
             Description of the data set.
 
