@@ -5,12 +5,26 @@ import pandas as pd
 import pytest
 from pandas.testing import assert_frame_equal
 
-from sklearn_ifog.datasets import make_thermal_campaign
+from sklearn_ifog.datasets import make_thermal_campaign, noise_floor
+from sklearn_ifog.datasets._layered import (
+    LAYERED_COMPONENT_COLUMNS,
+    glass_stiffness,
+    layered_drift,
+    shupe_weights,
+    simulate_layered_run,
+)
 from sklearn_ifog.datasets._simulator import (
+    COMPONENT_COLUMNS,
     OUTPUT_ANGLE_QUANTUM,
     first_order_lag,
     shupe_coefficient,
     static_bias,
+)
+from sklearn_ifog.datasets._thermal import (
+    block_average,
+    conduction_network,
+    modal_response,
+    simulate_network,
 )
 
 FRAME_COLUMNS = [
@@ -290,3 +304,313 @@ def test_first_order_lag_tracks_a_ramp_with_the_analytic_solution():
 def test_bad_parameters_raise_an_error_naming_the_parameter(params, name):
     with pytest.raises(ValueError, match=name):
         make_thermal_campaign(**params)
+
+
+# ------------------------------------------------------------------------------------------
+# physics="layered" and "layered_glass"
+# ------------------------------------------------------------------------------------------
+
+LAYERED = {"n_units": 2, "n_runs": 1, "azimuths": [0.0, 90.0], "profile": "cycle"}
+
+
+@pytest.fixture(scope="module")
+def layered():
+    return make_thermal_campaign(**LAYERED, physics="layered", noise=False, random_state=3)
+
+
+def _unit_network(params):
+    A, b, capacity = conduction_network(
+        params["n_layers"],
+        params["tau_housing"],
+        params["tau_contact"],
+        params["tau_diffusion"],
+        params["coil_capacity_ratio"],
+    )
+    return A, b, capacity
+
+
+def test_lumped_is_the_default_physics_and_unchanged_by_naming_it():
+    default = make_thermal_campaign(**SMALL, profile="mix", random_state=7)
+    named = make_thermal_campaign(**SMALL, profile="mix", physics="lumped", random_state=7)
+    assert_frame_equal(default.frame, named.frame, check_exact=True)
+    assert_frame_equal(default.components, named.components, check_exact=True)
+    assert list(default.components.columns) == list(COMPONENT_COLUMNS)
+
+
+@pytest.mark.parametrize("physics", ["layered", "layered_glass"])
+def test_layered_campaign_is_deterministic_and_keeps_the_contract(physics):
+    first = make_thermal_campaign(**LAYERED, physics=physics, random_state=5)
+    again = make_thermal_campaign(**LAYERED, physics=physics, random_state=5)
+    assert_frame_equal(first.frame, again.frame, check_exact=True)
+    assert_frame_equal(first.components, again.components, check_exact=True)
+    assert first.unit_params == again.unit_params
+    assert list(first.frame.columns) == FRAME_COLUMNS
+    assert list(first.components.columns) == list(LAYERED_COMPONENT_COLUMNS)
+    other = make_thermal_campaign(**LAYERED, physics=physics, random_state=6)
+    assert other.unit_params[0]["shupe_gradient"] != first.unit_params[0]["shupe_gradient"]
+    noise = ["turn_on_bias", "bias_instability", "angle_random_walk", "quantisation"]
+    np.testing.assert_allclose(
+        first.target - first.frame["drift"],
+        first.components[noise].sum(axis=1),
+        rtol=0,
+        atol=1e-9,
+    )
+    parts = first.components
+    np.testing.assert_allclose(
+        first.frame["drift"],
+        parts["static_bias"] + parts["shupe"] + parts["stress"],
+        rtol=0,
+        atol=1e-12,
+    )
+
+
+def test_network_conserves_heat_and_settles_at_the_chamber_temperature():
+    A, b, capacity = conduction_network(5, 1500.0, 1200.0, 300.0, 0.3)
+    taus, weights = modal_response(A, b, capacity)
+    assert np.all(taus > 0)
+    np.testing.assert_allclose(weights.sum(axis=1), 1.0, rtol=0, atol=1e-12)
+    step = 5.0
+    time = np.arange(0.0, 20 * taus.max(), step)
+    chamber = np.where(time < 600.0, 0.0, np.minimum(30.0, (time - 600.0) / 60.0))
+    temperatures, rates = simulate_network(chamber, step, taus, weights)
+    # the state equation holds at every sample: dx/dt = A x + b u
+    np.testing.assert_allclose(rates, A @ temperatures + b[:, None] * chamber, atol=1e-12)
+    # heat balance: the stored heat changes only through the housing's air conductance
+    stored_rate = capacity @ rates
+    np.testing.assert_allclose(stored_rate, b[0] * (chamber - temperatures[0]), atol=1e-12)
+    # maximum principle, and a long soak brings every node to the chamber temperature
+    assert temperatures.min() >= -1e-9
+    assert temperatures.max() <= 30.0 + 1e-9
+    np.testing.assert_allclose(temperatures[:, -1], 30.0, rtol=0, atol=1e-6)
+
+
+def test_a_long_soak_leaves_only_the_static_bias():
+    campaign = make_thermal_campaign(n_units=1, physics="layered", random_state=0)
+    params = campaign.unit_params[0]
+    times = np.array([0.0, 3600.0, 3600.0 + 30.0 * 60.0, 30.0 * 3600.0])
+    levels = np.array([0.0, 0.0, 30.0, 30.0])
+    period = 60.0
+    n_samples = int(times[-1] // period) + 1
+    parts = simulate_layered_run(
+        params,
+        times,
+        levels,
+        np.zeros(n_samples),
+        period,
+        False,
+        False,
+        np.random.RandomState(0),
+    )
+    layers = np.vstack([parts[f"layer_{index}"] for index in range(params["n_layers"])])
+    np.testing.assert_allclose(layers[:, -1], 30.0, rtol=0, atol=1e-6)
+    assert abs(parts["shupe"][-1]) < 1e-8
+    assert abs(parts["stress"][-1]) < 1e-8
+    bias = np.polynomial.polynomial.polyval(30.0 - 15.0, params["bias_coefficients"])
+    np.testing.assert_allclose(parts["drift"][-1], bias, rtol=0, atol=1e-8)
+    # during the ramp, the Shupe and stress terms are not negligible
+    assert np.abs(parts["shupe"]).max() > 1e-3
+    assert np.abs(parts["stress"]).max() > 1e-3
+
+
+def test_outer_layers_lead_the_inner_ones_and_the_sensor_follows_the_housing(layered):
+    frame, parts = layered.frame, layered.components
+    params = layered.unit_params[0]
+    # from equilibrium, a ramp up and (after a long soak) a ramp down
+    times = np.array([0.0, 3600.0, 3600.0 + 3600.0, 12 * 3600.0, 13 * 3600.0, 20 * 3600.0])
+    levels = np.array([0.0, 0.0, 30.0, 30.0, 0.0, 0.0])
+    period = 60.0
+    n_samples = int(times[-1] // period) + 1
+    run = simulate_layered_run(
+        params, times, levels, np.zeros(n_samples), period, False, False, np.random.RandomState(0)
+    )
+    order = np.vstack([run["housing"]] + [run[f"layer_{index}"] for index in range(5)])
+    for ramp_start, ramp_end, sign in ((3600.0, 7200.0, 1.0), (12 * 3600.0, 13 * 3600.0, -1.0)):
+        ramp = (np.arange(n_samples) * period > ramp_start + 600.0) & (
+            np.arange(n_samples) * period <= ramp_end
+        )
+        # heating: housing > outer > ... > inner; cooling: the reverse
+        assert np.all(sign * np.diff(order[:, ramp], axis=0) < 0)
+        # the sensor on the housing lags it
+        assert np.all(sign * (run["housing"][ramp] - run["sensor"][ramp]) > 0)
+    # the sensor is a first-order lag of the housing (tau_sensor), not of the coil
+    for _, rows in frame.groupby("run"):
+        params = layered.unit_params[int(rows["unit"].iloc[0])]
+        housing = parts.loc[rows.index, "housing"].to_numpy()
+        lagged = first_order_lag(housing, 60.0, params["tau_sensor"], housing[0])
+        sensor = parts.loc[rows.index, "sensor"].to_numpy()
+        assert np.abs(lagged - sensor).max() < 0.01
+        assert np.abs(parts.loc[rows.index, "coil_mean"].to_numpy() - sensor).max() > 0.5
+    # the reading is the sensor plus the unit's offset, quantised to 0.01 degC
+    offsets = frame["unit"].map(lambda unit: layered.unit_params[unit]["sensor_offset"])
+    error = frame["temperature"] - parts["sensor"] - offsets
+    assert np.abs(error).max() <= 0.005 + 1e-9
+
+
+def test_layer_temperatures_stay_within_the_chamber_history(layered):
+    frame, parts = layered.frame, layered.components
+    layers = parts[[f"layer_{index}" for index in range(5)]]
+    for _, rows in frame.groupby("run"):
+        chamber = rows["chamber_temperature"]
+        block = layers.loc[rows.index].to_numpy()
+        assert block.min() >= chamber.min() - 1e-9
+        assert block.max() <= chamber.max() + 1e-9
+
+
+def test_shupe_drift_integrates_to_the_change_of_the_layer_potential(layered):
+    # sum_i w_i k(T_i) dT_i/dt is an exact time derivative: its integral over a run is the
+    # change of sum_i w_i F(T_i), F(T) = (T - T0) + k1 (T - T0)² / 2; a cycle that comes back
+    # to its start leaves (almost) no net Shupe drift.
+    frame, parts = layered.frame, layered.components
+    for _, rows in frame.groupby("run"):
+        params = layered.unit_params[int(rows["unit"].iloc[0])]
+        weights = shupe_weights(5, params["shupe_gradient"], params["shupe_asymmetry"])
+        np.testing.assert_allclose(weights.sum(), params["shupe_asymmetry"], rtol=1e-12)
+        layers = parts.loc[rows.index, [f"layer_{index}" for index in range(5)]].to_numpy()
+        delta = layers - 15.0
+        potential = (delta + 0.5 * params["k1"] * delta**2) @ weights
+        period = 60.0  # the default sampling period; shupe is in deg/h per (degC/min)
+        integral = parts.loc[rows.index[1:], "shupe"].sum() * period / 60.0
+        np.testing.assert_allclose(integral, potential[-1] - potential[0], rtol=1e-9, atol=1e-12)
+
+
+def test_gyro_samples_are_means_over_the_sample_period():
+    common = {
+        "n_units": 1,
+        "n_runs": 1,
+        "azimuths": [0.0],
+        "physics": "layered_glass",
+        "random_state": 2,
+    }
+    fine = make_thermal_campaign(**common, sampling_period=1.0, noise=False)
+    coarse = make_thermal_campaign(**common, sampling_period=60.0, noise=False)
+    n = len(coarse.frame) - 1
+    rate = fine.frame["rate"].to_numpy()[1 : 1 + 60 * n].reshape(n, 60).mean(axis=1)
+    np.testing.assert_allclose(coarse.frame["rate"].to_numpy()[1:], rate, rtol=0, atol=1e-12)
+    # temperatures are instantaneous: equal at coincident times
+    for name in ["temperature", "chamber_temperature"]:
+        np.testing.assert_array_equal(
+            coarse.frame[name].to_numpy(), fine.frame[name].to_numpy()[::60][: n + 1]
+        )
+
+
+def test_the_same_seed_gives_the_same_thermal_history_at_every_sample_period():
+    common = {"n_units": 2, "n_runs": 2, "azimuths": [0.0], "physics": "layered"}
+    runs = {}
+    for period in (10.0, 60.0):
+        runs[period] = make_thermal_campaign(**common, sampling_period=period, random_state=9)
+    ten, sixty = runs[10.0], runs[60.0]
+    assert ten.unit_params == sixty.unit_params
+    for run in range(4):
+        a = ten.frame[ten.frame["run"] == run]
+        b = sixty.frame[sixty.frame["run"] == run]
+        np.testing.assert_array_equal(
+            b["temperature"].to_numpy(), a["temperature"].to_numpy()[::6]
+        )
+        np.testing.assert_allclose(
+            b["chamber_temperature"].to_numpy(),
+            a["chamber_temperature"].to_numpy()[::6],
+            rtol=0,
+            atol=1e-12,
+        )
+
+
+def test_angle_random_walk_per_sample_scales_as_one_over_the_sample_period():
+    for period in (1.0, 10.0, 60.0):
+        n_runs = {1.0: 1, 10.0: 2, 60.0: 10}[period]
+        bunch = make_thermal_campaign(
+            n_units=1,
+            n_runs=n_runs,
+            azimuths=[0.0],
+            physics="layered",
+            sampling_period=period,
+            random_state=4,
+        )
+        white = bunch.components["angle_random_walk"].to_numpy()
+        assert white.size > 2500
+        expected = bunch.unit_params[0]["angle_random_walk"] * 60.0 / np.sqrt(period)
+        # std of a sample std: 1 / sqrt(2 n) < 1.5 %; 6 % is four of those
+        np.testing.assert_allclose(white.std(), expected, rtol=0.06)
+
+
+def test_glass_transition_bends_the_stress_term_and_the_bias_around_tg():
+    common = {**LAYERED, "noise": False, "random_state": 3, "sampling_period": 10.0}
+    plain = make_thermal_campaign(**common, physics="layered")
+    glass = make_thermal_campaign(**common, physics="layered_glass")
+    # same units, same runs, same temperatures; only the potting's stiffness differs
+    assert plain.unit_params == glass.unit_params
+    for name in ["coil_mean", "shupe", "layer_0", "layer_4"]:
+        np.testing.assert_array_equal(plain.components[name], glass.components[name])
+    for unit, params in enumerate(glass.unit_params):
+        rows = (glass.frame["unit"] == unit).to_numpy()
+        coil = glass.components.loc[rows, "coil_mean"].to_numpy()
+        stiffness = glass_stiffness(
+            coil, params["glass_temperature"], params["glass_width"], params["rubbery_ratio"]
+        )
+        stress_plain = plain.components.loc[rows, "stress"].to_numpy()
+        stress_glass = glass.components.loc[rows, "stress"].to_numpy()
+        large = np.abs(stress_plain) > 1e-3
+        assert large.sum() > 20
+        # stress ratio = stiffness (to the sample-averaging error)
+        np.testing.assert_allclose(
+            stress_glass[large] / stress_plain[large], stiffness[large], rtol=0, atol=0.02
+        )
+        # the bias gains a slope change glass_bias_slope across Tg
+        tg, width = params["glass_temperature"], params["glass_width"]
+        temperatures = np.array([tg - 6 * width, tg - 5 * width, tg + 5 * width, tg + 6 * width])
+        layers = np.tile(temperatures, (5, 1))
+        bias_plain, _ = layered_drift(params, layers, temperatures, glass=False)
+        bias_glass, _ = layered_drift(params, layers, temperatures, glass=True)
+        bend = bias_glass - bias_plain
+        slope_below = (bend[1] - bend[0]) / width
+        slope_above = (bend[3] - bend[2]) / width
+        np.testing.assert_allclose(slope_below, 0.0, atol=0.01 * abs(params["glass_bias_slope"]))
+        np.testing.assert_allclose(slope_above, params["glass_bias_slope"], rtol=0.01)
+    assert np.all(stiffness <= 1.0)
+    assert all(10.0 <= p["glass_temperature"] <= 25.0 for p in glass.unit_params)
+
+
+def test_layered_magnitudes_are_those_of_a_navigation_grade_gyro():
+    bunch = make_thermal_campaign(physics="layered", sampling_period=60.0, random_state=0)
+    frame, parts = bunch.frame, bunch.components
+    thermal = (parts["shupe"] + parts["stress"]).abs().groupby(frame["run"]).max()
+    assert thermal.max() < 1.0
+    assert thermal.median() > 0.005
+    assert frame["drift"].abs().max() < 1.0
+    assert (parts["coil_outer"] - parts["coil_inner"]).abs().max() < 10.0
+    for params in bunch.unit_params:
+        taus, _ = modal_response(*_unit_network(params))
+        assert 10 * 60 <= taus.max() <= 90 * 60  # slowest thermal mode: tens of minutes
+        assert 0.001 <= params["angle_random_walk"] <= 0.005
+
+
+def test_noise_floor_is_the_mean_squared_noise():
+    bunch = make_thermal_campaign(**LAYERED, physics="layered", random_state=1)
+    parts = bunch.components
+    noise = parts[["turn_on_bias", "bias_instability", "angle_random_walk", "quantisation"]]
+    squared = noise.sum(axis=1).to_numpy() ** 2
+    np.testing.assert_allclose(noise_floor(bunch.frame), squared.mean(), rtol=1e-9)
+    rows = (bunch.frame["run"] == 1).to_numpy()
+    np.testing.assert_allclose(noise_floor(bunch.frame, rows), squared[rows].mean(), rtol=1e-9)
+    np.testing.assert_allclose(
+        noise_floor(bunch.frame, np.flatnonzero(rows)), squared[rows].mean(), rtol=1e-9
+    )
+    quiet = make_thermal_campaign(**LAYERED, physics="layered", noise=False, random_state=1)
+    assert noise_floor(quiet.frame) < 1e-25
+    with pytest.raises(ValueError, match="drift"):
+        noise_floor(bunch.frame.drop(columns="drift"))
+    with pytest.raises(ValueError, match="rows"):
+        noise_floor(bunch.frame, np.zeros(len(bunch.frame), dtype=bool))
+
+
+def test_block_average_nests_and_rejects_a_ragged_grid():
+    values = np.random.RandomState(0).standard_normal(6 * 10 + 1)
+    fine = block_average(values, 6)
+    coarse = block_average(values, 30)
+    np.testing.assert_allclose(coarse, fine.reshape(2, 5).mean(axis=1), rtol=0, atol=1e-14)
+    with pytest.raises(ValueError, match="per_block"):
+        block_average(values[:-1], 6)
+
+
+def test_unknown_physics_raises_an_error_naming_the_parameter():
+    with pytest.raises(ValueError, match="physics"):
+        make_thermal_campaign(physics="distributed")

@@ -1,6 +1,6 @@
 """Data sets: the thermal-test simulator and shipped recordings."""
 
 from sklearn_ifog.datasets._real import load_psim_tvc
-from sklearn_ifog.datasets._simulator import make_thermal_campaign
+from sklearn_ifog.datasets._simulator import make_thermal_campaign, noise_floor
 
-__all__ = ["load_psim_tvc", "make_thermal_campaign"]
+__all__ = ["load_psim_tvc", "make_thermal_campaign", "noise_floor"]

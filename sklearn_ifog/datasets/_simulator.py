@@ -16,15 +16,30 @@ from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
-from scipy.signal import lfilter
 from sklearn.utils import Bunch, check_random_state
 
 from sklearn_ifog._compat import Interval, StrOptions, validate_params
+from sklearn_ifog.datasets._gyro import (
+    CHAMBER_FLUCTUATION,
+    CHAMBER_FLUCTUATION_TIME,
+    OUTPUT_ANGLE_QUANTUM,  # noqa: F401 (re-exported: tests and users import it here)
+    SENSOR_RESOLUTION,
+    TURN_ON_BIAS_REPEATABILITY,
+    first_order_lag,
+    gauss_markov,
+    gyro_output,
+)
+from sklearn_ifog.datasets._layered import (
+    LAYERED_COMPONENT_COLUMNS,
+    draw_layered_params,
+    simulate_layered_run,
+)
 from sklearn_ifog.metrics import earth_rate
 
-__all__ = ["make_thermal_campaign"]
+__all__ = ["make_thermal_campaign", "noise_floor"]
 
 PROFILES = ("paper", "cycle", "staircase")
+PHYSICS = ("lumped", "layered", "layered_glass")
 FRAME_COLUMNS = (
     "unit",
     "run",
@@ -54,11 +69,6 @@ COMPONENT_COLUMNS = (
 # Reference temperature of the Shupe coefficient and of the static-bias polynomial: the middle
 # of the usual -10..40 degC test range (reference paper, section 2.1).
 REFERENCE_TEMPERATURE = 15.0
-SENSOR_RESOLUTION = 0.01  # degC, reference paper section 4
-OUTPUT_ANGLE_QUANTUM = 0.05 / 3600.0  # deg (0.05 arcsec), typical closed-loop IFOG LSB
-CHAMBER_FLUCTUATION = 0.05  # degC std, reference paper section 4: control accuracy 0.1 degC
-CHAMBER_FLUCTUATION_TIME = 300.0  # s, typical chamber controller cycle
-TURN_ON_BIAS_REPEATABILITY = 0.003  # deg/h std per run, typical navigation grade
 _SECONDS_PER_MINUTE = 60.0
 
 _DESCR = """\
@@ -80,70 +90,6 @@ temperature rates with a temperature-dependent coefficient k(T) = k0 (1 + k1 (T 
 static temperature bias, turn-on bias, bias instability, angle random walk and output
 quantisation. The true coefficients of each unit are in ``unit_params``.
 """
-
-
-def first_order_lag(u, sampling_period, time_constant, initial):
-    """Response of ``tau * dy/dt = u - y`` to ``u`` sampled every ``sampling_period`` seconds.
-
-    First-order-hold discretisation (exact when ``u`` is linear between samples, as a
-    chamber ramp is), run by :func:`scipy.signal.lfilter`; ``y[0] = initial``.
-
-    Parameters
-    ----------
-    u : ndarray of shape (n_samples,)
-        Input, sampled on a uniform grid.
-    sampling_period : float
-        Sample spacing, seconds.
-    time_constant : float
-        Time constant tau, seconds.
-    initial : float
-        State at the first sample.
-
-    Returns
-    -------
-    y : ndarray of shape (n_samples,)
-        Lagged signal.
-    """
-    pole = np.exp(-sampling_period / time_constant)
-    gain_ratio = (1.0 - pole) * time_constant / sampling_period
-    numerator = [1.0 - gain_ratio, gain_ratio - pole]
-    y = np.empty_like(u, dtype=np.float64)
-    y[0] = initial
-    if u.shape[0] > 1:
-        # Direct-form-II-transposed state after the first sample (input u[0], output y[0]).
-        state = [numerator[1] * u[0] + pole * initial]
-        y[1:], _ = lfilter(numerator, [1.0, -pole], u[1:], zi=state)
-    return y
-
-
-def gauss_markov(white, sampling_period, correlation_time, sigma, initial):
-    """First-order Gauss–Markov sequence with stationary std ``sigma``.
-
-    ``x[n] = phi * x[n-1] + sigma * sqrt(1 - phi**2) * white[n]``, ``phi =
-    exp(-sampling_period / correlation_time)``, started from ``x[-1] = initial``.
-
-    Parameters
-    ----------
-    white : ndarray of shape (n_samples,)
-        Standard normal innovations.
-    sampling_period : float
-        Sample spacing, seconds.
-    correlation_time : float
-        Correlation time, seconds.
-    sigma : float
-        Stationary standard deviation.
-    initial : float
-        State before the first sample (draw it from N(0, sigma**2) for a stationary start).
-
-    Returns
-    -------
-    x : ndarray of shape (n_samples,)
-        The sequence.
-    """
-    phi = np.exp(-sampling_period / correlation_time)
-    drive = sigma * np.sqrt(1.0 - phi**2) * white
-    x, _ = lfilter([1.0], [1.0, -phi], drive, zi=[phi * initial])
-    return x
 
 
 def shupe_coefficient(temperature, k0, k1, reference_temperature=REFERENCE_TEMPERATURE):
@@ -287,31 +233,8 @@ def _simulate_run(unit_params, chamber_setpoint, sampling_period, reference, noi
     bias = static_bias(coil_mean, p["bias_coefficients"], p["reference_temperature"])
     drift = bias + shupe
 
-    zeros = np.zeros(n_samples)
-    if noise:
-        turn_on = np.full(n_samples, rng.normal(0.0, p["turn_on_bias_repeatability"]))
-        instability = gauss_markov(
-            rng.standard_normal(n_samples),
-            sampling_period,
-            p["bias_correlation_time"],
-            p["bias_instability"],
-            rng.normal(0.0, p["bias_instability"]),
-        )
-        # IEEE Std 952-1997: white rate noise of PSD N^2 averaged over dt has std N / sqrt(dt);
-        # N in deg/sqrt(h) -> N * 60 / sqrt(dt[s]) in deg/h.
-        arw = p["angle_random_walk"] * 60.0 / np.sqrt(sampling_period)
-        white = arw * rng.standard_normal(n_samples)
-        unquantised = reference + drift + turn_on + instability + white
-        # The output counts whole angle quanta; the rate is the counted angle per sample.
-        angle = np.cumsum(unquantised) * (sampling_period / 3600.0)
-        phase = rng.uniform(0.0, OUTPUT_ANGLE_QUANTUM)
-        counted = np.round((angle + phase) / OUTPUT_ANGLE_QUANTUM)
-        counted_before = np.concatenate(([np.round(phase / OUTPUT_ANGLE_QUANTUM)], counted[:-1]))
-        rate = (counted - counted_before) * OUTPUT_ANGLE_QUANTUM * (3600.0 / sampling_period)
-        quantisation = rate - unquantised
-    else:
-        turn_on = instability = white = quantisation = zeros
-        rate = reference + drift
+    noise_parts = gyro_output(reference, drift, sampling_period, p, noise, rng)
+    rate = noise_parts.pop("rate")
     return {
         "temperature": temperature,
         "rate": rate,
@@ -323,10 +246,7 @@ def _simulate_run(unit_params, chamber_setpoint, sampling_period, reference, noi
         "coil_rate": coil_rate,
         "static_bias": bias,
         "shupe": shupe,
-        "turn_on_bias": turn_on,
-        "bias_instability": instability,
-        "angle_random_walk": white,
-        "quantisation": quantisation,
+        **noise_parts,
     }
 
 
@@ -382,6 +302,7 @@ def _check_range(value, name, lower=None):
         "ramp_rate": [Interval(Real, 0.0, None, closed="neither"), tuple, list],
         "temperature_range": [tuple, list],
         "noise": ["boolean"],
+        "physics": [StrOptions(set(PHYSICS))],
         "random_state": ["random_state"],
         "as_frame": ["boolean"],
         "return_X_y": ["boolean"],
@@ -399,6 +320,7 @@ def make_thermal_campaign(
     ramp_rate=(0.1, 2.0),
     temperature_range=(-10.0, 40.0),
     noise=True,
+    physics="lumped",
     random_state=None,
     as_frame=True,
     return_X_y=False,
@@ -460,6 +382,23 @@ def make_thermal_campaign(
         Whether to add the chamber fluctuation, turn-on bias, bias instability, angle random
         walk and output quantisation. With ``noise=False`` the output is exactly
         ``reference + drift`` (the temperature reading stays quantised).
+    physics : {"lumped", "layered", "layered_glass"}, default="lumped"
+        Thermal model. ``"lumped"``: the two-lag model described above (unchanged, bit for
+        bit). ``"layered"``: chamber air -> housing (first-order lag) -> a coil of 5 radial
+        layers with heat diffusion between neighbours (a linear network solved exactly by
+        modal decomposition); Shupe drift from each layer's own rate with quadrupole
+        weights (signed by distance from the mid-radius, plus a per-unit residual
+        asymmetry) times ``k(T) = 1 + k1 (T - T0)``; a thermo-elastic stress term on the
+        radial gradient (outer minus inner layer) with a temperature-dependent coefficient
+        (Mohr & Schadt); a static bias polynomial in the mean coil temperature; the sensor
+        on the housing, outside the coil; gyro samples are means over the sample period
+        (internal step <= 1 s). ``"layered_glass"``: as "layered", plus a glass transition of
+        the potting at Tg (10-25 degC): the stress coefficient falls to the rubbery stiffness
+        (logistic step) and the bias slope changes above Tg. The layered presets draw two
+        seeds per run, so a seed gives the same thermal history at every sample period, and
+        "layered" and "layered_glass" share every unit and run. Their coefficients and
+        sources are listed under ``sklearn_ifog.datasets._layered`` (see
+        :ref:`physics`).
     random_state : int, RandomState instance or None, default=None
         Seed of every random draw (unit coefficients first, then runs); an int gives the same
         campaign bit for bit.
@@ -497,7 +436,10 @@ def make_thermal_campaign(
         components : DataFrame or dict of ndarray
             Per row, the hidden truth: coil_outer, coil_inner, coil_mean (degC), coil_rate
             (the rate driving the Shupe drift, degC/min), static_bias, shupe, turn_on_bias,
-            bias_instability, angle_random_walk, quantisation (deg/h).
+            bias_instability, angle_random_walk, quantisation (deg/h). The layered presets
+            add stress (deg/h), housing, sensor (true sensor temperature, before offset and
+            quantisation) and layer_0 (outer) .. layer_4 (inner), degC; their coil_rate
+            and drift terms are means over the sample period, temperatures instantaneous.
         DESCR : str
             Description of the data set.
 
@@ -591,7 +533,15 @@ def make_thermal_campaign(
         )
 
     rng = check_random_state(random_state)
-    unit_params = [_draw_unit_params(rng, unit) for unit in range(n_units)]
+    if physics == "lumped":
+        unit_params = [_draw_unit_params(rng, unit) for unit in range(n_units)]
+        component_columns = COMPONENT_COLUMNS
+    else:
+        unit_params = [
+            draw_layered_params(rng, unit, REFERENCE_TEMPERATURE, TURN_ON_BIAS_REPEATABILITY)
+            for unit in range(n_units)
+        ]
+        component_columns = LAYERED_COMPONENT_COLUMNS
 
     blocks, component_blocks, run_params = [], [], []
     run_id = 0
@@ -603,9 +553,23 @@ def make_thermal_campaign(
                 times, setpoints, rate_used = _chamber_profile(name, rng, ramp, low_high)
                 n_samples = int(np.floor(times[-1] / sampling_period)) + 1
                 time = np.arange(n_samples) * sampling_period
-                setpoint = np.interp(time, times, setpoints)
                 reference = np.full(n_samples, reference_value)
-                arrays = _simulate_run(params, setpoint, sampling_period, reference, noise, rng)
+                if physics == "lumped":
+                    setpoint = np.interp(time, times, setpoints)
+                    arrays = _simulate_run(
+                        params, setpoint, sampling_period, reference, noise, rng
+                    )
+                else:
+                    arrays = simulate_layered_run(
+                        params,
+                        times,
+                        setpoints,
+                        reference,
+                        sampling_period,
+                        noise,
+                        physics == "layered_glass",
+                        rng,
+                    )
                 blocks.append(
                     {
                         "unit": np.full(n_samples, params["unit"], dtype=np.int64),
@@ -619,7 +583,7 @@ def make_thermal_campaign(
                         "chamber_temperature": arrays["chamber_temperature"],
                     }
                 )
-                component_blocks.append({key: arrays[key] for key in COMPONENT_COLUMNS})
+                component_blocks.append({key: arrays[key] for key in component_columns})
                 run_params.append(
                     {
                         "unit": params["unit"],
@@ -639,7 +603,7 @@ def make_thermal_campaign(
     columns = {name: np.concatenate([block[name] for block in blocks]) for name in FRAME_COLUMNS}
     components = {
         name: np.concatenate([block[name] for block in component_blocks])
-        for name in COMPONENT_COLUMNS
+        for name in component_columns
     }
     target_values = columns["rate"] - columns["reference"]
 
@@ -647,7 +611,7 @@ def make_thermal_campaign(
         frame = pd.DataFrame(columns, columns=list(FRAME_COLUMNS))
         data = frame[list(FEATURE_NAMES)]
         target = pd.Series(target_values, name=TARGET_NAME)
-        components = pd.DataFrame(components, columns=list(COMPONENT_COLUMNS))
+        components = pd.DataFrame(components, columns=list(component_columns))
         run_params = pd.DataFrame(run_params)
     else:
         frame = None
@@ -667,3 +631,50 @@ def make_thermal_campaign(
         components=components,
         DESCR=_DESCR,
     )
+
+
+def noise_floor(frame, rows=None):
+    """Mean squared gyro noise of a simulated campaign: the MSD of a perfect drift model.
+
+    The noise is ``rate - reference - drift`` (turn-on bias, bias instability, angle random
+    walk, quantisation): what no thermal model can remove. A model's mean squared deviation
+    divided by this floor is 1 for a perfect model.
+
+    Parameters
+    ----------
+    frame : DataFrame or mapping of str to array-like
+        A campaign's ``frame`` (columns ``rate``, ``reference`` and ``drift``).
+    rows : array-like of bool or int, default=None
+        Rows to average over (a boolean mask or positions, e.g. a test fold); None means all.
+
+    Returns
+    -------
+    floor : float
+        Mean of the squared noise, (deg/h)².
+
+    Examples
+    --------
+    >>> from sklearn_ifog.datasets import make_thermal_campaign, noise_floor
+    >>> campaign = make_thermal_campaign(n_units=1, n_runs=1, azimuths=[0.0], random_state=0)
+    >>> floor = noise_floor(campaign.frame)
+    >>> bool(1e-5 < floor < 1e-2)
+    True
+    >>> quiet = make_thermal_campaign(n_units=1, n_runs=1, noise=False, random_state=0)
+    >>> bool(noise_floor(quiet.frame) < 1e-20)
+    True
+    """
+    missing = [name for name in ("rate", "reference", "drift") if name not in frame]
+    if missing:
+        raise ValueError(
+            f"frame must have the columns rate, reference and drift of a simulated campaign; "
+            f"missing {missing}."
+        )
+    noise = np.asarray(frame["rate"], dtype=np.float64) - np.asarray(
+        frame["reference"], dtype=np.float64
+    )
+    noise = noise - np.asarray(frame["drift"], dtype=np.float64)
+    if rows is not None:
+        noise = noise[np.asarray(rows)]
+    if noise.size == 0:
+        raise ValueError("rows selects no row: the noise floor of no sample is undefined.")
+    return float(np.mean(np.square(noise)))

@@ -1,0 +1,461 @@
+"""Thermal state: paper features against thermal-state features, over physics presets.
+
+For every seed, physics preset ({lumped, layered, layered_glass}) and sample period, one
+simulated campaign (``make_thermal_campaign``, sizes in the output) is split leave one
+azimuth out within each unit (``LeaveOneAzimuthOut``). Every model is a pipeline
+``features -> StandardScaler -> regressor`` for two feature sets:
+
+- ``paper``: ``ThermalFeatures(time="time", run="run")``, i.e. (T, dT, T·dT);
+- ``state``: T, dT/dt smoothed by a first-order filter of time constant ``--smoothing``
+  seconds, T·dT, and T - lag_tau(T) for each ``--taus`` (seconds), causal and per run.
+  TEMPORARY STAND-IN (``StateFeaturesStandIn`` below) until ThermalFeatures has its
+  thermal-state terms; swap it by editing ``feature_sets``.
+
+Metrics per held-out fold: MSD / noise floor (floor = mean squared gyro noise of the held-out
+rows, :func:`sklearn_ifog.datasets.noise_floor`) and the thermal residual
+mean((predicted - true drift)²) / floor. Targets (exit 1 when one fails):
+
+1. the default pipeline (RBFNetRegressor on the ``--default-features`` set) has a pooled
+   MSD <= 1.25 x floor on "layered" and <= 3 x floor on "layered_glass", for every seed and
+   sample period;
+2. with RBFNetRegressor, the excess MSD - floor of the state features is at least 2 x
+   smaller than the paper features' on "layered", and never larger on "lumped", for every
+   seed and sample period.
+
+Run (about 20-30 min on two cores)::
+
+    python benchmarks/bench_thermal_state.py --n-jobs 2
+
+``--quick`` (CI, a minute or two): one seed, 60 s samples, three models, small campaigns.
+Writes ``benchmarks/results/thermal_state[_quick].md`` and ``.json``.
+"""
+
+import argparse
+import json
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+from joblib import Parallel, delayed
+from scipy.signal import lfilter
+from sklearn.base import BaseEstimator, TransformerMixin
+from sklearn.compose import TransformedTargetRegressor
+from sklearn.ensemble import HistGradientBoostingRegressor
+from sklearn.exceptions import ConvergenceWarning
+from sklearn.kernel_ridge import KernelRidge
+from sklearn.linear_model import Ridge
+from sklearn.neural_network import MLPRegressor
+from sklearn.pipeline import Pipeline
+from sklearn.preprocessing import PolynomialFeatures, StandardScaler
+
+from sklearn_ifog import RBFNetRegressor, ThermalFeatures
+from sklearn_ifog._io import write_text_files
+from sklearn_ifog.datasets import make_thermal_campaign, noise_floor
+from sklearn_ifog.model_selection import LeaveOneAzimuthOut, SubsampledRegressor
+
+RESULTS = Path(__file__).parent / "results"
+PHYSICS = ("lumped", "layered", "layered_glass")
+TARGET_RATIO = {"layered": 1.25, "layered_glass": 3.0}
+STATE_GAIN = 2.0  # excess(paper) / excess(state) on "layered"
+FULL = {"n_units": 2, "n_runs": 2, "azimuths": (0.0, 90.0, 180.0, 270.0)}
+QUICK = {"n_units": 1, "n_runs": 2, "azimuths": (0.0, 90.0, 180.0)}
+
+
+# ------------------------------------------------------------------------------------------
+# TEMPORARY STAND-IN for ThermalFeatures' thermal-state terms (issue 11, item 2).
+# ------------------------------------------------------------------------------------------
+
+
+def _first_order(values, step, tau):
+    """Causal ``y[i] = a y[i-1] + (1 - a) x[i]``, ``a = exp(-step / tau)``, ``y[0] = x[0]``."""
+    if tau <= 0:
+        return values.copy()
+    a = np.exp(-step / tau)
+    out, _ = lfilter([1.0 - a], [1.0, -a], values, zi=[a * values[0]])
+    return out
+
+
+class StateFeaturesStandIn(TransformerMixin, BaseEstimator):
+    """T, smoothed dT/dt (degC/min), T·dT and T - lag_tau(T) for each tau (seconds).
+
+    Per run and causal; exact ``exp(-dt / tau)`` steps on each run's (uniform) time step.
+    Stand-in for the thermal-state terms of ThermalFeatures while they are being written.
+    """
+
+    def __init__(self, temperature="temperature", time="time", run="run", taus=(), smoothing=0.0):
+        self.temperature = temperature
+        self.time = time
+        self.run = run
+        self.taus = taus
+        self.smoothing = smoothing
+
+    def fit(self, X, y=None):
+        return self
+
+    def transform(self, X):
+        T = np.asarray(X[self.temperature], dtype=np.float64)
+        t = np.asarray(X[self.time], dtype=np.float64)
+        run = np.asarray(X[self.run])
+        out = np.empty((T.shape[0], 3 + len(self.taus)))
+        starts = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
+        for start, stop in zip(starts, np.r_[starts[1:], T.shape[0]], strict=True):
+            temperature, times = T[start:stop], t[start:stop]
+            steps = np.diff(times)
+            if steps.size and not np.allclose(steps, steps[0]):
+                raise ValueError(f"run {run[start]!r}: the stand-in needs a uniform time step.")
+            step = steps[0] if steps.size else 1.0
+            rate = np.r_[0.0, np.diff(temperature) / step * 60.0]
+            rate = _first_order(rate, step, self.smoothing)
+            block = out[start:stop]
+            block[:, 0] = temperature
+            block[:, 1] = rate
+            block[:, 2] = temperature * rate
+            for column, tau in enumerate(self.taus, start=3):
+                block[:, column] = temperature - _first_order(temperature, step, tau)
+        return out
+
+
+# ------------------------------------------------------------------------------------------
+
+
+def feature_sets(taus, smoothing):
+    return {
+        "paper": lambda: ThermalFeatures(temperature="temperature", time="time", run="run"),
+        "state": lambda: StateFeaturesStandIn(taus=tuple(taus), smoothing=smoothing),
+    }
+
+
+def regressors(seed, max_kernel_samples=600, max_mlp_samples=3000):
+    def scaled(regressor):
+        return TransformedTargetRegressor(regressor=regressor, transformer=StandardScaler())
+
+    def poly(degree):
+        return Pipeline(
+            [("poly", PolynomialFeatures(degree, include_bias=False)), ("ridge", Ridge(1e-3))]
+        )
+
+    def mlp(sizes):
+        # lbfgs on every row of 10 s data takes minutes per fit: the MLPs, like the kernel
+        # model, are fitted on a random subsample (the rows are strongly autocorrelated).
+        return SubsampledRegressor(
+            scaled(
+                MLPRegressor(
+                    hidden_layer_sizes=sizes,
+                    solver="lbfgs",
+                    alpha=1e-3,
+                    max_iter=500,
+                    random_state=seed,
+                )
+            ),
+            max_samples=max_mlp_samples,
+            random_state=seed,
+        )
+
+    return {
+        "RBFNet": lambda: RBFNetRegressor(random_state=seed),
+        "poly2 Ridge": lambda: poly(2),
+        "poly3 Ridge": lambda: poly(3),
+        "MLP(20)": lambda: mlp((20,)),
+        "MLP(50,50)": lambda: mlp((50, 50)),
+        "HistGB": lambda: HistGradientBoostingRegressor(random_state=seed),
+        "KernelRidge": lambda: SubsampledRegressor(
+            scaled(KernelRidge(kernel="rbf", alpha=0.1, gamma=0.05)),
+            max_samples=max_kernel_samples,
+            random_state=seed,
+        ),
+    }
+
+
+QUICK_MODELS = ("RBFNet", "poly2 Ridge", "HistGB")
+
+
+def _campaign(seed, physics, period, sizes):
+    return make_thermal_campaign(
+        **sizes,
+        profile="mix",
+        sampling_period=period,
+        physics=physics,
+        random_state=seed,
+    )
+
+
+def _evaluate_fold(seed, physics, period, sizes, fold, models, sets_spec):
+    campaign = _campaign(seed, physics, period, sizes)
+    X, y = campaign.data, np.asarray(campaign.target)
+    drift = campaign.frame["drift"].to_numpy()
+    train, test = list(LeaveOneAzimuthOut().split(X))[fold]
+    floor = noise_floor(campaign.frame, test)
+    sets = feature_sets(*sets_spec)
+    record = {
+        "seed": seed,
+        "physics": physics,
+        "period": period,
+        "fold": fold,
+        "unit": int(X["unit"].iloc[test[0]]),
+        "azimuth": float(X["azimuth"].iloc[test[0]]),
+        "n_train": int(train.size),
+        "n_test": int(test.size),
+        "floor": floor,
+        "results": {},
+    }
+    for set_name, make_features in sets.items():
+        for model_name, make_model in regressors(seed).items():
+            if model_name not in models:
+                continue
+            pipeline = Pipeline(
+                [
+                    ("features", make_features()),
+                    ("scale", StandardScaler()),
+                    ("regressor", make_model()),
+                ]
+            )
+            start = time.perf_counter()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", ConvergenceWarning)
+                pipeline.fit(X.iloc[train], y[train])
+            predicted = pipeline.predict(X.iloc[test])
+            msd = float(np.mean(np.square(y[test] - predicted)))
+            residual = float(np.mean(np.square(predicted - drift[test])))
+            record["results"][f"{set_name}|{model_name}"] = {
+                "msd": msd,
+                "residual": residual,
+                "fit_s": time.perf_counter() - start,
+            }
+    return record
+
+
+def run(seeds, physics_list, periods, sizes, models, sets_spec, n_jobs):
+    tasks = []
+    for seed in seeds:
+        for physics in physics_list:
+            for period in periods:
+                campaign = _campaign(seed, physics, period, sizes)
+                n_folds = LeaveOneAzimuthOut().get_n_splits(campaign.data)
+                tasks += [(seed, physics, period, fold) for fold in range(n_folds)]
+    print(f"{len(tasks)} folds to fit", file=sys.stderr, flush=True)
+    started = time.perf_counter()
+    records = []
+    parallel = Parallel(n_jobs=n_jobs, return_as="generator")
+    jobs = (
+        delayed(_evaluate_fold)(seed, physics, period, sizes, fold, models, sets_spec)
+        for seed, physics, period, fold in tasks
+    )
+    for done, record in enumerate(parallel(jobs), start=1):
+        records.append(record)
+        elapsed = time.perf_counter() - started
+        print(
+            f"[{done}/{len(tasks)} {elapsed:6.0f}s] seed {record['seed']} {record['physics']} "
+            f"{record['period']:g}s fold {record['fold']}: "
+            + ", ".join(
+                f"{key} {value['msd'] / record['floor']:.2f}"
+                for key, value in record["results"].items()
+                if key.endswith("RBFNet")
+            ),
+            file=sys.stderr,
+            flush=True,
+        )
+    return records
+
+
+def _pooled(records, key, field="msd"):
+    """Sum of squared errors over the folds' rows / sum of squared noise: pooled ratio."""
+    errors = sum(r["results"][key][field] * r["n_test"] for r in records)
+    noise = sum(r["floor"] * r["n_test"] for r in records)
+    return errors / noise
+
+
+def summarize(records, default_features):
+    keys = list(records[0]["results"])
+    summary = {}
+    campaigns = sorted({(r["physics"], r["period"], r["seed"]) for r in records})
+    for physics, period, seed in campaigns:
+        subset = [
+            r for r in records if (r["physics"], r["period"], r["seed"]) == (physics, period, seed)
+        ]
+        summary[f"{physics}|{period:g}|{seed}"] = {
+            key: {
+                "msd_over_floor": _pooled(subset, key),
+                "residual_over_floor": _pooled(subset, key, "residual"),
+            }
+            for key in keys
+        }
+    checks = []
+    default_key = f"{default_features}|RBFNet"
+    for physics, period, seed in campaigns:
+        cell = summary[f"{physics}|{period:g}|{seed}"]
+        label = f"{physics}, {period:g} s, seed {seed}"
+        if physics in TARGET_RATIO and default_key in cell:
+            ratio = cell[default_key]["msd_over_floor"]
+            checks.append(
+                {
+                    "target": f"default pipeline ({default_key}) MSD/floor <= "
+                    f"{TARGET_RATIO[physics]:g}: {label}",
+                    "value": ratio,
+                    "pass": bool(ratio <= TARGET_RATIO[physics]),
+                }
+            )
+        if "paper|RBFNet" in cell and "state|RBFNet" in cell:
+            paper = cell["paper|RBFNet"]["msd_over_floor"] - 1.0
+            state = cell["state|RBFNet"]["msd_over_floor"] - 1.0
+            if physics == "layered":
+                gain = paper / state if state > 0 else np.inf
+                checks.append(
+                    {
+                        "target": f"RBFNet excess paper/state >= {STATE_GAIN:g}: {label}",
+                        "value": float(gain),
+                        "pass": bool(gain >= STATE_GAIN),
+                    }
+                )
+            elif physics == "lumped":
+                checks.append(
+                    {
+                        "target": f"RBFNet excess state <= paper (x floor): {label}",
+                        "value": [float(state), float(paper)],
+                        "pass": bool(state <= paper),
+                    }
+                )
+    return summary, checks
+
+
+def markdown(records, summary, checks, header):
+    keys = list(records[0]["results"])
+    sets = list(dict.fromkeys(key.split("|")[0] for key in keys))
+    models = list(dict.fromkeys(key.split("|")[1] for key in keys))
+    lines = [*header, ""]
+    for physics in dict.fromkeys(r["physics"] for r in records):
+        for period in dict.fromkeys(r["period"] for r in records):
+            subset = [r for r in records if (r["physics"], r["period"]) == (physics, period)]
+            if not subset:
+                continue
+            floors = [r["floor"] for r in subset]
+            seeds = sorted({r["seed"] for r in subset})
+            lines += [
+                f"## {physics}, {period:g} s samples",
+                "",
+                f"Noise floor (mean squared gyro noise of the held-out rows), (deg/h)²: mean "
+                f"{np.mean(floors):.3e}, range {min(floors):.3e}-{max(floors):.3e}; seeds "
+                f"{seeds}, {len(subset)} folds.",
+                "",
+                "Per feature set: MSD/floor pooled over every fold and seed; the worst fold's "
+                "MSD/floor; the thermal residual mean((predicted - true drift)²)/floor, pooled.",
+                "",
+                "| model | " + " | ".join(f"{s} MSD/floor | {s} worst | {s} resid." for s in sets),
+                "|---|" + "---|---|---|" * len(sets),
+            ]
+            for model in models:
+                cells = []
+                for feature_set in sets:
+                    key = f"{feature_set}|{model}"
+                    worst = max(r["results"][key]["msd"] / r["floor"] for r in subset)
+                    cells += [
+                        f"{_pooled(subset, key):.3f}",
+                        f"{worst:.3f}",
+                        f"{_pooled(subset, key, 'residual'):.3f}",
+                    ]
+                lines.append(f"| {model} | " + " | ".join(cells) + " |")
+            lines.append("")
+    lines += ["## Targets", ""]
+    for check in checks:
+        value = check["value"]
+        shown = (
+            f"{value:.3f}"
+            if isinstance(value, float)
+            else f"state {value[0]:.3f} vs paper {value[1]:.3f}"
+        )
+        lines.append(f"- {'PASS' if check['pass'] else 'FAIL'}: {check['target']} ({shown})")
+    n_fail = sum(not check["pass"] for check in checks)
+    lines += ["", f"{len(checks) - n_fail} of {len(checks)} targets pass."]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="CI mode: small and fast")
+    parser.add_argument("--seeds", type=int, nargs="+", help="campaign seeds (default 0 1 2)")
+    parser.add_argument("--physics", nargs="+", choices=PHYSICS, help="presets (default all)")
+    parser.add_argument("--periods", type=float, nargs="+", help="sample periods, s")
+    parser.add_argument("--models", nargs="+", help="model names (default all)")
+    parser.add_argument(
+        "--taus",
+        type=float,
+        nargs="+",
+        default=[900.0, 1800.0],
+        help="time constants of the state features' T - lag_tau(T) terms, s",
+    )
+    parser.add_argument(
+        "--smoothing", type=float, default=120.0, help="smoothing of dT/dt (state), s"
+    )
+    parser.add_argument(
+        "--default-features",
+        default="state",
+        choices=("paper", "state"),
+        help="feature set of the default pipeline in target 1",
+    )
+    parser.add_argument("--n-jobs", type=int, default=1)
+    parser.add_argument("--tag", default="", help="suffix of the result file names")
+    args = parser.parse_args(argv)
+
+    quick = args.quick
+    seeds = args.seeds or ([0] if quick else [0, 1, 2])
+    physics_list = args.physics or list(PHYSICS)
+    periods = args.periods or ([60.0] if quick else [10.0, 60.0])
+    models = args.models or (list(QUICK_MODELS) if quick else list(regressors(0)))
+    unknown = sorted(set(models) - set(regressors(0)))
+    if unknown:
+        parser.error(f"unknown model(s) {unknown}; choose from {list(regressors(0))}")
+    sizes = QUICK if quick else FULL
+    command = "python benchmarks/bench_thermal_state.py " + " ".join(
+        arg for arg in (argv if argv is not None else sys.argv[1:])
+    )
+    started = time.perf_counter()
+    records = run(
+        seeds, physics_list, periods, sizes, models, (args.taus, args.smoothing), args.n_jobs
+    )
+    records.sort(key=lambda r: (PHYSICS.index(r["physics"]), r["period"], r["seed"], r["fold"]))
+    summary, checks = summarize(records, args.default_features)
+    elapsed = time.perf_counter() - started
+    header = [
+        "# Thermal state: paper features against thermal-state features",
+        "",
+        f"Command: `{command.strip()}` ({elapsed / 60:.1f} min, n_jobs={args.n_jobs})",
+        "",
+        f"Campaigns: make_thermal_campaign(n_units={sizes['n_units']}, "
+        f"n_runs={sizes['n_runs']}, azimuths={list(sizes['azimuths'])}, profile='mix', "
+        f"physics=..., sampling_period=..., random_state=seed), leave one azimuth out within "
+        f"each unit. Feature sets: paper = ThermalFeatures(time='time', run='run') (T, dT, "
+        f"T·dT); state = T, dT/dt smoothed over {args.smoothing:g} s, T·dT, T - lag_tau(T) "
+        f"for tau in {[f'{tau:g}' for tau in args.taus]} s (benchmark stand-in). Each "
+        f"pipeline: features -> StandardScaler -> model; KernelRidge on a random 600-row and "
+        f"the MLPs on a random 3000-row subsample of each training fold (SubsampledRegressor). "
+        f"Default pipeline in the targets: "
+        f"RBFNetRegressor() on '{args.default_features}'.",
+    ]
+    text = markdown(records, summary, checks, header)
+    stem = "thermal_state" + ("_quick" if quick else "") + (f"_{args.tag}" if args.tag else "")
+    RESULTS.mkdir(exist_ok=True)
+    payload = {
+        "command": command.strip(),
+        "sizes": {
+            key: list(value) if isinstance(value, tuple) else value for key, value in sizes.items()
+        },
+        "taus": args.taus,
+        "smoothing": args.smoothing,
+        "default_features": args.default_features,
+        "summary": summary,
+        "checks": checks,
+        "folds": records,
+    }
+    write_text_files(
+        {
+            RESULTS / f"{stem}.json": json.dumps(payload, indent=1),
+            RESULTS / f"{stem}.md": text,
+        }
+    )
+    print(text)
+    return 0 if all(check["pass"] for check in checks) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
