@@ -5,17 +5,17 @@ simulated campaign (``make_thermal_campaign``, sizes in the output) is split lea
 azimuth out within each unit (``LeaveOneAzimuthOut``). Every model is a pipeline
 ``features -> StandardScaler -> regressor`` for two feature sets:
 
-- ``paper``: ``ThermalFeatures(time="time", run="run")``, i.e. (T, dT, T·dT);
-- ``state``: T, dT/dt smoothed by a first-order filter of time constant ``--smoothing``
-  seconds, T·dT, and T - lag_tau(T) for each ``--taus`` (seconds), causal and per run.
-  TEMPORARY STAND-IN (``StateFeaturesStandIn`` below) until ThermalFeatures has its
-  thermal-state terms; swap it by editing ``feature_sets``.
+- ``paper``: ``ThermalFeatures(time="time", run="run", terms=("T", "dT", "TdT"))``;
+- ``state``: ``ThermalFeatures(time="time", run="run")``, the package's default features
+  (thermal-state terms ``T_lag<tau>s`` = T - lag_tau(T) and dT smoothed over a time
+  constant); ``--taus`` and ``--smoothing`` give other sets to explore.
 
 Metrics per held-out fold: MSD / noise floor (floor = mean squared gyro noise of the held-out
 rows, :func:`sklearn_ifog.datasets.noise_floor`) and the thermal residual
 mean((predicted - true drift)²) / floor. Targets (exit 1 when one fails):
 
-1. the default pipeline (RBFNetRegressor on the ``--default-features`` set) has a pooled
+1. the default pipeline (RBFNetRegressor() on the ``--default-features`` set, i.e.
+   ``make_compensation_pipeline()``) has a pooled
    MSD <= 1.25 x floor on "layered" and <= 3 x floor on "layered_glass", for every seed and
    sample period;
 2. with RBFNetRegressor, the excess MSD - floor of the state features is at least 2 x
@@ -39,8 +39,6 @@ from pathlib import Path
 
 import numpy as np
 from joblib import Parallel, delayed
-from scipy.signal import lfilter
-from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.compose import TransformedTargetRegressor
 from sklearn.ensemble import HistGradientBoostingRegressor
 from sklearn.exceptions import ConvergenceWarning
@@ -59,71 +57,24 @@ RESULTS = Path(__file__).parent / "results"
 PHYSICS = ("lumped", "layered", "layered_glass")
 TARGET_RATIO = {"layered": 1.25, "layered_glass": 3.0}
 STATE_GAIN = 2.0  # excess(paper) / excess(state) on "layered"
-FULL = {"n_units": 2, "n_runs": 2, "azimuths": (0.0, 90.0, 180.0, 270.0)}
+FULL = {"n_units": 1, "n_runs": 3, "azimuths": (0.0, 90.0, 180.0, 270.0)}
 QUICK = {"n_units": 1, "n_runs": 2, "azimuths": (0.0, 90.0, 180.0)}
 
 
-# ------------------------------------------------------------------------------------------
-# TEMPORARY STAND-IN for ThermalFeatures' thermal-state terms (issue 11, item 2).
-# ------------------------------------------------------------------------------------------
-
-
-def _first_order(values, step, tau):
-    """Causal ``y[i] = a y[i-1] + (1 - a) x[i]``, ``a = exp(-step / tau)``, ``y[0] = x[0]``."""
-    if tau <= 0:
-        return values.copy()
-    a = np.exp(-step / tau)
-    out, _ = lfilter([1.0 - a], [1.0, -a], values, zi=[a * values[0]])
-    return out
-
-
-class StateFeaturesStandIn(TransformerMixin, BaseEstimator):
-    """T, smoothed dT/dt (degC/min), T·dT and T - lag_tau(T) for each tau (seconds).
-
-    Per run and causal; exact ``exp(-dt / tau)`` steps on each run's (uniform) time step.
-    Stand-in for the thermal-state terms of ThermalFeatures while they are being written.
-    """
-
-    def __init__(self, temperature="temperature", time="time", run="run", taus=(), smoothing=0.0):
-        self.temperature = temperature
-        self.time = time
-        self.run = run
-        self.taus = taus
-        self.smoothing = smoothing
-
-    def fit(self, X, y=None):
-        return self
-
-    def transform(self, X):
-        T = np.asarray(X[self.temperature], dtype=np.float64)
-        t = np.asarray(X[self.time], dtype=np.float64)
-        run = np.asarray(X[self.run])
-        out = np.empty((T.shape[0], 3 + len(self.taus)))
-        starts = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
-        for start, stop in zip(starts, np.r_[starts[1:], T.shape[0]], strict=True):
-            temperature, times = T[start:stop], t[start:stop]
-            steps = np.diff(times)
-            if steps.size and not np.allclose(steps, steps[0]):
-                raise ValueError(f"run {run[start]!r}: the stand-in needs a uniform time step.")
-            step = steps[0] if steps.size else 1.0
-            rate = np.r_[0.0, np.diff(temperature) / step * 60.0]
-            rate = _first_order(rate, step, self.smoothing)
-            block = out[start:stop]
-            block[:, 0] = temperature
-            block[:, 1] = rate
-            block[:, 2] = temperature * rate
-            for column, tau in enumerate(self.taus, start=3):
-                block[:, column] = temperature - _first_order(temperature, step, tau)
-        return out
-
-
-# ------------------------------------------------------------------------------------------
-
-
 def feature_sets(taus, smoothing):
+    """The paper's (T, dT, T·dT) and the thermal-state features, both from ThermalFeatures.
+
+    ``taus=None`` means ThermalFeatures' own default (what a user gets untuned); a list gives
+    the terms ``T_lag<tau>s`` explicitly, with ``smoothing`` seconds, to explore other sets.
+    """
+    if taus is None:
+        state = {}
+    else:
+        lags = tuple(f"T_lag{tau:g}s" for tau in taus)
+        state = {"terms": ("T", "dT", "TdT", *lags), "smoothing": smoothing}
     return {
-        "paper": lambda: ThermalFeatures(temperature="temperature", time="time", run="run"),
-        "state": lambda: StateFeaturesStandIn(taus=tuple(taus), smoothing=smoothing),
+        "paper": lambda: ThermalFeatures(time="time", run="run", terms=("T", "dT", "TdT")),
+        "state": lambda: ThermalFeatures(time="time", run="run", **state),
     }
 
 
@@ -381,11 +332,15 @@ def main(argv=None):
         "--taus",
         type=float,
         nargs="+",
-        default=[900.0, 1800.0],
-        help="time constants of the state features' T - lag_tau(T) terms, s",
+        default=None,
+        help="time constants of the state features' T_lag<tau>s terms, s (default: "
+        "ThermalFeatures' default terms and smoothing)",
     )
     parser.add_argument(
-        "--smoothing", type=float, default=120.0, help="smoothing of dT/dt (state), s"
+        "--smoothing",
+        type=float,
+        default=120.0,
+        help="smoothing of dT (state features, with --taus), s",
     )
     parser.add_argument(
         "--default-features",
@@ -416,6 +371,16 @@ def main(argv=None):
     records.sort(key=lambda r: (PHYSICS.index(r["physics"]), r["period"], r["seed"], r["fold"]))
     summary, checks = summarize(records, args.default_features)
     elapsed = time.perf_counter() - started
+    fitted = feature_sets(args.taus, args.smoothing)["state"]().fit(
+        _campaign(0, "lumped", 60.0, QUICK).data
+    )
+    state_text = (
+        f"ThermalFeatures(time='time', run='run') with its default terms "
+        f"{list(fitted.get_feature_names_out())}"
+        if args.taus is None
+        else f"ThermalFeatures(time='time', run='run', terms="
+        f"{list(fitted.get_feature_names_out())}, smoothing={args.smoothing:g})"
+    )
     header = [
         "# Thermal state: paper features against thermal-state features",
         "",
@@ -424,9 +389,8 @@ def main(argv=None):
         f"Campaigns: make_thermal_campaign(n_units={sizes['n_units']}, "
         f"n_runs={sizes['n_runs']}, azimuths={list(sizes['azimuths'])}, profile='mix', "
         f"physics=..., sampling_period=..., random_state=seed), leave one azimuth out within "
-        f"each unit. Feature sets: paper = ThermalFeatures(time='time', run='run') (T, dT, "
-        f"T·dT); state = T, dT/dt smoothed over {args.smoothing:g} s, T·dT, T - lag_tau(T) "
-        f"for tau in {[f'{tau:g}' for tau in args.taus]} s (benchmark stand-in). Each "
+        f"each unit. Feature sets: paper = ThermalFeatures(time='time', run='run', "
+        f"terms=('T', 'dT', 'TdT')); state = {state_text}. Each "
         f"pipeline: features -> StandardScaler -> model; KernelRidge on a random 600-row and "
         f"the MLPs on a random 3000-row subsample of each training fold (SubsampledRegressor). "
         f"Default pipeline in the targets: "
