@@ -371,15 +371,17 @@ def main(argv=None):
     records.sort(key=lambda r: (PHYSICS.index(r["physics"]), r["period"], r["seed"], r["fold"]))
     summary, checks = summarize(records, args.default_features)
     elapsed = time.perf_counter() - started
-    fitted = feature_sets(args.taus, args.smoothing)["state"]().fit(
+    state = feature_sets(args.taus, args.smoothing)["state"]().fit(
         _campaign(0, "lumped", 60.0, QUICK).data
     )
+    # The resolved terms and smoothing (fitted attributes when the parameters say "auto").
+    terms = list(getattr(state, "terms_", state.terms))
+    smoothing = getattr(state, "smoothing_", state.smoothing)
     state_text = (
-        f"ThermalFeatures(time='time', run='run') with its default terms "
-        f"{list(fitted.get_feature_names_out())}"
-        if args.taus is None
-        else f"ThermalFeatures(time='time', run='run', terms="
-        f"{list(fitted.get_feature_names_out())}, smoothing={args.smoothing:g})"
+        f"ThermalFeatures(time='time', run='run'"
+        + (") with its default " if args.taus is None else ", ")
+        + f"terms={terms}, smoothing={smoothing:g}"
+        + (")" if args.taus is not None else "")
     )
     header = [
         "# Thermal state: paper features against thermal-state features",
