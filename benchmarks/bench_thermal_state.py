@@ -378,7 +378,7 @@ def main(argv=None):
     terms = list(getattr(state, "terms_", state.terms))
     smoothing = getattr(state, "smoothing_", state.smoothing)
     state_text = (
-        f"ThermalFeatures(time='time', run='run'"
+        "ThermalFeatures(time='time', run='run'"
         + (") with its default " if args.taus is None else ", ")
         + f"terms={terms}, smoothing={smoothing:g}"
         + (")" if args.taus is not None else "")
