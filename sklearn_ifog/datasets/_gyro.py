@@ -135,3 +135,20 @@ def gyro_output(reference, drift, sampling_period, p, noise, rng):
         "angle_random_walk": white,
         "quantisation": quantisation,
     }
+
+
+def signed_uniform(rng, low, high):
+    """A magnitude drawn uniformly in [low, high] with a random sign (two draws, in order)."""
+    return float(rng.choice([-1.0, 1.0]) * rng.uniform(low, high))
+
+
+def draw_static_bias(rng):
+    """Coefficients (b0, b1, b2) of the static bias polynomial, deg/h per degC**k.
+
+    Three signed draws in a fixed order; both physics presets share the ranges.
+    """
+    return (
+        signed_uniform(rng, 0.05, 0.15),
+        signed_uniform(rng, 2e-3, 4e-3),
+        signed_uniform(rng, 1e-5, 5e-5),
+    )

@@ -79,9 +79,11 @@ from sklearn_ifog.datasets._gyro import (
     CHAMBER_FLUCTUATION,
     CHAMBER_FLUCTUATION_TIME,
     SENSOR_RESOLUTION,
+    draw_static_bias,
     first_order_lag,
     gauss_markov,
     gyro_output,
+    signed_uniform,
 )
 from sklearn_ifog.datasets._thermal import (
     block_average,
@@ -119,10 +121,6 @@ LAYERED_COMPONENT_COLUMNS = (
     "angle_random_walk",
     "quantisation",
 )
-
-
-def _signed_uniform(rng, low, high):
-    return float(rng.choice([-1.0, 1.0]) * rng.uniform(low, high))
 
 
 def shupe_weights(n_layers, gradient, asymmetry):
@@ -204,20 +202,16 @@ def draw_layered_params(rng, unit, reference_temperature, turn_on_bias_repeatabi
         "coil_capacity_ratio": float(rng.uniform(0.2, 0.5)),
         "tau_sensor": float(rng.uniform(0.5, 2.0)) * _SECONDS_PER_MINUTE,
         "sensor_offset": float(rng.uniform(-0.1, 0.1)),
-        "shupe_gradient": _signed_uniform(rng, 0.1, 0.3),
-        "shupe_asymmetry": _signed_uniform(rng, 0.02, 0.1),
+        "shupe_gradient": signed_uniform(rng, 0.1, 0.3),
+        "shupe_asymmetry": signed_uniform(rng, 0.02, 0.1),
         "k1": float(rng.uniform(0.01, 0.025)),
-        "stress_coefficient": _signed_uniform(rng, 0.005, 0.02),
+        "stress_coefficient": signed_uniform(rng, 0.005, 0.02),
         "stress_k1": float(rng.uniform(0.01, 0.03)),
-        "bias_coefficients": (
-            _signed_uniform(rng, 0.05, 0.15),
-            _signed_uniform(rng, 2e-3, 4e-3),
-            _signed_uniform(rng, 1e-5, 5e-5),
-        ),
+        "bias_coefficients": draw_static_bias(rng),
         "glass_temperature": float(rng.uniform(10.0, 25.0)),
         "glass_width": float(rng.uniform(1.5, 4.0)),
         "rubbery_ratio": float(rng.uniform(0.1, 0.4)),
-        "glass_bias_slope": _signed_uniform(rng, 3e-3, 8e-3),
+        "glass_bias_slope": signed_uniform(rng, 3e-3, 8e-3),
         "angle_random_walk": float(rng.uniform(0.001, 0.003)),
         "bias_instability": float(rng.uniform(0.002, 0.005)),
         "bias_correlation_time": float(rng.uniform(300.0, 1000.0)),

@@ -25,6 +25,7 @@ from sklearn_ifog.datasets._gyro import (
     OUTPUT_ANGLE_QUANTUM,  # noqa: F401 (re-exported: tests and users import it here)
     SENSOR_RESOLUTION,
     TURN_ON_BIAS_REPEATABILITY,
+    draw_static_bias,
     first_order_lag,
     gauss_markov,
     gyro_output,
@@ -134,10 +135,6 @@ def static_bias(temperature, coefficients, reference_temperature=REFERENCE_TEMPE
     return np.polynomial.polynomial.polyval(temperature - reference_temperature, coefficients)
 
 
-def _signed_uniform(rng, low, high):
-    return float(rng.choice([-1.0, 1.0]) * rng.uniform(low, high))
-
-
 def _draw_unit_params(rng, unit):
     """One unit's true coefficients (a fixed number of draws, in a fixed order)."""
     return {
@@ -149,11 +146,7 @@ def _draw_unit_params(rng, unit):
         "k0": float(rng.uniform(0.1, 0.3)),
         "k1": float(rng.uniform(0.01, 0.025)),
         "gradient_weight": float(rng.uniform(-0.5, 0.5)),
-        "bias_coefficients": (
-            _signed_uniform(rng, 0.05, 0.15),
-            _signed_uniform(rng, 2e-3, 4e-3),
-            _signed_uniform(rng, 1e-5, 5e-5),
-        ),
+        "bias_coefficients": draw_static_bias(rng),
         "angle_random_walk": float(rng.uniform(0.001, 0.003)),
         "bias_instability": float(rng.uniform(0.002, 0.005)),
         "bias_correlation_time": float(rng.uniform(300.0, 1000.0)),
