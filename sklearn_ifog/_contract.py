@@ -12,7 +12,10 @@ term or a unit is added in one place:
   lag at 600 s); :func:`get_term` reads a name against :data:`TERMS`, then these patterns;
 - :data:`SECONDS_PER_UNIT` and :func:`seconds_per_unit`: the time units of ``rate_unit`` (and
   of the plots' time axis);
-- :func:`sensor_keys`: the temperature column(s) of a ``temperature`` parameter, as a list.
+- :func:`sensor_keys`: the temperature column(s) of a ``temperature`` parameter, as a list;
+- :data:`DEFAULT_TERMS`, :data:`DEFAULT_STATE_TERMS`, :data:`DEFAULT_SMOOTHING` and
+  :func:`resolve_defaults`: what ThermalFeatures' ``terms="auto"`` and ``smoothing="auto"``
+  mean, with and without a time column.
 """
 
 import re
@@ -22,6 +25,9 @@ from typing import NamedTuple
 import numpy as np
 
 __all__ = [
+    "DEFAULT_SMOOTHING",
+    "DEFAULT_STATE_TERMS",
+    "DEFAULT_TERMS",
     "SECONDS_PER_UNIT",
     "TERMS",
     "TERM_FAMILIES",
@@ -33,12 +39,27 @@ __all__ = [
     "format_seconds",
     "get_term",
     "lag_time_constants",
+    "resolve_defaults",
     "seconds_per_unit",
     "sensor_keys",
     "state_time_constants",
     "uses_rate",
     "valid_terms_text",
 ]
+
+#: The reference paper's feature set (T, dT, T·dT): ``terms="auto"`` without a time column,
+#: and the paper's modified model (without ``"TdT"``: its traditional model).
+DEFAULT_TERMS = ("T", "dT", "TdT")
+
+#: The thermal-state feature set, ``terms="auto"`` with a time column: the paper's terms and
+#: the excess of T over its first-order lags at 900 s and 3600 s. Measured against
+#: :data:`DEFAULT_TERMS` over physics presets, seeds and sample periods by
+#: ``python benchmarks/bench_thermal_state.py``.
+DEFAULT_STATE_TERMS = ("T", "dT", "TdT", "T_lag900s", "T_lag3600s")
+
+#: Smoothing time constant of dT, s, of ``smoothing="auto"`` with a time column and thermal-state
+#: (lag) terms, measured with :data:`DEFAULT_STATE_TERMS` by the same benchmark.
+DEFAULT_SMOOTHING = 120.0
 
 #: Seconds in one time unit, by name (``rate_unit`` of ThermalFeatures, plots' time axis).
 SECONDS_PER_UNIT = {"s": 1.0, "min": 60.0, "h": 3600.0}
@@ -410,3 +431,65 @@ def check_needs_time(terms, smoothing, has_time):
             f"smoothing={smoothing!r} is a time constant in seconds and needs a time column "
             "(time=...); without one, use smoothing=0."
         )
+
+
+def resolve_defaults(terms, smoothing, has_time):
+    """What ``terms="auto"`` and ``smoothing="auto"`` of ThermalFeatures mean.
+
+    - ``terms="auto"``: :data:`DEFAULT_STATE_TERMS` with a time column, the paper's
+      :data:`DEFAULT_TERMS` without one (rows only: no time constant can be honoured);
+    - ``smoothing="auto"``: :data:`DEFAULT_SMOOTHING` seconds with a time column when the
+      (resolved) terms hold a thermal-state term ``T_lag<tau>s``, as measured; otherwise 0
+      (no smoothing: the paper's backward difference, so ``terms=DEFAULT_TERMS`` is exactly
+      the paper's feature set).
+
+    Any other value is returned as given (a sequence of terms as a tuple, smoothing as a
+    float; a string of terms other than ``"auto"`` unchanged, for the caller's validation to
+    name).
+
+    Parameters
+    ----------
+    terms : "auto" or sequence of str
+        The ``terms`` parameter.
+    smoothing : "auto" or float
+        The ``smoothing`` parameter, s.
+    has_time : bool
+        Whether a time column is given.
+
+    Returns
+    -------
+    terms : tuple of str
+        The terms to compute.
+    smoothing : float
+        The smoothing time constant, s (0: none).
+
+    Examples
+    --------
+    >>> from sklearn_ifog._contract import resolve_defaults
+    >>> resolve_defaults("auto", "auto", has_time=True)
+    (('T', 'dT', 'TdT', 'T_lag900s', 'T_lag3600s'), 120.0)
+    >>> resolve_defaults("auto", "auto", has_time=False)
+    (('T', 'dT', 'TdT'), 0.0)
+    >>> resolve_defaults(("T", "dT", "TdT"), "auto", has_time=True)
+    (('T', 'dT', 'TdT'), 0.0)
+    """
+    if isinstance(terms, str) and terms == "auto":
+        terms = DEFAULT_STATE_TERMS if has_time else DEFAULT_TERMS
+    if not isinstance(terms, str):
+        terms = tuple(terms)
+    if isinstance(smoothing, str) and smoothing == "auto":
+        state = has_time and bool(lag_time_constants(terms)) if _all_known(terms) else False
+        smoothing = DEFAULT_SMOOTHING if state else 0.0
+    return terms, float(smoothing)
+
+
+def _all_known(terms):
+    """True if every entry of ``terms`` names a term (bad names are reported elsewhere)."""
+    if isinstance(terms, str):
+        return False
+    try:
+        for term in terms:
+            get_term(term)
+    except ValueError:
+        return False
+    return True

@@ -15,6 +15,7 @@ from sklearn.base import clone
 from sklearn.utils import Bunch, check_random_state
 from sklearn.utils.parallel import Parallel, delayed
 
+from sklearn_ifog._contract import DEFAULT_TERMS
 from sklearn_ifog.compensation import compensate, drift_target
 from sklearn_ifog.features import ThermalFeatures
 from sklearn_ifog.pipeline import _traditional_terms, make_compensation_pipeline
@@ -133,9 +134,10 @@ def run_paper_experiments(
         None means the paper's layout on the campaign's first three units (sorted):
         ``(0°, 90°)``, ``(0°, 45°)``, ``(0°, 135°)`` (:data:`PAPER_EXPERIMENTS`).
     features : ThermalFeatures, default=None
-        Feature step of the modified model (cloned). None means
-        ``ThermalFeatures(temperature="temperature", time="time", run="run")``. The
-        traditional model uses it without the ``"TdT"`` term.
+        Feature step of the modified model (cloned). None means the paper's features,
+        ``ThermalFeatures(temperature="temperature", time="time", run="run",
+        terms=("T", "dT", "TdT"))``. The traditional model uses it without the ``"TdT"``
+        term (a step with ``terms="auto"`` is read with its terms resolved).
     regressor : regressor, default=None
         Drift regressor (cloned). None means ``RBFNetRegressor(random_state=...)``.
     target : {"reference", "error_set"}, default="reference"
@@ -186,11 +188,13 @@ def run_paper_experiments(
             f"At most {len(_TABLE_NAMES)} experiments (Tables 2-4), got {len(experiments)}."
         )
     if features is None:
-        features = ThermalFeatures(temperature="temperature", time="time", run="run")
+        features = ThermalFeatures(
+            temperature="temperature", time="time", run="run", terms=DEFAULT_TERMS
+        )
     if regressor is None:
         seed = check_random_state(random_state).randint(np.iinfo(np.int32).max)
         regressor = RBFNetRegressor(random_state=seed)
-    modified_terms = tuple(features.terms)
+    modified_terms = clone(features)._resolved()[0]
     traditional_terms = _traditional_terms(modified_terms)
     if traditional_terms == modified_terms:
         raise ValueError(

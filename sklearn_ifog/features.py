@@ -29,6 +29,7 @@ from sklearn_ifog._contract import (
     SensorInputs,
     check_needs_time,
     get_term,
+    resolve_defaults,
     sensor_keys,
     state_time_constants,
     valid_terms_text,
@@ -419,24 +420,38 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         then raise a ValueError (their time constants are in seconds).
     run : str, int or None, default=None
         Column with the run id of every row (numbers or strings). None: X is one run.
-    terms : list or tuple of str, default=("T", "dT", "TdT")
+    terms : "auto", list or tuple of str, default="auto"
         Terms to output, any subset in any order of ``"T"`` (raw temperature), ``"dT"``,
         ``"TdT"`` (T·dT), ``"T2"`` (T²), ``"gradient"`` (this sensor minus the first
         sensor; needs several sensors) and ``"T_lag<tau>s"``: ``T - lag_tau(T)``, the excess
         of the temperature over its causal first-order lag at time constant ``tau`` seconds
         (an integer or decimal number, e.g. ``"T_lag600s"``, ``"T_lag90.5s"``; needs
-        ``time``). ``("T", "dT")`` is the paper's traditional model.
-    smoothing : float, default=0.0
+        ``time``). ``"auto"``: with ``time``, the thermal-state set
+        ``("T", "dT", "TdT", "T_lag900s", "T_lag3600s")``
+        (:data:`sklearn_ifog._contract.DEFAULT_STATE_TERMS`, measured against the paper's
+        set over physics presets, seeds and sample periods by
+        ``python benchmarks/bench_thermal_state.py``); without ``time``, the paper's
+        ``("T", "dT", "TdT")``. Pass ``terms=("T", "dT", "TdT")`` to reproduce the paper
+        (its modified model; ``("T", "dT")`` is its traditional model).
+    smoothing : "auto" or float, default="auto"
         Time constant, in seconds, of the smoothing of ``dT`` (0: none, ``dT`` is the
         backward difference). With ``smoothing > 0`` (needs ``time``), ``dT`` is the rate of
         the temperature's first-order lag at that time constant,
         ``(T - lag_smoothing(T)) / smoothing`` in deg C per ``rate_unit``: exact between
-        samples, the same at any sample period. Tunable by GridSearchCV.
+        samples, the same at any sample period. ``"auto"``: 120 s
+        (:data:`sklearn_ifog._contract.DEFAULT_SMOOTHING`) with ``time`` and a
+        ``"T_lag<tau>s"`` term among the (resolved) terms, as measured with the default
+        terms; otherwise 0, so that ``terms=("T", "dT", "TdT")`` is exactly the paper's
+        backward difference. Tunable by GridSearchCV.
     rate_unit : {"s", "min", "h"} or float, default="min"
         Time unit of ``dT`` when ``time`` is given (a float is the unit in seconds).
 
     Attributes
     ----------
+    terms_ : tuple of str
+        The terms computed: ``terms`` with ``"auto"`` resolved (see ``terms``).
+    smoothing_ : float
+        The smoothing time constant, s: ``smoothing`` with ``"auto"`` resolved.
     n_features_in_ : int
         Number of columns of X seen during :meth:`fit`.
     feature_names_in_ : ndarray of shape (`n_features_in_`,)
@@ -481,10 +496,20 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
     ``"coil_T_dT"``, ``"coil_T_lag600s"``, sensor by sensor, term by term;
     ``"<sensor>_gradient"`` is that sensor minus the first one, which gets no gradient column.
 
+    **Defaults.** With a time column, the default features are the thermal-state set with
+    ``dT`` smoothed over 120 s: a single lagging sensor's (T, dT, T·dT) do not carry the
+    temperature distribution inside a coil of several layers, its lags at 900 s and 3600 s
+    do (measured by ``python benchmarks/bench_thermal_state.py``), and every one of them is
+    a time constant in seconds, the same at any sample period. Use the paper's
+    ``terms=("T", "dT", "TdT")`` to reproduce the paper's experiments or its models; without
+    a time column (``time=None``) the default is the paper's set, unsmoothed.
+
     **Fitting.** Nothing is learnt: :meth:`transform` works without :meth:`fit`
-    (``__sklearn_is_fitted__`` is True, the ``requires_fit`` tag False). :meth:`fit`
-    validates X and records ``n_features_in_`` and ``feature_names_in_``; after it,
-    :meth:`transform` checks that X has the same number and names of columns.
+    (``__sklearn_is_fitted__`` is True, the ``requires_fit`` tag False), resolving
+    ``"auto"`` from the parameters. :meth:`fit` validates X and records ``terms_``,
+    ``smoothing_``, ``n_features_in_`` and ``feature_names_in_``; after it,
+    :meth:`transform` computes ``terms_`` with ``smoothing_`` and checks that X has the
+    same number and names of columns.
 
     Only the temperature, time and run columns are read and validated; other columns of X
     pass untouched and unconverted.
@@ -500,8 +525,8 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
     ...         "temperature": [20.0, 30.0, 21.0, 29.0, 23.0],
     ...     }
     ... )
-    >>> features = ThermalFeatures(time="time", run="run").set_output(transform="pandas")
-    >>> features.fit_transform(X)
+    >>> features = ThermalFeatures(time="time", run="run", terms=("T", "dT", "TdT"))
+    >>> features.set_output(transform="pandas").fit_transform(X)
           T   dT  T_dT
     0  20.0  0.0   0.0
     1  30.0  0.0   0.0
@@ -516,14 +541,19 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
     2  21.0     0.9516
     3  29.0    -0.9754
     4  23.0     2.7643
+    >>> default = ThermalFeatures(time="time", run="run").fit(X)
+    >>> default.terms_, default.smoothing_
+    (('T', 'dT', 'TdT', 'T_lag900s', 'T_lag3600s'), 120.0)
+    >>> ThermalFeatures().fit(X[["temperature"]]).terms_
+    ('T', 'dT', 'TdT')
     """
 
     _parameter_constraints: ClassVar[dict] = {
         "temperature": [str, Interval(numbers.Integral, 0, None, closed="left"), list, tuple],
         "time": [str, Interval(numbers.Integral, 0, None, closed="left"), None],
         "run": [str, Interval(numbers.Integral, 0, None, closed="left"), None],
-        "terms": [list, tuple],
-        "smoothing": [Interval(numbers.Real, 0, None, closed="left")],
+        "terms": [StrOptions({"auto"}), list, tuple],
+        "smoothing": [StrOptions({"auto"}), Interval(numbers.Real, 0, None, closed="left")],
         "rate_unit": [
             StrOptions(set(SECONDS_PER_RATE_UNIT)),
             Interval(numbers.Real, 0, None, closed="neither"),
@@ -536,8 +566,8 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         temperature="temperature",
         time=None,
         run=None,
-        terms=("T", "dT", "TdT"),
-        smoothing=0.0,
+        terms="auto",
+        smoothing="auto",
         rate_unit="min",
     ):
         self.temperature = temperature
@@ -549,18 +579,31 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
 
     # -- column handling ------------------------------------------------------------------
 
+    def _resolved(self):
+        """``(terms, smoothing)`` computed: the fitted ``terms_`` and ``smoothing_`` after
+        :meth:`fit`, before it the parameters with ``"auto"`` resolved."""
+        if hasattr(self, "terms_"):
+            return self.terms_, self.smoothing_
+        return resolve_defaults(self.terms, self.smoothing, self.time is not None)
+
+    def _record_resolved(self):
+        self.terms_, self.smoothing_ = resolve_defaults(
+            self.terms, self.smoothing, self.time is not None
+        )
+
     def _features(self, X):
         columns = _table.read_thermal_columns(
             X, temperature=sensor_keys(self.temperature), time=self.time, run=self.run
         )
-        terms = validate_terms(self.terms, columns.temperature.shape[1])
+        terms, smoothing = self._resolved()
+        terms = validate_terms(terms, columns.temperature.shape[1])
         try:
             return compute_thermal_features(
                 columns.temperature,
                 time=columns.time,
                 run=columns.run,
                 terms=terms,
-                smoothing=self.smoothing,
+                smoothing=smoothing,
                 seconds_per_unit=_contract.seconds_per_unit(self.rate_unit),
             )
         except _table.TableError as exc:
@@ -590,10 +633,12 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         Returns
         -------
         self : ThermalFeatures
-            The transformer, with ``n_features_in_`` (and ``feature_names_in_``) set.
+            The transformer, with ``terms_``, ``smoothing_``, ``n_features_in_`` (and
+            ``feature_names_in_``) set.
         """
         X = _table.as_table(X)
         validate_data(self, X, reset=True, skip_check_array=True)
+        self._record_resolved()
         self._features(X)
         return self
 
@@ -615,6 +660,7 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         """
         X = _table.as_table(X)
         validate_data(self, X, reset=True, skip_check_array=True)
+        self._record_resolved()
         return self._features(X)
 
     def transform(self, X):
@@ -653,7 +699,7 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
             ``"<sensor>_<term>"`` sensor by sensor.
         """
         keys = sensor_keys(self.temperature)
-        terms = validate_terms(self.terms, len(keys))
+        terms = validate_terms(self._resolved()[0], len(keys))
         if hasattr(self, "n_features_in_"):
             input_features = _check_feature_names_in(self, input_features)
         elif input_features is not None:

@@ -64,6 +64,7 @@ from sklearn_ifog._compat import (
     _fit_context,
     _safe_indexing,
 )
+from sklearn_ifog._contract import DEFAULT_TERMS
 from sklearn_ifog.features import ThermalFeatures
 from sklearn_ifog.metrics import mean_squared_deviation
 from sklearn_ifog.pipeline import _traditional_terms, make_compensation_pipeline
@@ -524,15 +525,23 @@ def default_regressors(*, features=None, max_kernel_samples=600, random_state=0)
     ``"gaussian_process"``        GaussianProcessRegressor, anisotropic RBF + white noise
     ``"rbf_traditional"``         RBFNetRegressor on (T, ΔT)
     ``"rbf_modified"``            RBFNetRegressor on (T, ΔT, T·ΔT)
+    ``"rbf"``                     RBFNetRegressor on ThermalFeatures' default terms: the
+                                  package's default pipeline
     ============================  ==========================================================
+
+    Every model but ``"rbf"`` reads the paper's features (those of ``features``); ``"rbf"``
+    reads the same step with ``terms="auto"``, with a time column the thermal-state set
+    (T, ΔT, T·ΔT and T's excess over its lags at 900 s and 3600 s, ΔT smoothed over 120 s),
+    so ``"rbf_modified"`` against ``"rbf"`` shows what the thermal-state terms add.
 
     Parameters
     ----------
     features : ThermalFeatures, default=None
         Feature step, cloned into every pipeline. None means
-        ``ThermalFeatures(temperature="temperature", time="time", run="run")``, the layout
-        of :func:`~sklearn_ifog.datasets.make_thermal_campaign`. The traditional RBF model
-        uses the same step without the ``"TdT"`` term.
+        ``ThermalFeatures(temperature="temperature", time="time", run="run",
+        terms=("T", "dT", "TdT"))``, the paper's features on the layout of
+        :func:`~sklearn_ifog.datasets.make_thermal_campaign`. The traditional RBF model
+        uses the same step without the ``"TdT"`` term, ``"rbf"`` with ``terms="auto"``.
     max_kernel_samples : int, default=600
         Largest training subsample of SVR and kernel ridge; the Gaussian process, whose fit
         also tunes its kernel (each step cubic in the rows), gets half as many.
@@ -552,9 +561,13 @@ def default_regressors(*, features=None, max_kernel_samples=600, random_state=0)
     ['raw', 'bias', 'linear']
     >>> models["rbf_traditional"][0].terms
     ('T', 'dT')
+    >>> models["rbf_modified"][0].terms, models["rbf"][0].terms
+    (('T', 'dT', 'TdT'), 'auto')
     """
     if features is None:
-        features = ThermalFeatures(temperature="temperature", time="time", run="run")
+        features = ThermalFeatures(
+            temperature="temperature", time="time", run="run", terms=DEFAULT_TERMS
+        )
     rng = check_random_state(random_state)
     seeds = rng.randint(np.iinfo(np.int32).max, size=6)
 
@@ -570,7 +583,8 @@ def default_regressors(*, features=None, max_kernel_samples=600, random_state=0)
     def scaled_target(regressor):
         return TransformedTargetRegressor(regressor=regressor, transformer=StandardScaler())
 
-    n_features = len(features.terms)
+    resolved_terms = clone(features)._resolved()[0]
+    n_features = len(features.get_feature_names_out())
     gp_kernel = ConstantKernel(1.0) * RBF(length_scale=np.ones(n_features)) + WhiteKernel(0.1)
     return {
         "raw": DummyRegressor(strategy="constant", constant=0.0),
@@ -615,9 +629,10 @@ def default_regressors(*, features=None, max_kernel_samples=600, random_state=0)
             )
         ),
         "rbf_traditional": pipeline(
-            RBFNetRegressor(random_state=seeds[4]), terms=_traditional_terms(features.terms)
+            RBFNetRegressor(random_state=seeds[4]), terms=_traditional_terms(resolved_terms)
         ),
         "rbf_modified": pipeline(RBFNetRegressor(random_state=seeds[5])),
+        "rbf": pipeline(RBFNetRegressor(random_state=seeds[5]), terms="auto"),
     }
 
 

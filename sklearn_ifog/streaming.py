@@ -206,8 +206,8 @@ class StreamingCompensator:
         self.pipeline = pipeline
         self.n_sensors = len(sensors)
         self._thermal = features
-        terms = validate_terms(features.terms, self.n_sensors)
-        smoothing = float(features.smoothing)
+        terms, smoothing = features._resolved()
+        terms = validate_terms(terms, self.n_sensors)
         check_needs_time(terms, smoothing, features.time is not None)
         self._features = {
             "temperature": sensors,

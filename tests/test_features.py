@@ -14,6 +14,7 @@ from sklearn.pipeline import make_pipeline
 
 from sklearn_ifog import ThermalFeatures
 from sklearn_ifog._compat import InvalidParameterError
+from sklearn_ifog._contract import DEFAULT_STATE_TERMS
 from sklearn_ifog._lags import lag_deficit, smoothed_rate
 from sklearn_ifog.datasets import _simulator, make_thermal_campaign
 from sklearn_ifog.features import (
@@ -93,7 +94,8 @@ def test_terms_any_subset_and_order():
 )
 def test_rate_with_time_hand_computed(rate_unit, expected):
     X = _frame(T4, time=[0.0, 30.0, 90.0, 120.0])
-    out = ThermalFeatures(time="time", rate_unit=rate_unit).fit_transform(X)
+    paper = ("T", "dT", "TdT")  # the default with a time column smooths dT
+    out = ThermalFeatures(time="time", rate_unit=rate_unit, terms=paper).fit_transform(X)
     assert_allclose(out[:, 0], T4)
     assert_allclose(out[:, 1], expected, rtol=1e-14)
     assert_allclose(out[:, 2], np.asarray(T4) * expected, rtol=1e-14)
@@ -280,9 +282,11 @@ def test_assemble_terms_gradient_and_compute_match_estimator():
         frame["temperature"].to_numpy(),
         time=frame["time"].to_numpy(),
         run=frame["run"].to_numpy(),
+        terms=DEFAULT_STATE_TERMS,
         smoothing=2.0,
         seconds_per_unit=60.0,
     )
+    # The estimator's default terms with a time column.
     estimator = ThermalFeatures(time="time", run="run", smoothing=2.0).fit_transform(frame)
     assert_array_equal(direct, estimator)
 
@@ -350,7 +354,7 @@ def test_set_output_pandas_named_columns():
     frame.index = frame.index + 100
     features = ThermalFeatures(time="time", run="run").set_output(transform="pandas")
     out = features.fit(frame).transform(frame)
-    assert list(out.columns) == ["T", "dT", "T_dT"]
+    assert list(out.columns) == ["T", "dT", "T_dT", "T_lag900s", "T_lag3600s"]
     assert list(out.index) == list(frame.index)
     assert_array_equal(out["T"], frame["temperature"])
 
@@ -596,3 +600,56 @@ def test_sampling_invariance_of_lags_and_smoothed_rate(monkeypatch):
         plain.fit_transform(runs[10.0])[coincident] - plain.fit_transform(runs[60.0])
     ).max()
     assert raw_error > 10 * error[0]
+
+
+def test_sampling_invariance_of_default_features(monkeypatch):
+    """The default features of one physical run at 10 s and 60 s agree after the first hour.
+
+    Same bound as above (from the sensor's resolution q = 0.01 degC, the simulator's own
+    difference eta between its 10 s and 60 s sensor temperatures and the linear hold), per
+    column of the default ``("T", "dT", "TdT", "T_lag900s", "T_lag3600s")`` with ``dT``
+    smoothed over 120 s:
+
+    - T, the raw readings: ``|u10 - u60| <= q + eta``;
+    - the lag deficits: ``2 q + 2 eta + (10^2 + 60^2) / 8 max|c''|``;
+    - dT, the deficit at 120 s over 120 s, in degC/min: that bound times 60 / 120;
+    - T·dT: ``max|T| b_dT + max|dT| b_T`` (product rule on the two bounds above).
+    """
+    runs = {period: _simulated_run(period) for period in (10.0, 60.0)}
+    t10, t60 = (runs[p]["time"].to_numpy() for p in (10.0, 60.0))
+    coincident = slice(None, None, 6)
+    assert_array_equal(t10[coincident], t60)
+    monkeypatch.setattr(_simulator, "SENSOR_RESOLUTION", 1e-12)
+    c10, c60 = (_simulated_run(p)["temperature"].to_numpy() for p in (10.0, 60.0))
+    monkeypatch.undo()
+    q = 0.01
+    eta = np.abs(c10[coincident] - c60).max()
+    curvature = np.abs(np.diff(c10, 2)).max() / 10.0**2
+    deficit_bound = 2 * q + 2 * eta + (10.0**2 + 60.0**2) / 8 * curvature
+    assert deficit_bound < 3 * q
+
+    features = ThermalFeatures(time="time", run="run")
+    out10 = features.fit_transform(runs[10.0])[coincident]
+    assert features.terms_ == ("T", "dT", "TdT", "T_lag900s", "T_lag3600s")
+    assert features.smoothing_ == 120.0
+    out60 = features.fit_transform(runs[60.0])
+    after_first_hour = t60 >= 3600.0
+    out10, out60 = out10[after_first_hour], out60[after_first_hour]
+    error = dict(
+        zip(features.get_feature_names_out(), np.abs(out10 - out60).max(axis=0), strict=True)
+    )
+    temperature_bound = q + eta
+    rate_bound = deficit_bound * 60.0 / 120.0
+    product_bound = (
+        np.abs(out60[:, 0]).max() * rate_bound + np.abs(out60[:, 1]).max() * temperature_bound
+    )
+    # Measured (lumped physics): T 0.0100, dT 0.0046 degC/min, T_dT 0.106, T_lag900s 0.0097,
+    # T_lag3600s 0.0100 degC; bounds 0.0117, 0.0122, 0.375, 0.0245, 0.0245.
+    assert error["T"] <= temperature_bound
+    assert error["dT"] <= rate_bound
+    assert error["T_dT"] <= product_bound
+    assert error["T_lag900s"] <= deficit_bound
+    assert error["T_lag3600s"] <= deficit_bound
+    # The columns are not trivially equal: the run heats and cools by tens of degC.
+    assert np.ptp(out60[:, 0]) > 10.0
+    assert np.abs(out60[:, 3]).max() > 100 * deficit_bound

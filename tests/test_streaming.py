@@ -63,8 +63,11 @@ def models(campaign):
     return {
         # The default (quadratic) tail, with exactly 15 Gaussian units.
         "rbf": make_pipeline(
-            _features(smoothing=120.0), StandardScaler(), _rbf(criterion=None)
+            _features(terms=("T", "dT", "TdT"), smoothing=120.0),
+            StandardScaler(),
+            _rbf(criterion=None),
         ).fit(campaign, y),
+        # The default features: thermal-state terms, dT smoothed over 120 s.
         "poly-ridge": make_pipeline(
             _features(), StandardScaler(), PolynomialFeatures(2), Ridge(alpha=1e-3)
         ).fit(campaign, y),
@@ -180,9 +183,10 @@ def test_returning_to_a_finished_run_is_refused(models, campaign):
 
 def test_reset_starts_a_new_run_without_run_column(campaign):
     run = _one_run(campaign, 200)
-    model = make_pipeline(
-        ThermalFeatures(temperature="temperature", time="time"), StandardScaler(), Ridge()
-    ).fit(run, run["drift"])
+    # The paper's terms: without reset only the first row's dT sees the previous pass (lag
+    # terms would carry it for hours).
+    features = ThermalFeatures(temperature="temperature", time="time", terms=("T", "dT", "TdT"))
+    model = make_pipeline(features, StandardScaler(), Ridge()).fit(run, run["drift"])
     compensator = StreamingCompensator(model)
     compensator.update(run)
     again = compensator.reset().update(run)[1]
@@ -359,7 +363,7 @@ def test_pandas_output_pipeline_gets_named_features(campaign):
     run = _one_run(campaign, 300)
     model = make_pipeline(_features(), StandardScaler(), Ridge()).set_output(transform="pandas")
     model.fit(run, run["drift"])
-    assert list(model[1].feature_names_in_) == ["T", "dT", "T_dT"]
+    assert list(model[1].feature_names_in_) == ["T", "dT", "T_dT", "T_lag900s", "T_lag3600s"]
     compensator = StreamingCompensator(model)
     with warnings.catch_warnings():
         # A missing-feature-names warning here would mean the rows lost their names.

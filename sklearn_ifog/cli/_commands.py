@@ -158,7 +158,7 @@ def _build_pipeline(columns, args):
         temperature=temperature,
         time=columns.time,
         run=columns.run,
-        terms=tuple(args.terms),
+        terms=None if args.terms is None else tuple(args.terms),
     )
 
 

@@ -2,7 +2,7 @@
 
 :func:`run_demo` is a sequence of named steps, each a short function over library calls:
 simulate a campaign, compare the models, repeat the reference paper's experiments, fit the
-modified model of one gyro, draw, write the report and the model, write the campaign. Every
+default model of one gyro, draw, write the report and the model, write the campaign. Every
 file goes into one staging directory that becomes the output directory only when all are
 written (:func:`sklearn_ifog._io.staged_directory`).
 """
@@ -42,6 +42,7 @@ DEMO_SIZES = {
             "kernel_ridge",
             "rbf_traditional",
             "rbf_modified",
+            "rbf",
         ),
         "max_kernel_samples": 200,
     },
@@ -174,7 +175,7 @@ def _compare_with_paper(paper):
 
 
 def _fit_first_unit(campaign):
-    """The modified model of the first gyro, trained on its runs at azimuth 0°."""
+    """The default model (make_compensation_pipeline) of the first gyro, trained at 0°."""
     from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
 
     frame = campaign.frame
@@ -424,7 +425,7 @@ def run_demo(out, *, quick=False, size=None, n_jobs=None, stream=None):
             stream=stream,
         )
 
-        with progress.step(f"fitting the modified model of unit {campaign.units[0]} (azimuth 0°)"):
+        with progress.step(f"fitting the default model of unit {campaign.units[0]} (azimuth 0°)"):
             fitted = _fit_first_unit(campaign)
 
         with progress.step("drawing the comparison and the paper's Fig. 12", total=2) as advance:

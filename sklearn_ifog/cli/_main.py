@@ -103,9 +103,11 @@ def _build_parser():
     fit.add_argument(
         "--terms",
         nargs="+",
-        default=["T", "dT", "TdT"],
+        default=None,
         metavar="TERM",
-        help="thermal terms (default: T dT TdT; 'T dT' is the traditional model)",
+        help="thermal terms (default: ThermalFeatures' default: T dT TdT T_lag900s "
+        "T_lag3600s, dT smoothed over 120 s, with a time column; T dT TdT without one; "
+        "'T dT TdT' is the paper's modified model, 'T dT' its traditional one)",
     )
     fit.add_argument("--model", choices=("rbf", "linear"), default="rbf", help="regressor")
     fit.add_argument("--random-state", type=int, default=0, help="seed of the RBF network")

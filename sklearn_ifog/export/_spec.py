@@ -140,7 +140,8 @@ def describe_features(step, name="thermalfeatures"):
     """The ThermalFeatures part of the schema (see the module docstring)."""
     check_is_fitted(step)
     sensors = sensor_keys(step.temperature)
-    terms = [str(term) for term in step.terms]
+    resolved_terms, smoothing = step._resolved()
+    terms = [str(term) for term in resolved_terms]
     definitions = {}
     for term in terms:
         try:
@@ -150,7 +151,6 @@ def describe_features(step, name="thermalfeatures"):
                 f"Cannot export {_step_label(name, step)}: unknown feature term {term!r}; "
                 f"the exporters compute {valid_terms_text()}."
             ) from None
-    smoothing = float(step.smoothing)
     return {
         "op": "thermal_features",
         "temperature": [_column(sensor) for sensor in sensors],
