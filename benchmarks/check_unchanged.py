@@ -795,6 +795,13 @@ def _finish_snapshot(process, log, package_root):
         raise SystemExit(2)
 
 
+def _git(*args):
+    """Output of one git command in this repository, stripped."""
+    return subprocess.run(
+        ["git", "-C", str(REPOSITORY), *args], check=True, capture_output=True, text=True
+    ).stdout.strip()
+
+
 def against_baseline(revision):
     with tempfile.TemporaryDirectory(prefix="check-unchanged-") as directory:
         directory = Path(directory)
@@ -806,24 +813,9 @@ def against_baseline(revision):
             capture_output=True,
         )
         subprocess.run(["tar", "-x", "-C", str(tree)], input=archive.stdout, check=True)
-        commit = subprocess.run(
-            ["git", "-C", str(REPOSITORY), "rev-parse", "--short", f"{revision}^{{commit}}"],
-            check=True,
-            capture_output=True,
-            text=True,
-        ).stdout.strip()
-        head = subprocess.run(
-            ["git", "-C", str(REPOSITORY), "rev-parse", "--short", "HEAD"],
-            check=True,
-            capture_output=True,
-            text=True,
-        ).stdout.strip()
-        dirty = subprocess.run(
-            ["git", "-C", str(REPOSITORY), "status", "--porcelain", "--untracked-files=no"],
-            check=True,
-            capture_output=True,
-            text=True,
-        ).stdout.strip()
+        commit = _git("rev-parse", "--short", f"{revision}^{{commit}}")
+        head = _git("rev-parse", "--short", "HEAD")
+        dirty = _git("status", "--porcelain", "--untracked-files=no")
         before, after = directory / "baseline.npz", directory / "current.npz"
         # Both at once: each is mostly single-threaded.
         running = [
