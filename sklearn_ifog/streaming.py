@@ -11,19 +11,25 @@ unchanged. Its output is the batch Pipeline's, whatever the chunking.
 """
 
 import copy
+import math
+import numbers
 
 import numpy as np
 from sklearn.pipeline import Pipeline
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from sklearn_ifog import _table
+from sklearn_ifog._compiled import compile_steps
 from sklearn_ifog._contract import (
+    SensorInputs,
     check_needs_time,
+    get_term,
     seconds_per_unit,
     sensor_keys,
     state_time_constants,
 )
 from sklearn_ifog._lags import LagState, lag_deficit
+from sklearn_ifog._rls import initial_covariance, rls_sequence, rls_step
 from sklearn_ifog.features import (
     ThermalFeatures,
     assemble_terms,
@@ -34,8 +40,12 @@ from sklearn_ifog.features import (
 __all__ = ["StreamingCompensator", "advance_features"]
 
 STATE_SCHEMA = "sklearn-ifog-streaming-state"
-#: 2: the lags' deficits and the last raw temperature (version 1 held an EMA in samples).
-STATE_VERSION = 2
+#: 3: the recalibration (``adapt``, ``rls``); 2: the lags' deficits and the last raw
+#: temperature (version 1 held an EMA in samples).
+STATE_VERSION = 3
+
+#: The recalibration modes of ``StreamingCompensator(adapt=...)``.
+ADAPT_MODES = (None, "bias", "output")
 
 
 def advance_features(temperature, time, state, *, terms, smoothing, seconds_per_unit):
@@ -144,6 +154,27 @@ class StreamingCompensator:
     smoothed rate to rounding, 1e-12 relative), the drift to the last bits (BLAS may sum a
     one-row product in another order than a long one).
 
+    Speed: the Pipeline is checked once, here, and its fitted steps after ThermalFeatures
+    are compiled into plain numpy arithmetic (:mod:`sklearn_ifog._compiled`: the scalers,
+    PolynomialFeatures, a linear regressor or the RBF network); :meth:`step` computes the
+    features of one sample with Python floats and returns Python floats for a single
+    output, with no per-call scikit-learn validation. A Pipeline with another step (any
+    other regressor or transformer) is evaluated through scikit-learn's ``predict``
+    instead: same results, slower, and ``adapt="output"`` is not available for it.
+
+    Online recalibration: with ``adapt``, a sample whose true rate is known (``reference``)
+    updates, after it is compensated, a linear output layer by recursive least squares with
+    exponential forgetting (:mod:`sklearn_ifog._rls`): ``"bias"`` an offset added to the
+    drift; ``"output"`` every linear output weight of the final regressor (the RBF network's
+    Gaussian and tail weights and intercept; a linear regressor's coefficients and
+    intercept), its nonlinear parts (centres, widths, scalers) fixed. The measured drift of
+    such a sample is ``rate - reference``. Samples without a reference are only compensated
+    (and forgetting does not act on them). The initial covariance is diffuse along the bias
+    and a common relative change of the thermal weights (what ageing changes) and tight
+    elsewhere (:func:`sklearn_ifog._rls.initial_covariance`). The weights and covariance are
+    part of the state: same whatever the chunking (1e-12), saved and restored with it, and
+    kept by :meth:`reset` (they belong to the gyro, not to the run).
+
     Runs: the compensator follows one run at a time. With a ``run`` column in the
     ThermalFeatures, a change of run id — between chunks or inside a chunk — starts a new run
     at that row (as :meth:`reset` would); the rows of a run must be contiguous, so a run id
@@ -151,22 +182,35 @@ class StreamingCompensator:
     Without a ``run`` column, call :meth:`reset` at the start of every run. Time must
     increase strictly within a run, across chunks too.
 
+    A call that raises (bad input) leaves the state exactly as it was.
+
     Parameters
     ----------
     pipeline : sklearn.pipeline.Pipeline
         Fitted; its first step is a :class:`~sklearn_ifog.ThermalFeatures`, the later steps
         act row by row (scalers, polynomial features, regressors).
+    adapt : {None, "bias", "output"}, default=None
+        Online recalibration from the samples given a ``reference`` (None: none).
+    forgetting : float, default=0.999
+        Forgetting factor of the recalibration, in (0, 1]: each sample with a reference
+        weighs the earlier ones by this factor (memory of about ``1 / (1 - forgetting)``
+        references; 1: no forgetting). Ignored without ``adapt``.
 
     Attributes
     ----------
     n_sensors : int
         Temperature sensors per sample.
+    n_outputs : int
+        Outputs (gyro axes) the Pipeline predicts.
+    compiled : bool
+        Whether the steps after ThermalFeatures were compiled (else scikit-learn evaluates
+        them).
     state : dict
-        The current state (a copy is returned by :meth:`get_state`).
+        The current state (a copy, JSON-able, is returned by :meth:`get_state`).
 
     See Also
     --------
-    sklearn_ifog.export.to_c : The same compensator as self-contained C.
+    sklearn_ifog.export.to_c : The same compensator, and the same recalibration, as C.
 
     Examples
     --------
@@ -185,9 +229,26 @@ class StreamingCompensator:
     >>> compensated, drift = compensator.step(5.0, 22.5, rate=10.0)
     >>> bool(np.isclose(drift, model.predict(X)[5]))
     True
+
+    Recalibration: this gyro's bias moved by +0.3 deg/h since calibration; at rest, the true
+    rate (here 0) is known, and the bias is learnt from it.
+
+    >>> adaptive = StreamingCompensator(model, adapt="bias", forgetting=1.0)
+    >>> for t, temperature in X:
+    ...     _ = adaptive.step(t, temperature, rate=0.5 * temperature + 2.3, reference=0.0)
+    >>> round(adaptive.step(6.0, 23.6, rate=0.5 * 23.6 + 2.3)[0], 2)  # compensated
+    0.04
     """
 
-    def __init__(self, pipeline):
+    def __init__(self, pipeline, *, adapt=None, forgetting=0.999):
+        if adapt not in ADAPT_MODES:
+            raise ValueError(f"adapt must be None, 'bias' or 'output', got {adapt!r}.")
+        if (
+            isinstance(forgetting, bool)
+            or not isinstance(forgetting, numbers.Real)
+            or not (0.0 < float(forgetting) <= 1.0)
+        ):
+            raise ValueError(f"forgetting must be a number in (0, 1], got {forgetting!r}.")
         if not isinstance(pipeline, Pipeline):
             raise TypeError(
                 "StreamingCompensator needs a fitted sklearn.pipeline.Pipeline whose first "
@@ -204,6 +265,8 @@ class StreamingCompensator:
             raise ValueError("StreamingCompensator needs a regressor after ThermalFeatures.")
         sensors = sensor_keys(features.temperature)
         self.pipeline = pipeline
+        self.adapt = adapt
+        self.forgetting = float(forgetting)
         self.n_sensors = len(sensors)
         self._thermal = features
         terms, smoothing = features._resolved()
@@ -219,9 +282,44 @@ class StreamingCompensator:
             ),
         }
         self._time_constants = list(state_time_constants(terms, smoothing))
+        self._row_terms = [
+            (get_term(term), None if get_term(term).time_constant is None else 0) for term in terms
+        ]
         self._rest = pipeline[1:]
         self._names_in = getattr(self._first_later_step(), "feature_names_in_", None)
-        self.reset()
+        self._compiled = compile_steps(pipeline)
+        self.compiled = self._compiled is not None
+        if self.compiled:
+            self.n_outputs = self._compiled.final.n_outputs
+            self._single_output = self._compiled.single_output
+        else:
+            n_features = len(features.get_feature_names_out())
+            probe = np.asarray(self._rest.predict(self._frame(np.zeros((1, n_features)))))
+            self._single_output = probe.ndim == 1
+            self.n_outputs = 1 if probe.ndim == 1 else probe.shape[1]
+        self._prior = self._initial_rls()
+        self.reset(adaptation=True)
+
+    def _initial_rls(self):
+        """Initial weights, covariance and the design's kind of the recalibration."""
+        if self.adapt is None:
+            return None
+        if self.adapt == "bias":
+            weights = np.zeros((1, self.n_outputs))
+            bias_index = 0
+        else:
+            if not self.compiled:
+                regressor = self._rest.steps[-1][1]
+                raise ValueError(
+                    "adapt='output' needs a final regressor with a linear output layer "
+                    "(RBFNetRegressor or a linear model) after known scalers; got "
+                    f"{type(regressor).__module__}.{type(regressor).__qualname__} (use "
+                    "adapt='bias')."
+                )
+            weights = self._compiled.final.weights.copy()
+            bias_index = self._compiled.final.bias_index
+        covariance = initial_covariance(weights, bias_index=bias_index)
+        return {"weights": weights, "covariance": covariance, "trace": float(np.trace(covariance))}
 
     def _first_later_step(self):
         for _, step in self._rest.steps:
@@ -229,14 +327,32 @@ class StreamingCompensator:
                 return step
         return None
 
-    def reset(self):
-        """Forget everything: the next sample starts a new run.
+    def reset(self, *, adaptation=False):
+        """Start a new run: the next sample is a run's first row.
+
+        Parameters
+        ----------
+        adaptation : bool, default=False
+            Also return the recalibration (weights and covariance) to its start, the fitted
+            model. By default it is kept: it belongs to the gyro, not to the run.
 
         Returns
         -------
         self : StreamingCompensator
             The compensator.
         """
+        previous = getattr(self, "state", None)
+        if adaptation or previous is None:
+            rls = None
+            if self._prior is not None:
+                rls = {
+                    "weights": self._prior["weights"].copy(),
+                    "covariance": self._prior["covariance"].copy(),
+                    "n_updates": 0,
+                    "n_resets": 0,
+                }
+        else:
+            rls = previous["rls"]
         self.state = {
             "schema": STATE_SCHEMA,
             "version": STATE_VERSION,
@@ -248,6 +364,8 @@ class StreamingCompensator:
             "last_time": None,
             "deficit": None,
             "finished_runs": [],
+            "adapt": self.adapt,
+            "rls": rls,
         }
         return self
 
@@ -262,9 +380,23 @@ class StreamingCompensator:
             id), ``has_history`` (False before a run's first row), ``temperature`` (last raw
             temperature per sensor), ``last_time``, ``deficit`` (per sensor, per time
             constant: ``T - lag_tau(T)`` after the last sample; None without lags),
-            ``finished_runs``.
+            ``finished_runs``, ``adapt`` and ``rls`` (None without ``adapt``; else
+            ``weights``, ``(n_weights, n_outputs)`` nested lists, ``covariance``,
+            ``(n_weights, n_weights)``, ``n_updates`` the references used and ``n_resets``
+            the covariance resets).
         """
-        return copy.deepcopy(self.state)
+        state = {key: value for key, value in self.state.items() if key != "rls"}
+        state = copy.deepcopy(state)
+        rls = self.state["rls"]
+        state["rls"] = None
+        if rls is not None:
+            state["rls"] = {
+                "weights": rls["weights"].tolist(),
+                "covariance": rls["covariance"].tolist(),
+                "n_updates": int(rls["n_updates"]),
+                "n_resets": int(rls["n_resets"]),
+            }
+        return state
 
     def set_state(self, state):
         """Restore a state saved by :meth:`get_state` (from this model or an identical one).
@@ -313,11 +445,49 @@ class StreamingCompensator:
                     f"state['deficit'] must have shape {expected} (sensors, time constants), "
                     f"got {np.shape(state['deficit'])}."
                 )
-        self.state = copy.deepcopy(state)
+        rls = self._check_rls_state(state)
+        restored = copy.deepcopy({key: value for key, value in state.items() if key != "rls"})
+        restored["rls"] = rls
+        self.state = restored
         return self
 
-    def step(self, time, temperature, rate=None, *, run=None):
-        """Compensate one sample.
+    def _check_rls_state(self, state):
+        if state["adapt"] != self.adapt:
+            raise ValueError(
+                f"state is of a compensator with adapt={state['adapt']!r}; this one has "
+                f"adapt={self.adapt!r}."
+            )
+        rls = state["rls"]
+        if self.adapt is None:
+            if rls is not None:
+                raise ValueError("state['rls'] must be None: this compensator does not adapt.")
+            return None
+        keys = {"weights", "covariance", "n_updates", "n_resets"}
+        if not isinstance(rls, dict) or set(rls) != keys:
+            raise ValueError(f"state['rls'] must be a dict with keys {sorted(keys)}.")
+        shape = self._prior["weights"].shape
+        weights = np.array(rls["weights"], dtype=np.float64)
+        covariance = np.array(rls["covariance"], dtype=np.float64)
+        if weights.shape != shape or covariance.shape != (shape[0], shape[0]):
+            raise ValueError(
+                f"state['rls'] must hold weights of shape {shape} and a covariance of shape "
+                f"{(shape[0], shape[0])}, got {weights.shape} and {covariance.shape}."
+            )
+        if not (np.all(np.isfinite(weights)) and np.all(np.isfinite(covariance))):
+            raise ValueError("state['rls'] holds NaN or inf.")
+        if not np.array_equal(covariance, covariance.T):
+            raise ValueError("state['rls']['covariance'] must be symmetric.")
+        return {
+            "weights": weights,
+            "covariance": covariance,
+            "n_updates": int(rls["n_updates"]),
+            "n_resets": int(rls["n_resets"]),
+        }
+
+    # -- one sample ------------------------------------------------------------------------
+
+    def step(self, time, temperature, rate=None, *, run=None, reference=None):
+        """Compensate one sample (and, with ``adapt`` and a ``reference``, learn from it).
 
         Parameters
         ----------
@@ -329,23 +499,165 @@ class StreamingCompensator:
             Gyro output, deg/h (one per model output).
         run : scalar, default=None
             Run id; a change of id starts a new run. ``None``: the current run.
+        reference : float or sequence of float, default=None
+            The true rate of the sample, deg/h (one per output), when it is known (at rest,
+            on a turntable): with ``adapt``, the recalibration learns from
+            ``rate - reference`` after compensating the sample. Needs ``rate``.
 
         Returns
         -------
         compensated : float or ndarray of shape (n_outputs,) or None
-            ``rate - drift`` (None when ``rate`` is None).
+            ``rate - drift`` (None when ``rate`` is None); a Python float for a single
+            output.
         drift : float or ndarray of shape (n_outputs,)
-            Predicted drift, deg/h.
+            Predicted drift, deg/h (before this sample's own update).
         """
+        if not self.compiled:
+            return self._step_slow(time, temperature, rate, run, reference)
+        temperatures = _floats(temperature)
+        if len(temperatures) != self.n_sensors:
+            raise ValueError(
+                f"Expected {self.n_sensors} temperature value(s) per sample (sensors "
+                f"{self._features['temperature']}), got {len(temperatures)}."
+            )
+        if not all(map(math.isfinite, temperatures)):
+            _table.check_finite(np.array([temperatures]), "temperature")
+        rates = None if rate is None else self._row_values(rate, "rate")
+        references = None if reference is None else self._row_values(reference, "reference")
+        if references is not None and rates is None:
+            raise ValueError("reference needs the rate of the same sample (rate=None).")
+        uses_time = self._features["time"] is not None
+        if uses_time:
+            if time is None:
+                raise ValueError(f"The model needs the time column {self._features['time']!r}.")
+            time = float(time)
+            if not math.isfinite(time):
+                _table.check_finite(np.array([time]), "time")
+        state = self.state
+        if run is not None and run != state["run"]:
+            state = self._start_run(state, run)
+        if uses_time and state["has_history"] and not time > state["last_time"]:
+            _check_increasing(np.array([time]), state, 0)
+        row, feature_state = self._row_features(state, time if uses_time else None, temperatures)
+        rls = state["rls"]
+        if self.adapt == "output":
+            phi = self._compiled.design(row[None])[0]
+            drift = phi @ rls["weights"]
+        else:
+            drift = self._compiled.predict_row(row)
+            if self.adapt == "bias":
+                phi = _ONE
+                base = drift
+                drift = base + rls["weights"][0]
+        if references is not None and self.adapt is not None:
+            target = rates - references
+            if self.adapt == "bias":
+                target = target - base
+            weights, covariance, resets = rls_step(
+                rls["weights"],
+                rls["covariance"],
+                phi,
+                target,
+                self.forgetting,
+                self._prior["covariance"],
+                self._prior["trace"],
+            )
+            rls = {
+                "weights": weights,
+                "covariance": covariance,
+                "n_updates": rls["n_updates"] + 1,
+                "n_resets": rls["n_resets"] + resets,
+            }
+        compensated = None if rates is None else rates - drift
+        self.state = {**state, **feature_state, "rls": rls}
+        if self._single_output:
+            return (None if compensated is None else float(compensated[0])), float(drift[0])
+        return compensated, drift
+
+    def _row_values(self, values, label):
+        """One value per output, finite, as an ndarray of shape (n_outputs,)."""
+        if isinstance(values, numbers.Real):
+            values = np.array([float(values)])
+        else:
+            values = np.asarray(values, dtype=np.float64).reshape(-1)
+        if values.shape[0] != self.n_outputs:
+            raise ValueError(
+                f"{label} has {values.shape[0]} value(s) per sample; the model predicts "
+                f"{self.n_outputs} (one {label} per output)."
+            )
+        if not np.all(np.isfinite(values)):
+            _table.check_finite(values[None], label)
+        return values
+
+    def _row_features(self, state, time, temperatures):
+        """Features of one sample (a 1-D array) and the feature part of the new state.
+
+        The arithmetic of :func:`advance_features` on Python floats: one exact step of every
+        lag (:func:`sklearn_ifog._lags.lag_step`), the rate, then the terms.
+        """
+        spec = self._features
+        taus = self._time_constants
+        n_sensors = self.n_sensors
+        if state["has_history"]:
+            previous = state["temperature"]
+            changes = [now - before for now, before in zip(temperatures, previous, strict=True)]
+            elapsed = None if time is None else time - state["last_time"]
+            deficit = None
+            if taus:
+                coefficients = []
+                for tau in taus:
+                    x = elapsed / tau
+                    coefficients.append((math.exp(-x), -math.expm1(-x) / x if x > 0 else 1.0))
+                deficit = [
+                    [a * e + g * change for (a, g), e in zip(coefficients, old, strict=True)]
+                    for change, old in zip(changes, state["deficit"], strict=True)
+                ]
+            smoothing = spec["smoothing"]
+            if smoothing > 0:
+                index = taus.index(float(smoothing))
+                rates = [d[index] / smoothing * spec["seconds_per_unit"] for d in deficit]
+            elif time is not None:
+                rates = [change / elapsed * spec["seconds_per_unit"] for change in changes]
+            else:
+                rates = changes
+        else:
+            deficit = [[0.0] * len(taus) for _ in range(n_sensors)] if taus else None
+            rates = [0.0] * n_sensors
+        first = temperatures[0]
+        row = []
+        for sensor in range(n_sensors):
+            lag = None
+            if taus:
+                lag = dict(zip(taus, deficit[sensor], strict=True))
+            inputs = SensorInputs(T=temperatures[sensor], dT=rates[sensor], first=first, lag=lag)
+            for term, _ in self._row_terms:
+                if sensor > 0 or term.first_sensor:
+                    row.append(term.compute(inputs))
+        feature_state = {
+            "has_history": True,
+            "temperature": list(temperatures),
+            "last_time": time,
+            "deficit": deficit,
+        }
+        return np.array(row, dtype=np.float64), feature_state
+
+    def _step_slow(self, time, temperature, rate, run, reference):
         temperature = np.asarray(temperature, dtype=np.float64).reshape(1, -1)
         times = None if time is None else np.array([time], dtype=np.float64)
         runs = None if run is None else [run]
-        rates = None if rate is None else np.asarray(rate, dtype=np.float64)[None]
-        compensated, drift = self._advance(temperature, times, runs, rates)
+        rates = None if rate is None else np.asarray(rate, dtype=np.float64).reshape(1, -1)
+        references = None
+        if reference is not None:
+            references = np.asarray(reference, dtype=np.float64).reshape(1, -1)
+        compensated, drift = self._advance(temperature, times, runs, rates, references)
+        if self._single_output:
+            return (None if compensated is None else float(compensated[0])), float(drift[0])
         return (None if compensated is None else compensated[0]), drift[0]
 
-    def update(self, X, rate=None):
-        """Compensate a chunk of consecutive samples.
+    # -- chunks ----------------------------------------------------------------------------
+
+    def update(self, X, rate=None, reference=None):
+        """Compensate a chunk of consecutive samples (learning from those with a reference).
 
         Parameters
         ----------
@@ -354,13 +666,19 @@ class StreamingCompensator:
             was fitted on).
         rate : array-like of shape (n_samples,) or (n_samples, n_outputs), default=None
             Gyro output, deg/h.
+        reference : array-like of shape (n_samples,) or (n_samples, n_outputs), default=None
+            True rate of the samples, deg/h, where known: ``None`` entries (an object
+            sequence) or masked entries (a ``numpy.ma`` array) mark the samples without one.
+            With ``adapt``, every sample with a reference updates the recalibration after it
+            is compensated, in order. Needs ``rate``.
 
         Returns
         -------
         compensated : ndarray or None
             ``rate - drift`` (None when ``rate`` is None).
         drift : ndarray of shape (n_samples,) or (n_samples, n_outputs)
-            Predicted drift, deg/h, as ``pipeline.predict`` gives it.
+            Predicted drift, deg/h, as ``pipeline.predict`` gives it (each sample's before
+            its own update).
         """
         # The batch transformer's own validation and column reading: same columns, same
         # errors as ``pipeline.predict``.
@@ -373,9 +691,10 @@ class StreamingCompensator:
             X, temperature=spec["temperature"], time=spec["time"], run=thermal.run
         )
         rates = None if rate is None else np.asarray(rate, dtype=np.float64)
-        return self._advance(temperature, time, run, rates)
+        references = None if reference is None else _reference_values(reference)
+        return self._advance(temperature, time, run, rates, references)
 
-    def _advance(self, temperature, time, run, rate):
+    def _advance(self, temperature, time, run, rate, reference):
         spec = self._features
         n_samples = temperature.shape[0]
         if temperature.shape[1] != self.n_sensors:
@@ -390,8 +709,26 @@ class StreamingCompensator:
             _table.check_finite(time, "time")
         else:
             time = None
-        if rate is not None and rate.shape[0] != n_samples:
-            raise ValueError(f"rate has {rate.shape[0]} rows, the samples {n_samples}.")
+        if rate is not None:
+            if rate.shape[0] != n_samples:
+                raise ValueError(f"rate has {rate.shape[0]} rows, the samples {n_samples}.")
+            _table.check_finite(rate, "rate")
+        has_reference = None
+        if reference is not None:
+            if rate is None:
+                raise ValueError("reference needs the rate of the same samples (rate=None).")
+            reference, has_reference = reference
+            if reference.shape != rate.shape:
+                raise ValueError(
+                    f"reference has shape {reference.shape}; rate has {rate.shape} (one "
+                    "reference per rate)."
+                )
+            has_reference = has_reference.reshape(n_samples, -1)
+            if not np.all(has_reference == has_reference[:, :1]):
+                raise ValueError(
+                    "reference must be given for every output of a sample, or for none."
+                )
+            has_reference = has_reference[:, 0]
         # Work on a copy (its lists are replaced, never mutated): a chunk that fails half-way
         # leaves the state as it was.
         state = dict(self.state)
@@ -413,13 +750,51 @@ class StreamingCompensator:
             state.update(feature_state)
             blocks.append(block)
         features = np.concatenate(blocks)
-        drift = self._rest.predict(self._frame(features))
+        if self.adapt == "output":
+            design = self._compiled.design(features)
+        else:
+            design = np.ones((n_samples, 1)) if self.adapt == "bias" else None
+            if self.compiled:
+                base = self._compiled.predict(features)
+            else:
+                base = np.asarray(self._rest.predict(self._frame(features)))
+            base = base.reshape(n_samples, -1)
+        rls = state["rls"]
+        if self.adapt is None:
+            drift = base
+        else:
+            if has_reference is None:
+                has_reference = np.zeros(n_samples, dtype=bool)
+                target = np.zeros((n_samples, self.n_outputs))
+            else:
+                target = (rate - reference).reshape(n_samples, -1)
+                if self.adapt == "bias":
+                    target = target - base
+            prediction, weights, covariance, resets = rls_sequence(
+                rls["weights"],
+                rls["covariance"],
+                design,
+                target,
+                has_reference,
+                self.forgetting,
+                self._prior["covariance"],
+            )
+            drift = prediction if self.adapt == "output" else base + prediction
+            rls = {
+                "weights": weights,
+                "covariance": covariance,
+                "n_updates": rls["n_updates"] + int(has_reference.sum()),
+                "n_resets": rls["n_resets"] + resets,
+            }
+        if self._single_output:
+            drift = drift[:, 0]
         if rate is not None and rate.shape != drift.shape:
             raise ValueError(
                 f"rate has shape {rate.shape[1:]} per sample; the model predicts "
                 f"{drift.shape[1:]} (one rate per output)."
             )
         compensated = None if rate is None else rate - drift
+        state["rls"] = rls
         self.state = state
         return compensated, drift
 
@@ -448,6 +823,38 @@ class StreamingCompensator:
         import pandas as pd
 
         return pd.DataFrame(features, columns=self._names_in)
+
+
+_ONE = np.ones(1)
+
+
+def _floats(values):
+    """A sensor reading (float or sequence) as a list of Python floats."""
+    if isinstance(values, numbers.Real):
+        return [float(values)]
+    return [float(value) for value in np.asarray(values, dtype=np.float64).reshape(-1)]
+
+
+def _reference_values(reference):
+    """``(values, known)`` of a reference column: None or masked entries are unknown."""
+    if isinstance(reference, np.ma.MaskedArray):
+        known = ~np.ma.getmaskarray(reference)
+        values = np.asarray(reference.filled(0.0), dtype=np.float64)
+    else:
+        raw = np.asarray(
+            reference.to_numpy() if hasattr(reference, "to_numpy") else reference, dtype=object
+        )
+        known = np.vectorize(lambda value: value is not None, otypes=[bool])(raw)
+        if raw.size and not known.all():
+            raw = np.where(known, raw, 0.0)
+        try:
+            values = raw.astype(np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"reference must hold numbers or None, got {exc}.") from None
+    bad = known & ~np.isfinite(values)
+    if bad.any():
+        _table.check_finite(np.where(known, values, 0.0), "reference")
+    return values, known
 
 
 def _check_increasing(time, state, offset):
