@@ -16,7 +16,7 @@ import numpy as np
 
 from sklearn_ifog.rbf._basis import predict_network, tail_features
 
-__all__ = ["CompiledSteps", "compile_steps"]
+__all__ = ["CompiledSteps", "FastRow", "compile_steps"]
 
 
 def _center_scale(spec):
@@ -164,8 +164,9 @@ class CompiledSteps:
         The Pipeline predicts a 1-D array.
     """
 
-    def __init__(self, transforms, final, single_output):
+    def __init__(self, transforms, final, single_output, specs=()):
         self.transforms = transforms
+        self.specs = list(specs)
         self.final = final
         self.single_output = single_output
 
@@ -238,4 +239,104 @@ def compile_steps(pipeline):
         final = _Linear(regressor)
     else:  # pragma: no cover - describe_pipeline refuses these
         return None
-    return CompiledSteps(transforms, final, spec["single_output"])
+    return CompiledSteps(transforms, final, spec["single_output"], spec["steps"][:-1])
+
+
+class FastRow:
+    """One row, one output, in Python floats and three numpy calls (the step's hot path).
+
+    For a Pipeline of affine scalers (StandardScaler, RobustScaler, MaxAbsScaler,
+    MinMaxScaler) then an RBF network or a linear model, with one output. The scalers and the
+    network's standardisation run on Python floats with the estimators' own operations (so
+    the standardised row is the batch one bit for bit); the network is the batch
+    formula of :func:`sklearn_ifog.rbf._basis.gaussian_design` with its polynomial tail and
+    intercept folded into the same product: ``r = M @ [z, ||z||², 1]``, then
+    ``drift = coef @ exp(r[:K]) + [z, ||z||², 1] @ r[K:]``.
+
+    Parameters
+    ----------
+    compiled : CompiledSteps
+        The compiled steps.
+    weights : ndarray of shape (n_weights, 1), default=None
+        Output-layer weights to use instead of the fitted ones (online recalibration).
+    """
+
+    def __init__(self, compiled, weights=None):
+        self.stages = []
+        for spec in compiled.specs:
+            if spec["op"] == "center_scale":
+                self.stages.append(("cs", list(zip(spec["center"], spec["scale"], strict=True))))
+            else:
+                clip = spec["clip"]
+                self.stages.append(
+                    ("ma", list(zip(spec["multiply"], spec["add"], strict=True)), clip)
+                )
+        final = compiled.final
+        self.kind = final.kind
+        weights = final.weights if weights is None else weights
+        self.set_weights(final, np.asarray(weights, dtype=np.float64)[:, 0])
+
+    @staticmethod
+    def supports(compiled):
+        """Whether ``compiled`` has the form this fast path evaluates."""
+        return (
+            compiled is not None
+            and compiled.final.n_outputs == 1
+            and all(spec["op"] != "polynomial" for spec in compiled.specs)
+        )
+
+    def set_weights(self, final, weights):
+        """Use the output-layer ``weights`` (1-D, the design's order)."""
+        if final.kind == "linear":
+            self.linear = (weights[:-1].tolist(), float(weights[-1]))
+            return
+        self.network = [
+            (float(m), float(s)) for m, s in zip(final.x_mean, final.x_scale, strict=True)
+        ]
+        centers = final.centers
+        n_centers, n_inputs = centers.shape
+        inv_var = -2.0 * final.gain  # 1 / widths**2
+        M = np.zeros((n_centers + n_inputs + 2, n_inputs + 2))
+        # As gaussian_design: [z, ||z||², 1] @ [c/σ²; -1/(2σ²); -||c||²/(2σ²)].
+        M[:n_centers, :n_inputs] = centers * inv_var[:, None]
+        M[:n_centers, n_inputs] = -0.5 * inv_var
+        M[:n_centers, n_inputs + 1] = -0.5 * inv_var * np.square(centers).sum(axis=1)
+        tail = weights[n_centers:-1]
+        Q = M[n_centers:]
+        if final.degree >= 1:
+            Q[:n_inputs, n_inputs + 1] = tail[:n_inputs]
+        if final.degree == 2:
+            Q[final.first, final.second] = tail[n_inputs:]
+        Q[n_inputs + 1, n_inputs + 1] = weights[-1]
+        self.M = M
+        self.n_centers = n_centers
+        self.coef = np.ascontiguousarray(weights[:n_centers])
+
+    def __call__(self, row):
+        """Drift (a float) of one feature row (a sequence of floats)."""
+        for stage in self.stages:
+            if stage[0] == "cs":
+                row = [(x - c) / s for x, (c, s) in zip(row, stage[1])]  # noqa: B905
+            else:
+                row = [x * m + a for x, (m, a) in zip(row, stage[1])]  # noqa: B905
+                if stage[2] is not None:
+                    low, high = stage[2]
+                    row = [low if x < low else high if x > high else x for x in row]
+        if self.kind == "linear":
+            coef, intercept = self.linear
+            total = 0.0
+            for x, w in zip(row, coef):  # noqa: B905
+                total += w * x
+            return total + intercept
+        z = [(x - m) / s for x, (m, s) in zip(row, self.network)]  # noqa: B905
+        norm2 = 0.0
+        for value in z:
+            norm2 += value * value
+        z.append(norm2)
+        z.append(1.0)
+        augmented = np.array(z)
+        r = self.M @ augmented
+        K = self.n_centers
+        phi = r[:K]
+        np.exp(phi, out=phi)
+        return float(self.coef @ phi + augmented @ r[K:])

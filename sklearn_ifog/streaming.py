@@ -19,9 +19,8 @@ from sklearn.pipeline import Pipeline
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from sklearn_ifog import _table
-from sklearn_ifog._compiled import compile_steps
+from sklearn_ifog._compiled import FastRow, compile_steps
 from sklearn_ifog._contract import (
-    SensorInputs,
     check_needs_time,
     get_term,
     seconds_per_unit,
@@ -282,9 +281,18 @@ class StreamingCompensator:
             ),
         }
         self._time_constants = list(state_time_constants(terms, smoothing))
-        self._row_terms = [
-            (get_term(term), None if get_term(term).time_constant is None else 0) for term in terms
-        ]
+        self._uses_time = features.time is not None
+        self._smoothing_index = (
+            self._time_constants.index(float(smoothing)) if smoothing > 0 else None
+        )
+        self._row_function = _row_function(
+            self.n_sensors,
+            terms,
+            self._time_constants,
+            smoothing,
+            self._features["seconds_per_unit"],
+            self._uses_time,
+        )
         self._rest = pipeline[1:]
         self._names_in = getattr(self._first_later_step(), "feature_names_in_", None)
         self._compiled = compile_steps(pipeline)
@@ -297,7 +305,9 @@ class StreamingCompensator:
             probe = np.asarray(self._rest.predict(self._frame(np.zeros((1, n_features)))))
             self._single_output = probe.ndim == 1
             self.n_outputs = 1 if probe.ndim == 1 else probe.shape[1]
+
         self._prior = self._initial_rls()
+        self._fast = FastRow(self._compiled) if FastRow.supports(self._compiled) else None
         self.reset(adaptation=True)
 
     def _initial_rls(self):
@@ -514,50 +524,63 @@ class StreamingCompensator:
         """
         if not self.compiled:
             return self._step_slow(time, temperature, rate, run, reference)
-        temperatures = _floats(temperature)
-        if len(temperatures) != self.n_sensors:
-            raise ValueError(
-                f"Expected {self.n_sensors} temperature value(s) per sample (sensors "
-                f"{self._features['temperature']}), got {len(temperatures)}."
-            )
-        if not all(map(math.isfinite, temperatures)):
-            _table.check_finite(np.array([temperatures]), "temperature")
+        if type(temperature) is float and self.n_sensors == 1:
+            temperatures = [temperature]
+        else:
+            temperatures = _floats(temperature)
+            if len(temperatures) != self.n_sensors:
+                raise ValueError(
+                    f"Expected {self.n_sensors} temperature value(s) per sample (sensors "
+                    f"{self._features['temperature']}), got {len(temperatures)}."
+                )
+        for value in temperatures:
+            if not math.isfinite(value):
+                _table.check_finite(np.array([temperatures]), "temperature")
+        single = self._single_output
         rates = None if rate is None else self._row_values(rate, "rate")
         references = None if reference is None else self._row_values(reference, "reference")
         if references is not None and rates is None:
             raise ValueError("reference needs the rate of the same sample (rate=None).")
-        uses_time = self._features["time"] is not None
-        if uses_time:
+        if self._uses_time:
             if time is None:
                 raise ValueError(f"The model needs the time column {self._features['time']!r}.")
             time = float(time)
             if not math.isfinite(time):
                 _table.check_finite(np.array([time]), "time")
+        else:
+            time = None
         state = self.state
         if run is not None and run != state["run"]:
             state = self._start_run(state, run)
-        if uses_time and state["has_history"] and not time > state["last_time"]:
+        if time is not None and state["has_history"] and not time > state["last_time"]:
             _check_increasing(np.array([time]), state, 0)
-        row, feature_state = self._row_features(state, time if uses_time else None, temperatures)
+        row, feature_state = self._row_features(state, time, temperatures)
         rls = state["rls"]
-        if self.adapt == "output":
-            phi = self._compiled.design(row[None])[0]
-            drift = phi @ rls["weights"]
+        adapt = self.adapt
+        fast = self._fast
+        if adapt == "output":
+            if fast is not None:
+                drift = fast(row)
+            else:
+                drift = self._compiled.design(np.array([row]))[0] @ rls["weights"]
         else:
-            drift = self._compiled.predict_row(row)
-            if self.adapt == "bias":
-                phi = _ONE
+            drift = fast(row) if fast is not None else self._compiled.predict_row(np.array(row))
+            if adapt == "bias":
                 base = drift
-                drift = base + rls["weights"][0]
-        if references is not None and self.adapt is not None:
-            target = rates - references
-            if self.adapt == "bias":
-                target = target - base
+                bias = rls["weights"][0]
+                drift = base + (float(bias[0]) if single else bias)
+        if references is not None and adapt is not None:
+            if adapt == "bias":
+                phi = _ONE
+                target = rates - references - base
+            else:
+                phi = self._compiled.design(np.array([row]))[0]
+                target = rates - references
             weights, covariance, resets = rls_step(
                 rls["weights"],
                 rls["covariance"],
                 phi,
-                target,
+                np.atleast_1d(np.asarray(target, dtype=np.float64)),
                 self.forgetting,
                 self._prior["covariance"],
                 self._prior["trace"],
@@ -568,18 +591,26 @@ class StreamingCompensator:
                 "n_updates": rls["n_updates"] + 1,
                 "n_resets": rls["n_resets"] + resets,
             }
+            if adapt == "output" and fast is not None:
+                fast = FastRow(self._compiled, weights)
         compensated = None if rates is None else rates - drift
         self.state = {**state, **feature_state, "rls": rls}
-        if self._single_output:
-            return (None if compensated is None else float(compensated[0])), float(drift[0])
-        return compensated, drift
+        self._fast = fast
+        if single:
+            if not isinstance(drift, float):
+                drift = float(np.asarray(drift).reshape(-1)[0])
+                compensated = None if rates is None else rates - drift
+            return compensated, drift
+        return compensated, np.asarray(drift, dtype=np.float64).reshape(self.n_outputs)
 
     def _row_values(self, values, label):
-        """One value per output, finite, as an ndarray of shape (n_outputs,)."""
-        if isinstance(values, numbers.Real):
-            values = np.array([float(values)])
-        else:
-            values = np.asarray(values, dtype=np.float64).reshape(-1)
+        """The sample's values, finite: a float for one output, else shape (n_outputs,)."""
+        if self._single_output and isinstance(values, numbers.Real):
+            values = float(values)
+            if not math.isfinite(values):
+                _table.check_finite(np.array([values]), label)
+            return values
+        values = np.asarray(values, dtype=np.float64).reshape(-1)
         if values.shape[0] != self.n_outputs:
             raise ValueError(
                 f"{label} has {values.shape[0]} value(s) per sample; the model predicts "
@@ -587,59 +618,31 @@ class StreamingCompensator:
             )
         if not np.all(np.isfinite(values)):
             _table.check_finite(values[None], label)
-        return values
+        return float(values[0]) if self._single_output else values
 
     def _row_features(self, state, time, temperatures):
-        """Features of one sample (a 1-D array) and the feature part of the new state.
+        """Features of one sample (a list of floats) and the feature part of the new state.
 
-        The arithmetic of :func:`advance_features` on Python floats: one exact step of every
-        lag (:func:`sklearn_ifog._lags.lag_step`), the rate, then the terms.
+        The arithmetic of :func:`advance_features` on Python floats, in a function written
+        for this model at construction (:func:`_row_function`): one exact step of every lag
+        (:func:`sklearn_ifog._lags.lag_step`), the rate, then the terms (their expressions of
+        :data:`sklearn_ifog._contract.TERMS`, as the C export writes them).
         """
-        spec = self._features
-        taus = self._time_constants
-        n_sensors = self.n_sensors
-        if state["has_history"]:
-            previous = state["temperature"]
-            changes = [now - before for now, before in zip(temperatures, previous, strict=True)]
-            elapsed = None if time is None else time - state["last_time"]
-            deficit = None
-            if taus:
-                coefficients = []
-                for tau in taus:
-                    x = elapsed / tau
-                    coefficients.append((math.exp(-x), -math.expm1(-x) / x if x > 0 else 1.0))
-                deficit = [
-                    [a * e + g * change for (a, g), e in zip(coefficients, old, strict=True)]
-                    for change, old in zip(changes, state["deficit"], strict=True)
-                ]
-            smoothing = spec["smoothing"]
-            if smoothing > 0:
-                index = taus.index(float(smoothing))
-                rates = [d[index] / smoothing * spec["seconds_per_unit"] for d in deficit]
-            elif time is not None:
-                rates = [change / elapsed * spec["seconds_per_unit"] for change in changes]
-            else:
-                rates = changes
-        else:
-            deficit = [[0.0] * len(taus) for _ in range(n_sensors)] if taus else None
-            rates = [0.0] * n_sensors
-        first = temperatures[0]
-        row = []
-        for sensor in range(n_sensors):
-            lag = None
-            if taus:
-                lag = dict(zip(taus, deficit[sensor], strict=True))
-            inputs = SensorInputs(T=temperatures[sensor], dT=rates[sensor], first=first, lag=lag)
-            for term, _ in self._row_terms:
-                if sensor > 0 or term.first_sensor:
-                    row.append(term.compute(inputs))
+        row, deficit = self._row_function(
+            temperatures,
+            time,
+            state["has_history"],
+            state["temperature"],
+            state["last_time"],
+            state["deficit"],
+        )
         feature_state = {
             "has_history": True,
-            "temperature": list(temperatures),
+            "temperature": temperatures,
             "last_time": time,
             "deficit": deficit,
         }
-        return np.array(row, dtype=np.float64), feature_state
+        return row, feature_state
 
     def _step_slow(self, time, temperature, rate, run, reference):
         temperature = np.asarray(temperature, dtype=np.float64).reshape(1, -1)
@@ -826,6 +829,75 @@ class StreamingCompensator:
 
 
 _ONE = np.ones(1)
+
+
+def _row_function(n_sensors, terms, time_constants, smoothing, seconds_per_unit, uses_time):
+    """A Python function computing one sample's features from the carried state.
+
+    ``f(temperature, time, has_history, previous, last_time, deficit) -> (row, deficit)``,
+    unrolled for the model's sensors, lags and terms (what :func:`advance_features` computes
+    for one row, on floats). The term expressions are those of the feature contract
+    (``Term.c_expression``, valid Python too), the lag step that of
+    :func:`sklearn_ifog._lags.lag_step`; compiled once per compensator.
+    """
+    taus = [float(tau) for tau in time_constants]
+    n_lags = len(taus)
+    lines = ["def row(temperature, time, has_history, previous, last_time, deficit):"]
+    lines += [f"    u{s} = temperature[{s}]" for s in range(n_sensors)]
+    lines.append("    if has_history:")
+    if uses_time:
+        lines.append("        elapsed = time - last_time")
+    for k, tau in enumerate(taus):
+        lines += [
+            f"        x = elapsed / {tau!r}",
+            f"        a{k} = exp(-x)",
+            f"        g{k} = -expm1(-x) / x if x > 0 else 1.0",
+        ]
+    for s in range(n_sensors):
+        lines.append(f"        change{s} = u{s} - previous[{s}]")
+        if n_lags:
+            lines.append(f"        old = deficit[{s}]")
+        for k in range(n_lags):
+            lines.append(f"        e{s}_{k} = a{k} * old[{k}] + g{k} * change{s}")
+        if smoothing > 0:
+            index = taus.index(float(smoothing))
+            lines.append(
+                f"        delta{s} = e{s}_{index} / {float(smoothing)!r} * {seconds_per_unit!r}"
+            )
+        elif uses_time:
+            lines.append(f"        delta{s} = change{s} / elapsed * {seconds_per_unit!r}")
+        else:
+            lines.append(f"        delta{s} = change{s}")
+    lines.append("    else:")
+    for s in range(n_sensors):
+        lines.append(f"        delta{s} = 0.0")
+        lines += [f"        e{s}_{k} = 0.0" for k in range(n_lags)]
+    columns = []
+    for s in range(n_sensors):
+        for term in map(get_term, terms):
+            if s == 0 and not term.first_sensor:
+                continue
+            expression = term.c_expression
+            if term.time_constant is not None:
+                expression = expression.format(lag=taus.index(term.time_constant))
+            expression = (
+                expression.replace("temperature[0]", "u0")
+                .replace("raw", f"u{s}")
+                .replace("delta", f"delta{s}")
+            )
+            for k in range(n_lags):
+                expression = expression.replace(f"deficit[{k}]", f"e{s}_{k}")
+            columns.append(f"({expression})")
+    deficit = "None"
+    if n_lags:
+        per_sensor = [
+            "[" + ", ".join(f"e{s}_{k}" for k in range(n_lags)) + "]" for s in range(n_sensors)
+        ]
+        deficit = "[" + ", ".join(per_sensor) + "]"
+    lines.append(f"    return [{', '.join(columns)}], {deficit}")
+    namespace = {"exp": math.exp, "expm1": math.expm1}
+    exec("\n".join(lines), namespace)  # generated from the term registry, as the C export
+    return namespace["row"]
 
 
 def _floats(values):
