@@ -233,10 +233,13 @@ class StreamingCompensator:
     rate (here 0) is known, and the bias is learnt from it.
 
     >>> adaptive = StreamingCompensator(model, adapt="bias", forgetting=1.0)
+    >>> fixed = StreamingCompensator(model)
     >>> for t, temperature in X:
     ...     _ = adaptive.step(t, temperature, rate=0.5 * temperature + 2.3, reference=0.0)
-    >>> round(adaptive.step(6.0, 23.6, rate=0.5 * 23.6 + 2.3)[0], 2)  # compensated
-    0.04
+    ...     _ = fixed.step(t, temperature, rate=0.5 * temperature + 2.3)
+    >>> rate = 0.5 * 23.6 + 2.3  # a later sample, true rate 0, not known to the gyro
+    >>> round(fixed.step(6.0, 23.6, rate)[0], 3), round(adaptive.step(6.0, 23.6, rate)[0], 3)
+    (0.3, 0.0)
     """
 
     def __init__(self, pipeline, *, adapt=None, forgetting=0.999):
