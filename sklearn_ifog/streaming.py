@@ -527,8 +527,8 @@ class StreamingCompensator:
         """
         if not self.compiled:
             return self._step_slow(time, temperature, rate, run, reference)
-        if type(temperature) is float and self.n_sensors == 1:
-            temperatures = [temperature]
+        if self.n_sensors == 1 and isinstance(temperature, float):
+            temperatures = [float(temperature)]
         else:
             temperatures = _floats(temperature)
             if len(temperatures) != self.n_sensors:
@@ -608,7 +608,7 @@ class StreamingCompensator:
 
     def _row_values(self, values, label):
         """The sample's values, finite: a float for one output, else shape (n_outputs,)."""
-        if self._single_output and isinstance(values, numbers.Real):
+        if self._single_output and isinstance(values, (float, int, numbers.Real)):
             values = float(values)
             if not math.isfinite(values):
                 _table.check_finite(np.array([values]), label)
@@ -651,10 +651,10 @@ class StreamingCompensator:
         temperature = np.asarray(temperature, dtype=np.float64).reshape(1, -1)
         times = None if time is None else np.array([time], dtype=np.float64)
         runs = None if run is None else [run]
-        rates = None if rate is None else np.asarray(rate, dtype=np.float64).reshape(1, -1)
+        rates = None if rate is None else np.asarray(rate, dtype=np.float64)[None]
         references = None
         if reference is not None:
-            references = np.asarray(reference, dtype=np.float64).reshape(1, -1)
+            references = _reference_values(np.asarray(reference, dtype=np.float64)[None])
         compensated, drift = self._advance(temperature, times, runs, rates, references)
         if self._single_output:
             return (None if compensated is None else float(compensated[0])), float(drift[0])
@@ -745,14 +745,23 @@ class StreamingCompensator:
             segment_time = None if time is None else time[start:stop]
             if segment_time is not None:
                 _check_increasing(segment_time, state, start)
-            block, feature_state = advance_features(
-                temperature[start:stop],
-                segment_time,
-                state,
-                terms=spec["terms"],
-                smoothing=spec["smoothing"],
-                seconds_per_unit=spec["seconds_per_unit"],
-            )
+            if self.adapt is None:
+                block, feature_state = advance_features(
+                    temperature[start:stop],
+                    segment_time,
+                    state,
+                    terms=spec["terms"],
+                    smoothing=spec["smoothing"],
+                    seconds_per_unit=spec["seconds_per_unit"],
+                )
+            else:
+                # The recalibration is a sequential recursion that amplifies rounding where
+                # the references barely tell its directions apart: its inputs are computed
+                # sample by sample, as step computes them, so that it is the same, bit for
+                # bit, whatever the chunking.
+                block, feature_state = self._sequential_features(
+                    temperature[start:stop], segment_time, state
+                )
             state.update(feature_state)
             blocks.append(block)
         features = np.concatenate(blocks)
@@ -803,6 +812,27 @@ class StreamingCompensator:
         state["rls"] = rls
         self.state = state
         return compensated, drift
+
+    def _sequential_features(self, temperature, time, state):
+        """Features of consecutive rows of one run by the per-sample step (see _advance)."""
+        has_history = state["has_history"]
+        previous, last_time, deficit = state["temperature"], state["last_time"], state["deficit"]
+        times = [None] * temperature.shape[0] if time is None else time.tolist()
+        rows = []
+        row_function = self._row_function
+        for temperatures, now in zip(temperature.tolist(), times, strict=True):
+            row, deficit = row_function(
+                temperatures, now, has_history, previous, last_time, deficit
+            )
+            rows.append(row)
+            has_history, previous, last_time = True, temperatures, now
+        feature_state = {
+            "has_history": True,
+            "temperature": previous,
+            "last_time": last_time,
+            "deficit": deficit,
+        }
+        return np.array(rows, dtype=np.float64).reshape(len(rows), -1), feature_state
 
     def _start_run(self, state, run_id):
         if run_id in state["finished_runs"]:
