@@ -310,7 +310,6 @@ class StreamingCompensator:
             self.n_outputs = 1 if probe.ndim == 1 else probe.shape[1]
 
         self._prior = self._initial_rls()
-        self._fast = FastRow(self._compiled) if FastRow.supports(self._compiled) else None
         self.reset(adaptation=True)
 
     def _initial_rls(self):
@@ -380,7 +379,16 @@ class StreamingCompensator:
             "adapt": self.adapt,
             "rls": rls,
         }
+        self._refresh_fast()
         return self
+
+    def _refresh_fast(self):
+        """The one-row evaluator, with the current output-layer weights."""
+        self._fast = None
+        if FastRow.supports(self._compiled):
+            rls = self.state["rls"]
+            weights = rls["weights"] if self.adapt == "output" else None
+            self._fast = FastRow(self._compiled, weights)
 
     def get_state(self):
         """The state as a plain, JSON-able dict (a copy), to save mid-run.
@@ -462,6 +470,7 @@ class StreamingCompensator:
         restored = copy.deepcopy({key: value for key, value in state.items() if key != "rls"})
         restored["rls"] = rls
         self.state = restored
+        self._refresh_fast()
         return self
 
     def _check_rls_state(self, state):
@@ -811,6 +820,8 @@ class StreamingCompensator:
         compensated = None if rate is None else rate - drift
         state["rls"] = rls
         self.state = state
+        if self.adapt == "output" and has_reference is not None and has_reference.any():
+            self._refresh_fast()
         return compensated, drift
 
     def _sequential_features(self, temperature, time, state):

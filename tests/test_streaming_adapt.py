@@ -355,3 +355,33 @@ def test_age_campaign(campaign):
     arrays = make_thermal_campaign(n_units=1, n_runs=1, random_state=0, as_frame=False)
     with pytest.raises(ValueError, match="as_frame=True"):
         age_campaign(arrays)
+
+
+@pytest.mark.parametrize("mode", ["bias", "output"])
+def test_steps_and_chunks_mixed_share_one_recalibration(models, campaign, mode):
+    # Chunks with references, then single steps, then a restored copy: one recursion.
+    model = models["rbf"]
+    rate = campaign["rate"].to_numpy()
+    reference, _ = _references(campaign)
+    expected = StreamingCompensator(model, adapt=mode).update(campaign, rate, reference)[1]
+    compensator = StreamingCompensator(model, adapt=mode)
+    drift = list(compensator.update(campaign.iloc[:300], rate[:300], reference[:300])[1])
+    for i in range(300, 340):
+        row = campaign.iloc[i]
+        drift.append(
+            compensator.step(row["time"], row["temperature"], rate[i], reference=reference[i])[1]
+        )
+    copy = StreamingCompensator(model, adapt=mode).set_state(compensator.get_state())
+    for i in range(340, 380):
+        row = campaign.iloc[i]
+        drift.append(
+            copy.step(row["time"], row["temperature"], rate[i], reference=reference[i])[1]
+        )
+    _close(drift, expected[:380])
+    # Back to the fitted model: the plain compensator's drift again.
+    copy.reset(adaptation=True)
+    plain = StreamingCompensator(model)
+    row = campaign.iloc[0]
+    assert copy.step(row["time"], row["temperature"], run=row["run"])[1] == pytest.approx(
+        plain.step(row["time"], row["temperature"], run=row["run"])[1], rel=1e-12
+    )
