@@ -478,12 +478,12 @@ def _markdown(meta, step_times, chunk_times, c_results, ageing, targets, info):
     for target in targets:
         verdict = "PASS" if target["pass"] else "FAIL"
         lines.append(
-            f"| {target['target']} | {target['value']:.3g} | {target['bound']:g} | {verdict} |"
+            f"| {target['target']} | {target['value']:.4g} | {target['bound']:g} | {verdict} |"
         )
     for target in info:
         verdict = "holds" if target["pass"] else "does not hold"
         lines.append(
-            f"| {target['target']} | {target['value']:.3g} | {target['bound']:g} | {verdict} |"
+            f"| {target['target']} | {target['value']:.4g} | {target['bound']:g} | {verdict} |"
         )
     return "\n".join(lines) + "\n"
 
