@@ -11,19 +11,24 @@ unchanged. Its output is the batch Pipeline's, whatever the chunking.
 """
 
 import copy
+import math
+import numbers
 
 import numpy as np
 from sklearn.pipeline import Pipeline
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from sklearn_ifog import _table
+from sklearn_ifog._compiled import FastRow, compile_steps
 from sklearn_ifog._contract import (
     check_needs_time,
+    get_term,
     seconds_per_unit,
     sensor_keys,
     state_time_constants,
 )
 from sklearn_ifog._lags import LagState, lag_deficit
+from sklearn_ifog._rls import initial_covariance, rls_sequence, rls_step
 from sklearn_ifog.features import (
     ThermalFeatures,
     assemble_terms,
@@ -34,8 +39,12 @@ from sklearn_ifog.features import (
 __all__ = ["StreamingCompensator", "advance_features"]
 
 STATE_SCHEMA = "sklearn-ifog-streaming-state"
-#: 2: the lags' deficits and the last raw temperature (version 1 held an EMA in samples).
-STATE_VERSION = 2
+#: 3: the recalibration (``adapt``, ``rls``); 2: the lags' deficits and the last raw
+#: temperature (version 1 held an EMA in samples).
+STATE_VERSION = 3
+
+#: The recalibration modes of ``StreamingCompensator(adapt=...)``.
+ADAPT_MODES = (None, "bias", "output")
 
 
 def advance_features(temperature, time, state, *, terms, smoothing, seconds_per_unit):
@@ -144,6 +153,27 @@ class StreamingCompensator:
     smoothed rate to rounding, 1e-12 relative), the drift to the last bits (BLAS may sum a
     one-row product in another order than a long one).
 
+    Speed: the Pipeline is checked once, here, and its fitted steps after ThermalFeatures
+    are compiled into plain numpy arithmetic (:mod:`sklearn_ifog._compiled`: the scalers,
+    PolynomialFeatures, a linear regressor or the RBF network); :meth:`step` computes the
+    features of one sample with Python floats and returns Python floats for a single
+    output, with no per-call scikit-learn validation. A Pipeline with another step (any
+    other regressor or transformer) is evaluated through scikit-learn's ``predict``
+    instead: same results, slower, and ``adapt="output"`` is not available for it.
+
+    Online recalibration: with ``adapt``, a sample whose true rate is known (``reference``)
+    updates, after it is compensated, a linear output layer by recursive least squares with
+    exponential forgetting (:mod:`sklearn_ifog._rls`): ``"bias"`` an offset added to the
+    drift; ``"output"`` every linear output weight of the final regressor (the RBF network's
+    Gaussian and tail weights and intercept; a linear regressor's coefficients and
+    intercept), its nonlinear parts (centres, widths, scalers) fixed. The measured drift of
+    such a sample is ``rate - reference``. Samples without a reference are only compensated
+    (and forgetting does not act on them). The initial covariance is diffuse along the bias
+    and a common relative change of the thermal weights (what ageing changes) and tight
+    elsewhere (:func:`sklearn_ifog._rls.initial_covariance`). The weights and covariance are
+    part of the state: same whatever the chunking (1e-12), saved and restored with it, and
+    kept by :meth:`reset` (they belong to the gyro, not to the run).
+
     Runs: the compensator follows one run at a time. With a ``run`` column in the
     ThermalFeatures, a change of run id — between chunks or inside a chunk — starts a new run
     at that row (as :meth:`reset` would); the rows of a run must be contiguous, so a run id
@@ -151,22 +181,35 @@ class StreamingCompensator:
     Without a ``run`` column, call :meth:`reset` at the start of every run. Time must
     increase strictly within a run, across chunks too.
 
+    A call that raises (bad input) leaves the state exactly as it was.
+
     Parameters
     ----------
     pipeline : sklearn.pipeline.Pipeline
         Fitted; its first step is a :class:`~sklearn_ifog.ThermalFeatures`, the later steps
         act row by row (scalers, polynomial features, regressors).
+    adapt : {None, "bias", "output"}, default=None
+        Online recalibration from the samples given a ``reference`` (None: none).
+    forgetting : float, default=0.999
+        Forgetting factor of the recalibration, in (0, 1]: each sample with a reference
+        weighs the earlier ones by this factor (memory of about ``1 / (1 - forgetting)``
+        references; 1: no forgetting). Ignored without ``adapt``.
 
     Attributes
     ----------
     n_sensors : int
         Temperature sensors per sample.
+    n_outputs : int
+        Outputs (gyro axes) the Pipeline predicts.
+    compiled : bool
+        Whether the steps after ThermalFeatures were compiled (else scikit-learn evaluates
+        them).
     state : dict
-        The current state (a copy is returned by :meth:`get_state`).
+        The current state (a copy, JSON-able, is returned by :meth:`get_state`).
 
     See Also
     --------
-    sklearn_ifog.export.to_c : The same compensator as self-contained C.
+    sklearn_ifog.export.to_c : The same compensator, and the same recalibration, as C.
 
     Examples
     --------
@@ -185,9 +228,29 @@ class StreamingCompensator:
     >>> compensated, drift = compensator.step(5.0, 22.5, rate=10.0)
     >>> bool(np.isclose(drift, model.predict(X)[5]))
     True
+
+    Recalibration: this gyro's bias moved by +0.3 deg/h since calibration; at rest, the true
+    rate (here 0) is known, and the bias is learnt from it.
+
+    >>> adaptive = StreamingCompensator(model, adapt="bias", forgetting=1.0)
+    >>> fixed = StreamingCompensator(model)
+    >>> for t, temperature in X:
+    ...     _ = adaptive.step(t, temperature, rate=0.5 * temperature + 2.3, reference=0.0)
+    ...     _ = fixed.step(t, temperature, rate=0.5 * temperature + 2.3)
+    >>> rate = 0.5 * 23.6 + 2.3  # a later sample, true rate 0, not known to the gyro
+    >>> round(fixed.step(6.0, 23.6, rate)[0], 3), round(adaptive.step(6.0, 23.6, rate)[0], 3)
+    (0.3, 0.0)
     """
 
-    def __init__(self, pipeline):
+    def __init__(self, pipeline, *, adapt=None, forgetting=0.999):
+        if adapt not in ADAPT_MODES:
+            raise ValueError(f"adapt must be None, 'bias' or 'output', got {adapt!r}.")
+        if (
+            isinstance(forgetting, bool)
+            or not isinstance(forgetting, numbers.Real)
+            or not (0.0 < float(forgetting) <= 1.0)
+        ):
+            raise ValueError(f"forgetting must be a number in (0, 1], got {forgetting!r}.")
         if not isinstance(pipeline, Pipeline):
             raise TypeError(
                 "StreamingCompensator needs a fitted sklearn.pipeline.Pipeline whose first "
@@ -204,6 +267,8 @@ class StreamingCompensator:
             raise ValueError("StreamingCompensator needs a regressor after ThermalFeatures.")
         sensors = sensor_keys(features.temperature)
         self.pipeline = pipeline
+        self.adapt = adapt
+        self.forgetting = float(forgetting)
         self.n_sensors = len(sensors)
         self._thermal = features
         terms, smoothing = features._resolved()
@@ -219,9 +284,54 @@ class StreamingCompensator:
             ),
         }
         self._time_constants = list(state_time_constants(terms, smoothing))
+        self._uses_time = features.time is not None
+        self._smoothing_index = (
+            self._time_constants.index(float(smoothing)) if smoothing > 0 else None
+        )
+        self._row_function = _row_function(
+            self.n_sensors,
+            terms,
+            self._time_constants,
+            smoothing,
+            self._features["seconds_per_unit"],
+            self._uses_time,
+        )
         self._rest = pipeline[1:]
         self._names_in = getattr(self._first_later_step(), "feature_names_in_", None)
-        self.reset()
+        self._compiled = compile_steps(pipeline)
+        self.compiled = self._compiled is not None
+        if self.compiled:
+            self.n_outputs = self._compiled.final.n_outputs
+            self._single_output = self._compiled.single_output
+        else:
+            n_features = len(features.get_feature_names_out())
+            probe = np.asarray(self._rest.predict(self._frame(np.zeros((1, n_features)))))
+            self._single_output = probe.ndim == 1
+            self.n_outputs = 1 if probe.ndim == 1 else probe.shape[1]
+
+        self._prior = self._initial_rls()
+        self.reset(adaptation=True)
+
+    def _initial_rls(self):
+        """Initial weights, covariance and the design's kind of the recalibration."""
+        if self.adapt is None:
+            return None
+        if self.adapt == "bias":
+            weights = np.zeros((1, self.n_outputs))
+            bias_index = 0
+        else:
+            if not self.compiled:
+                regressor = self._rest.steps[-1][1]
+                raise ValueError(
+                    "adapt='output' needs a final regressor with a linear output layer "
+                    "(RBFNetRegressor or a linear model) after known scalers; got "
+                    f"{type(regressor).__module__}.{type(regressor).__qualname__} (use "
+                    "adapt='bias')."
+                )
+            weights = self._compiled.final.weights.copy()
+            bias_index = self._compiled.final.bias_index
+        covariance = initial_covariance(weights, bias_index=bias_index)
+        return {"weights": weights, "covariance": covariance, "trace": float(np.trace(covariance))}
 
     def _first_later_step(self):
         for _, step in self._rest.steps:
@@ -229,14 +339,32 @@ class StreamingCompensator:
                 return step
         return None
 
-    def reset(self):
-        """Forget everything: the next sample starts a new run.
+    def reset(self, *, adaptation=False):
+        """Start a new run: the next sample is a run's first row.
+
+        Parameters
+        ----------
+        adaptation : bool, default=False
+            Also return the recalibration (weights and covariance) to its start, the fitted
+            model. By default it is kept: it belongs to the gyro, not to the run.
 
         Returns
         -------
         self : StreamingCompensator
             The compensator.
         """
+        previous = getattr(self, "state", None)
+        if adaptation or previous is None:
+            rls = None
+            if self._prior is not None:
+                rls = {
+                    "weights": self._prior["weights"].copy(),
+                    "covariance": self._prior["covariance"].copy(),
+                    "n_updates": 0,
+                    "n_resets": 0,
+                }
+        else:
+            rls = previous["rls"]
         self.state = {
             "schema": STATE_SCHEMA,
             "version": STATE_VERSION,
@@ -248,8 +376,19 @@ class StreamingCompensator:
             "last_time": None,
             "deficit": None,
             "finished_runs": [],
+            "adapt": self.adapt,
+            "rls": rls,
         }
+        self._refresh_fast()
         return self
+
+    def _refresh_fast(self):
+        """The one-row evaluator, with the current output-layer weights."""
+        self._fast = None
+        if FastRow.supports(self._compiled):
+            rls = self.state["rls"]
+            weights = rls["weights"] if self.adapt == "output" else None
+            self._fast = FastRow(self._compiled, weights)
 
     def get_state(self):
         """The state as a plain, JSON-able dict (a copy), to save mid-run.
@@ -262,9 +401,23 @@ class StreamingCompensator:
             id), ``has_history`` (False before a run's first row), ``temperature`` (last raw
             temperature per sensor), ``last_time``, ``deficit`` (per sensor, per time
             constant: ``T - lag_tau(T)`` after the last sample; None without lags),
-            ``finished_runs``.
+            ``finished_runs``, ``adapt`` and ``rls`` (None without ``adapt``; else
+            ``weights``, ``(n_weights, n_outputs)`` nested lists, ``covariance``,
+            ``(n_weights, n_weights)``, ``n_updates`` the references used and ``n_resets``
+            the covariance resets).
         """
-        return copy.deepcopy(self.state)
+        state = {key: value for key, value in self.state.items() if key != "rls"}
+        state = copy.deepcopy(state)
+        rls = self.state["rls"]
+        state["rls"] = None
+        if rls is not None:
+            state["rls"] = {
+                "weights": rls["weights"].tolist(),
+                "covariance": rls["covariance"].tolist(),
+                "n_updates": int(rls["n_updates"]),
+                "n_resets": int(rls["n_resets"]),
+            }
+        return state
 
     def set_state(self, state):
         """Restore a state saved by :meth:`get_state` (from this model or an identical one).
@@ -313,11 +466,50 @@ class StreamingCompensator:
                     f"state['deficit'] must have shape {expected} (sensors, time constants), "
                     f"got {np.shape(state['deficit'])}."
                 )
-        self.state = copy.deepcopy(state)
+        rls = self._check_rls_state(state)
+        restored = copy.deepcopy({key: value for key, value in state.items() if key != "rls"})
+        restored["rls"] = rls
+        self.state = restored
+        self._refresh_fast()
         return self
 
-    def step(self, time, temperature, rate=None, *, run=None):
-        """Compensate one sample.
+    def _check_rls_state(self, state):
+        if state["adapt"] != self.adapt:
+            raise ValueError(
+                f"state is of a compensator with adapt={state['adapt']!r}; this one has "
+                f"adapt={self.adapt!r}."
+            )
+        rls = state["rls"]
+        if self.adapt is None:
+            if rls is not None:
+                raise ValueError("state['rls'] must be None: this compensator does not adapt.")
+            return None
+        keys = {"weights", "covariance", "n_updates", "n_resets"}
+        if not isinstance(rls, dict) or set(rls) != keys:
+            raise ValueError(f"state['rls'] must be a dict with keys {sorted(keys)}.")
+        shape = self._prior["weights"].shape
+        weights = np.array(rls["weights"], dtype=np.float64)
+        covariance = np.array(rls["covariance"], dtype=np.float64)
+        if weights.shape != shape or covariance.shape != (shape[0], shape[0]):
+            raise ValueError(
+                f"state['rls'] must hold weights of shape {shape} and a covariance of shape "
+                f"{(shape[0], shape[0])}, got {weights.shape} and {covariance.shape}."
+            )
+        if not (np.all(np.isfinite(weights)) and np.all(np.isfinite(covariance))):
+            raise ValueError("state['rls'] holds NaN or inf.")
+        if not np.array_equal(covariance, covariance.T):
+            raise ValueError("state['rls']['covariance'] must be symmetric.")
+        return {
+            "weights": weights,
+            "covariance": covariance,
+            "n_updates": int(rls["n_updates"]),
+            "n_resets": int(rls["n_resets"]),
+        }
+
+    # -- one sample ------------------------------------------------------------------------
+
+    def step(self, time, temperature, rate=None, *, run=None, reference=None):
+        """Compensate one sample (and, with ``adapt`` and a ``reference``, learn from it).
 
         Parameters
         ----------
@@ -329,23 +521,158 @@ class StreamingCompensator:
             Gyro output, deg/h (one per model output).
         run : scalar, default=None
             Run id; a change of id starts a new run. ``None``: the current run.
+        reference : float or sequence of float, default=None
+            The true rate of the sample, deg/h (one per output), when it is known (at rest,
+            on a turntable): with ``adapt``, the recalibration learns from
+            ``rate - reference`` after compensating the sample. Needs ``rate``.
 
         Returns
         -------
         compensated : float or ndarray of shape (n_outputs,) or None
-            ``rate - drift`` (None when ``rate`` is None).
+            ``rate - drift`` (None when ``rate`` is None); a Python float for a single
+            output.
         drift : float or ndarray of shape (n_outputs,)
-            Predicted drift, deg/h.
+            Predicted drift, deg/h (before this sample's own update).
         """
+        if not self.compiled:
+            return self._step_slow(time, temperature, rate, run, reference)
+        if self.n_sensors == 1 and isinstance(temperature, float):
+            temperatures = [float(temperature)]
+        else:
+            temperatures = _floats(temperature)
+            if len(temperatures) != self.n_sensors:
+                raise ValueError(
+                    f"Expected {self.n_sensors} temperature value(s) per sample (sensors "
+                    f"{self._features['temperature']}), got {len(temperatures)}."
+                )
+        for value in temperatures:
+            if not math.isfinite(value):
+                _table.check_finite(np.array([temperatures]), "temperature")
+        single = self._single_output
+        rates = None if rate is None else self._row_values(rate, "rate")
+        references = None if reference is None else self._row_values(reference, "reference")
+        if references is not None and rates is None:
+            raise ValueError("reference needs the rate of the same sample (rate=None).")
+        if self._uses_time:
+            if time is None:
+                raise ValueError(f"The model needs the time column {self._features['time']!r}.")
+            time = float(time)
+            if not math.isfinite(time):
+                _table.check_finite(np.array([time]), "time")
+        else:
+            time = None
+        state = self.state
+        if run is not None and run != state["run"]:
+            state = self._start_run(state, run)
+        if time is not None and state["has_history"] and not time > state["last_time"]:
+            _check_increasing(np.array([time]), state, 0)
+        row, feature_state = self._row_features(state, time, temperatures)
+        rls = state["rls"]
+        adapt = self.adapt
+        fast = self._fast
+        if adapt == "output":
+            if fast is not None:
+                drift = fast(row)
+            else:
+                drift = self._compiled.design(np.array([row]))[0] @ rls["weights"]
+        else:
+            drift = fast(row) if fast is not None else self._compiled.predict_row(np.array(row))
+            if adapt == "bias":
+                base = drift
+                bias = rls["weights"][0]
+                drift = base + (float(bias[0]) if single else bias)
+        if references is not None and adapt is not None:
+            if adapt == "bias":
+                phi = _ONE
+                target = rates - references - base
+            else:
+                phi = self._compiled.design(np.array([row]))[0]
+                target = rates - references
+            weights, covariance, resets = rls_step(
+                rls["weights"],
+                rls["covariance"],
+                phi,
+                np.atleast_1d(np.asarray(target, dtype=np.float64)),
+                self.forgetting,
+                self._prior["covariance"],
+                self._prior["trace"],
+            )
+            rls = {
+                "weights": weights,
+                "covariance": covariance,
+                "n_updates": rls["n_updates"] + 1,
+                "n_resets": rls["n_resets"] + resets,
+            }
+            if adapt == "output" and fast is not None:
+                fast = FastRow(self._compiled, weights)
+        compensated = None if rates is None else rates - drift
+        self.state = {**state, **feature_state, "rls": rls}
+        self._fast = fast
+        if single:
+            if not isinstance(drift, float):
+                drift = float(np.asarray(drift).reshape(-1)[0])
+                compensated = None if rates is None else rates - drift
+            return compensated, drift
+        return compensated, np.asarray(drift, dtype=np.float64).reshape(self.n_outputs)
+
+    def _row_values(self, values, label):
+        """The sample's values, finite: a float for one output, else shape (n_outputs,)."""
+        if self._single_output and isinstance(values, (float, int, numbers.Real)):
+            values = float(values)
+            if not math.isfinite(values):
+                _table.check_finite(np.array([values]), label)
+            return values
+        values = np.asarray(values, dtype=np.float64).reshape(-1)
+        if values.shape[0] != self.n_outputs:
+            raise ValueError(
+                f"{label} has {values.shape[0]} value(s) per sample; the model predicts "
+                f"{self.n_outputs} (one {label} per output)."
+            )
+        if not np.all(np.isfinite(values)):
+            _table.check_finite(values[None], label)
+        return float(values[0]) if self._single_output else values
+
+    def _row_features(self, state, time, temperatures):
+        """Features of one sample (a list of floats) and the feature part of the new state.
+
+        The arithmetic of :func:`advance_features` on Python floats, in a function written
+        for this model at construction (:func:`_row_function`): one exact step of every lag
+        (:func:`sklearn_ifog._lags.lag_step`), the rate, then the terms (their expressions of
+        :data:`sklearn_ifog._contract.TERMS`, as the C export writes them).
+        """
+        row, deficit = self._row_function(
+            temperatures,
+            time,
+            state["has_history"],
+            state["temperature"],
+            state["last_time"],
+            state["deficit"],
+        )
+        feature_state = {
+            "has_history": True,
+            "temperature": temperatures,
+            "last_time": time,
+            "deficit": deficit,
+        }
+        return row, feature_state
+
+    def _step_slow(self, time, temperature, rate, run, reference):
         temperature = np.asarray(temperature, dtype=np.float64).reshape(1, -1)
         times = None if time is None else np.array([time], dtype=np.float64)
         runs = None if run is None else [run]
         rates = None if rate is None else np.asarray(rate, dtype=np.float64)[None]
-        compensated, drift = self._advance(temperature, times, runs, rates)
+        references = None
+        if reference is not None:
+            references = _reference_values(np.asarray(reference, dtype=np.float64)[None])
+        compensated, drift = self._advance(temperature, times, runs, rates, references)
+        if self._single_output:
+            return (None if compensated is None else float(compensated[0])), float(drift[0])
         return (None if compensated is None else compensated[0]), drift[0]
 
-    def update(self, X, rate=None):
-        """Compensate a chunk of consecutive samples.
+    # -- chunks ----------------------------------------------------------------------------
+
+    def update(self, X, rate=None, reference=None):
+        """Compensate a chunk of consecutive samples (learning from those with a reference).
 
         Parameters
         ----------
@@ -354,13 +681,19 @@ class StreamingCompensator:
             was fitted on).
         rate : array-like of shape (n_samples,) or (n_samples, n_outputs), default=None
             Gyro output, deg/h.
+        reference : array-like of shape (n_samples,) or (n_samples, n_outputs), default=None
+            True rate of the samples, deg/h, where known: ``None`` entries (an object
+            sequence) or masked entries (a ``numpy.ma`` array) mark the samples without one.
+            With ``adapt``, every sample with a reference updates the recalibration after it
+            is compensated, in order. Needs ``rate``.
 
         Returns
         -------
         compensated : ndarray or None
             ``rate - drift`` (None when ``rate`` is None).
         drift : ndarray of shape (n_samples,) or (n_samples, n_outputs)
-            Predicted drift, deg/h, as ``pipeline.predict`` gives it.
+            Predicted drift, deg/h, as ``pipeline.predict`` gives it (each sample's before
+            its own update).
         """
         # The batch transformer's own validation and column reading: same columns, same
         # errors as ``pipeline.predict``.
@@ -373,9 +706,10 @@ class StreamingCompensator:
             X, temperature=spec["temperature"], time=spec["time"], run=thermal.run
         )
         rates = None if rate is None else np.asarray(rate, dtype=np.float64)
-        return self._advance(temperature, time, run, rates)
+        references = None if reference is None else _reference_values(reference)
+        return self._advance(temperature, time, run, rates, references)
 
-    def _advance(self, temperature, time, run, rate):
+    def _advance(self, temperature, time, run, rate, reference):
         spec = self._features
         n_samples = temperature.shape[0]
         if temperature.shape[1] != self.n_sensors:
@@ -390,8 +724,26 @@ class StreamingCompensator:
             _table.check_finite(time, "time")
         else:
             time = None
-        if rate is not None and rate.shape[0] != n_samples:
-            raise ValueError(f"rate has {rate.shape[0]} rows, the samples {n_samples}.")
+        if rate is not None:
+            if rate.shape[0] != n_samples:
+                raise ValueError(f"rate has {rate.shape[0]} rows, the samples {n_samples}.")
+            _table.check_finite(rate, "rate")
+        has_reference = None
+        if reference is not None:
+            if rate is None:
+                raise ValueError("reference needs the rate of the same samples (rate=None).")
+            reference, has_reference = reference
+            if reference.shape != rate.shape:
+                raise ValueError(
+                    f"reference has shape {reference.shape}; rate has {rate.shape} (one "
+                    "reference per rate)."
+                )
+            has_reference = has_reference.reshape(n_samples, -1)
+            if not np.all(has_reference == has_reference[:, :1]):
+                raise ValueError(
+                    "reference must be given for every output of a sample, or for none."
+                )
+            has_reference = has_reference[:, 0]
         # Work on a copy (its lists are replaced, never mutated): a chunk that fails half-way
         # leaves the state as it was.
         state = dict(self.state)
@@ -402,26 +754,96 @@ class StreamingCompensator:
             segment_time = None if time is None else time[start:stop]
             if segment_time is not None:
                 _check_increasing(segment_time, state, start)
-            block, feature_state = advance_features(
-                temperature[start:stop],
-                segment_time,
-                state,
-                terms=spec["terms"],
-                smoothing=spec["smoothing"],
-                seconds_per_unit=spec["seconds_per_unit"],
-            )
+            if self.adapt is None:
+                block, feature_state = advance_features(
+                    temperature[start:stop],
+                    segment_time,
+                    state,
+                    terms=spec["terms"],
+                    smoothing=spec["smoothing"],
+                    seconds_per_unit=spec["seconds_per_unit"],
+                )
+            else:
+                # The recalibration is a sequential recursion that amplifies rounding where
+                # the references barely tell its directions apart: its inputs are computed
+                # sample by sample, as step computes them, so that it is the same, bit for
+                # bit, whatever the chunking.
+                block, feature_state = self._sequential_features(
+                    temperature[start:stop], segment_time, state
+                )
             state.update(feature_state)
             blocks.append(block)
         features = np.concatenate(blocks)
-        drift = self._rest.predict(self._frame(features))
+        if self.adapt == "output":
+            design = self._compiled.design(features)
+        else:
+            design = np.ones((n_samples, 1)) if self.adapt == "bias" else None
+            if self.compiled:
+                base = self._compiled.predict(features)
+            else:
+                base = np.asarray(self._rest.predict(self._frame(features)))
+            base = base.reshape(n_samples, -1)
+        rls = state["rls"]
+        if self.adapt is None:
+            drift = base
+        else:
+            if has_reference is None:
+                has_reference = np.zeros(n_samples, dtype=bool)
+                target = np.zeros((n_samples, self.n_outputs))
+            else:
+                target = (rate - reference).reshape(n_samples, -1)
+                if self.adapt == "bias":
+                    target = target - base
+            prediction, weights, covariance, resets = rls_sequence(
+                rls["weights"],
+                rls["covariance"],
+                design,
+                target,
+                has_reference,
+                self.forgetting,
+                self._prior["covariance"],
+            )
+            drift = prediction if self.adapt == "output" else base + prediction
+            rls = {
+                "weights": weights,
+                "covariance": covariance,
+                "n_updates": rls["n_updates"] + int(has_reference.sum()),
+                "n_resets": rls["n_resets"] + resets,
+            }
+        if self._single_output:
+            drift = drift[:, 0]
         if rate is not None and rate.shape != drift.shape:
             raise ValueError(
                 f"rate has shape {rate.shape[1:]} per sample; the model predicts "
                 f"{drift.shape[1:]} (one rate per output)."
             )
         compensated = None if rate is None else rate - drift
+        state["rls"] = rls
         self.state = state
+        if self.adapt == "output" and has_reference is not None and has_reference.any():
+            self._refresh_fast()
         return compensated, drift
+
+    def _sequential_features(self, temperature, time, state):
+        """Features of consecutive rows of one run by the per-sample step (see _advance)."""
+        has_history = state["has_history"]
+        previous, last_time, deficit = state["temperature"], state["last_time"], state["deficit"]
+        times = [None] * temperature.shape[0] if time is None else time.tolist()
+        rows = []
+        row_function = self._row_function
+        for temperatures, now in zip(temperature.tolist(), times, strict=True):
+            row, deficit = row_function(
+                temperatures, now, has_history, previous, last_time, deficit
+            )
+            rows.append(row)
+            has_history, previous, last_time = True, temperatures, now
+        feature_state = {
+            "has_history": True,
+            "temperature": previous,
+            "last_time": last_time,
+            "deficit": deficit,
+        }
+        return np.array(rows, dtype=np.float64).reshape(len(rows), -1), feature_state
 
     def _start_run(self, state, run_id):
         if run_id in state["finished_runs"]:
@@ -448,6 +870,107 @@ class StreamingCompensator:
         import pandas as pd
 
         return pd.DataFrame(features, columns=self._names_in)
+
+
+_ONE = np.ones(1)
+
+
+def _row_function(n_sensors, terms, time_constants, smoothing, seconds_per_unit, uses_time):
+    """A Python function computing one sample's features from the carried state.
+
+    ``f(temperature, time, has_history, previous, last_time, deficit) -> (row, deficit)``,
+    unrolled for the model's sensors, lags and terms (what :func:`advance_features` computes
+    for one row, on floats). The term expressions are those of the feature contract
+    (``Term.c_expression``, valid Python too), the lag step that of
+    :func:`sklearn_ifog._lags.lag_step`; compiled once per compensator.
+    """
+    taus = [float(tau) for tau in time_constants]
+    n_lags = len(taus)
+    lines = ["def row(temperature, time, has_history, previous, last_time, deficit):"]
+    lines += [f"    u{s} = temperature[{s}]" for s in range(n_sensors)]
+    lines.append("    if has_history:")
+    if uses_time:
+        lines.append("        elapsed = time - last_time")
+    for k, tau in enumerate(taus):
+        lines += [
+            f"        x = elapsed / {tau!r}",
+            f"        a{k} = exp(-x)",
+            f"        g{k} = -expm1(-x) / x if x > 0 else 1.0",
+        ]
+    for s in range(n_sensors):
+        lines.append(f"        change{s} = u{s} - previous[{s}]")
+        if n_lags:
+            lines.append(f"        old = deficit[{s}]")
+        for k in range(n_lags):
+            lines.append(f"        e{s}_{k} = a{k} * old[{k}] + g{k} * change{s}")
+        if smoothing > 0:
+            index = taus.index(float(smoothing))
+            lines.append(
+                f"        delta{s} = e{s}_{index} / {float(smoothing)!r} * {seconds_per_unit!r}"
+            )
+        elif uses_time:
+            lines.append(f"        delta{s} = change{s} / elapsed * {seconds_per_unit!r}")
+        else:
+            lines.append(f"        delta{s} = change{s}")
+    lines.append("    else:")
+    for s in range(n_sensors):
+        lines.append(f"        delta{s} = 0.0")
+        lines += [f"        e{s}_{k} = 0.0" for k in range(n_lags)]
+    columns = []
+    for s in range(n_sensors):
+        for term in map(get_term, terms):
+            if s == 0 and not term.first_sensor:
+                continue
+            expression = term.c_expression
+            if term.time_constant is not None:
+                expression = expression.format(lag=taus.index(term.time_constant))
+            expression = (
+                expression.replace("temperature[0]", "u0")
+                .replace("raw", f"u{s}")
+                .replace("delta", f"delta{s}")
+            )
+            for k in range(n_lags):
+                expression = expression.replace(f"deficit[{k}]", f"e{s}_{k}")
+            columns.append(f"({expression})")
+    deficit = "None"
+    if n_lags:
+        per_sensor = [
+            "[" + ", ".join(f"e{s}_{k}" for k in range(n_lags)) + "]" for s in range(n_sensors)
+        ]
+        deficit = "[" + ", ".join(per_sensor) + "]"
+    lines.append(f"    return [{', '.join(columns)}], {deficit}")
+    namespace = {"exp": math.exp, "expm1": math.expm1}
+    exec("\n".join(lines), namespace)  # generated from the term registry, as the C export
+    return namespace["row"]
+
+
+def _floats(values):
+    """A sensor reading (float or sequence) as a list of Python floats."""
+    if isinstance(values, numbers.Real):
+        return [float(values)]
+    return [float(value) for value in np.asarray(values, dtype=np.float64).reshape(-1)]
+
+
+def _reference_values(reference):
+    """``(values, known)`` of a reference column: None or masked entries are unknown."""
+    if isinstance(reference, np.ma.MaskedArray):
+        known = ~np.ma.getmaskarray(reference)
+        values = np.asarray(reference.filled(0.0), dtype=np.float64)
+    else:
+        raw = np.asarray(
+            reference.to_numpy() if hasattr(reference, "to_numpy") else reference, dtype=object
+        )
+        known = np.vectorize(lambda value: value is not None, otypes=[bool])(raw)
+        if raw.size and not known.all():
+            raw = np.where(known, raw, 0.0)
+        try:
+            values = raw.astype(np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"reference must hold numbers or None, got {exc}.") from None
+    bad = known & ~np.isfinite(values)
+    if bad.any():
+        _table.check_finite(np.where(known, values, 0.0), "reference")
+    return values, known
 
 
 def _check_increasing(time, state, offset):

@@ -560,3 +560,113 @@ def test_written_files_get_ordinary_permissions(campaign, tmp_path):
     os.umask(umask)
     for written in (header, source, path):
         assert written.stat().st_mode & 0o777 == 0o666 & ~umask
+
+
+# --- issue 13: the online recalibration in C ----------------------------------------------
+
+# Reads rows (run-start flag, time, has-reference flag, rates..., references...,
+# temperatures...); adapt on the samples with a reference, step on the others; writes the
+# drift of every sample, then the numbers of updates and of covariance resets.
+ADAPT_DRIVER = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include "ifog.h"
+
+#define WIDTH (3 + 2 * IFOG_N_OUTPUTS + IFOG_N_SENSORS)
+
+int main(int argc, char **argv)
+{
+    long n, i, k;
+    double *rows, reference[IFOG_N_OUTPUTS];
+    ifog_real *drift, rate[IFOG_N_OUTPUTS];
+    ifog_state state;
+    FILE *in, *out;
+    if (argc != 4) return 1;
+    n = atol(argv[1]);
+    rows = malloc((size_t)(n * WIDTH) * sizeof(double));
+    drift = malloc((size_t)(n * IFOG_N_OUTPUTS) * sizeof(ifog_real));
+    in = fopen(argv[2], "rb");
+    out = fopen(argv[3], "wb");
+    if (!rows || !drift || !in || !out) return 2;
+    if (fread(rows, sizeof(double), (size_t)(n * WIDTH), in) != (size_t)(n * WIDTH)) return 3;
+    ifog_init(&state);
+    for (i = 0; i < n; ++i) {
+        const double *row = rows + i * WIDTH;
+        const double *temperature = row + 3 + 2 * IFOG_N_OUTPUTS;
+        for (k = 0; k < IFOG_N_OUTPUTS; ++k) {
+            rate[k] = row[3 + k];
+            reference[k] = row[3 + IFOG_N_OUTPUTS + k];
+        }
+        if (row[0] != 0.0) ifog_reset(&state); /* a new run keeps the recalibration */
+        if (row[2] != 0.0) {
+            ifog_adapt(&state, row[1], temperature, rate, reference, drift + i * IFOG_N_OUTPUTS);
+        } else {
+            ifog_step(&state, row[1], temperature, drift + i * IFOG_N_OUTPUTS);
+        }
+    }
+    fwrite(drift, sizeof(ifog_real), (size_t)(n * IFOG_N_OUTPUTS), out);
+    fwrite(&state.n_updates, sizeof(long), 1, out);
+    fwrite(&state.n_resets, sizeof(long), 1, out);
+    fclose(out);
+    fclose(in);
+    free(rows);
+    free(drift);
+    return 0;
+}
+"""
+
+ADAPT_MODELS = ["rbf", "rbf-no-tail", "ridge", "lags-2-sensors-poly", "rbf-2-sensors-2-outputs"]
+
+
+@needs_cc
+@pytest.mark.parametrize("adapt", ["bias", "output"])
+@pytest.mark.parametrize("name", ADAPT_MODELS)
+def test_c_recalibration_matches_python(name, adapt, campaign, tmp_path):
+    from sklearn_ifog.streaming import StreamingCompensator
+
+    model = MODELS[name](campaign)
+    forgetting = 0.995
+    to_c(model, tmp_path, adapt=adapt, forgetting=forgetting)
+    (tmp_path / "driver.c").write_text(ADAPT_DRIVER)
+    executable = _compile(tmp_path, EXTRA_FLAGS)
+    spec = json.loads(to_json(model, tmp_path / "model.json").read_text())
+    n_outputs = spec["n_outputs"]
+    run = campaign["run"].to_numpy()
+    starts = np.r_[True, run[1:] != run[:-1]]
+    # References on 30 % of the samples, 0.05 deg/h off the model's training target.
+    has = np.random.default_rng(3).random(N_SAMPLES) < 0.3
+    rates = _rates(campaign, n_outputs)
+    references = np.repeat(campaign["reference"].to_numpy()[:, None], n_outputs, axis=1) + 0.05
+    sensors = campaign[spec["features"]["temperature"]].to_numpy()
+    rows = np.column_stack([starts, campaign["time"], has, rates, references, sensors])
+    rows.astype(np.float64).tofile(tmp_path / "in.bin")
+    subprocess.run([executable, str(N_SAMPLES), "in.bin", "out.bin"], cwd=tmp_path, check=True)
+    raw = (tmp_path / "out.bin").read_bytes()
+    c_drift = np.frombuffer(raw[: 8 * N_SAMPLES * n_outputs], dtype=np.float64)
+    counts = np.frombuffer(raw[8 * N_SAMPLES * n_outputs :], dtype=np.int64)
+    compensator = StreamingCompensator(model, adapt=adapt, forgetting=forgetting)
+    python_rates = rates[:, 0] if spec["single_output"] else rates
+    python_references = np.where(has[:, None], references, None)
+    if spec["single_output"]:
+        python_references = python_references[:, 0]
+    _, drift = compensator.update(campaign, python_rates, python_references)
+    drift = drift.reshape(N_SAMPLES, n_outputs)
+    _assert_close(c_drift.reshape(N_SAMPLES, n_outputs), drift, 1e-9)
+    state = compensator.get_state()["rls"]
+    assert counts.tolist() == [state["n_updates"], state["n_resets"]] == [has.sum(), 0]
+    # The recalibration moved the drift (else the comparison would be the plain model's).
+    assert np.max(np.abs(drift - model.predict(campaign).reshape(N_SAMPLES, -1))) > 0.01
+
+
+def test_c_recalibration_needs_double_and_valid_parameters(campaign, tmp_path):
+    model = MODELS["ridge"](campaign)
+    with pytest.raises(ValueError, match=r"adapt='bias' needs precision='double'"):
+        to_c(model, tmp_path, precision="float", adapt="bias")
+    with pytest.raises(ValueError, match=r"adapt must be None, 'bias' or 'output'"):
+        to_c(model, tmp_path, adapt="weights")
+    with pytest.raises(ValueError, match=r"forgetting must be a number in \(0, 1\]"):
+        to_c(model, tmp_path, adapt="bias", forgetting=0.0)
+    knn = _fitted(campaign, StandardScaler(), KNeighborsRegressor(3))
+    with pytest.raises(TypeError, match="KNeighborsRegressor"):
+        to_c(knn, tmp_path, adapt="bias")
+    assert not list(tmp_path.iterdir()), "a refused export writes nothing"

@@ -435,8 +435,8 @@ def test_streaming_with_passthrough_steps_equals_batch(campaign):
 @pytest.mark.parametrize(
     ("change", "message"),
     [
-        ({"schema": "other-schema"}, r"schema 'other-schema' version 2; expected"),
-        ({"version": 1}, r"version 1; expected 'sklearn-ifog-streaming-state' version 2"),
+        ({"schema": "other-schema"}, r"schema 'other-schema' version 3; expected"),
+        ({"version": 1}, r"version 1; expected 'sklearn-ifog-streaming-state' version 3"),
     ],
 )
 def test_set_state_refuses_wrong_schema_or_version(models, change, message):
@@ -486,7 +486,7 @@ def test_set_state_refuses_an_old_version_and_other_lags(models, campaign):
     assert state["time_constants"] == [300.0, 600.0, 3600.0]
     old = {key: state[key] for key in ("schema", "n_sensors", "run", "has_history")}
     old.update(version=1, smoothed=[20.0], last_time=40.0, finished_runs=[])
-    with pytest.raises(ValueError, match=r"version 1; expected .* version 2"):
+    with pytest.raises(ValueError, match=r"version 1; expected .* version 3"):
         compensator.set_state(old)
     with pytest.raises(ValueError, match=r"time constants \[300\.0, 600\.0\]"):
         compensator.set_state({**state, "time_constants": [300.0, 600.0]})

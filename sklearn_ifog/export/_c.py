@@ -99,11 +99,14 @@ class _Writer:
         self.real = f"{prefix}_real"
         self.exp = "exp" if precision == "double" else "expf"
         self.parameters = []
+        self.names = set()
         self.lines = []
 
     def array(self, name, values, index_type=None):
         full = f"{self.prefix}_{name}"
-        self.parameters.append(_array(full, values, self.real, self.precision, index_type))
+        if full not in self.names:  # a second function reading the same parameters
+            self.names.add(full)
+            self.parameters.append(_array(full, values, self.real, self.precision, index_type))
         return full
 
     def literal(self, value):
@@ -350,6 +353,312 @@ def _rbf_network(writer, tag, spec, source, target):
     writer.emit(f"        {target}[i] = total + {intercept}[i];", "    }")
 
 
+def _rbf_design(writer, tag, spec, source, degree):
+    """The RBF network's output-layer design ``[phi(z), t(z), 1]`` into ``phi`` (double)."""
+    n_inputs = spec["n_inputs"]
+    n_centers = len(spec["widths"])
+    zero = writer.literal(0.0)
+    x_mean = writer.array(f"{tag}_x_mean", spec["x_mean"])
+    x_scale = writer.array(f"{tag}_x_scale", spec["x_scale"])
+    writer.emit(
+        f"    {writer.real} {tag}_z[{n_inputs}];",
+        "    int column;",
+        f"    for (j = 0; j < {n_inputs}; ++j) {{",
+        f"        {tag}_z[j] = ({source}[j] - {x_mean}[j]) / {x_scale}[j];",
+        "    }",
+    )
+    if n_centers:
+        centers = writer.array(f"{tag}_centers", spec["centers"])
+        gains = -0.5 / np.square(np.asarray(spec["widths"], dtype=np.float64))
+        gain = writer.array(f"{tag}_gain", gains)
+        writer.emit(
+            f"    for (i = 0; i < {n_centers}; ++i) {{",
+            f"        {writer.real} distance2 = {zero};",
+            f"        for (j = 0; j < {n_inputs}; ++j) {{",
+            f"            const {writer.real} difference = {tag}_z[j] - {centers}[i][j];",
+            "            distance2 += difference * difference;",
+            "        }",
+            f"        phi[i] = {writer.exp}(distance2 * {gain}[i]);",
+            "    }",
+        )
+    writer.emit(f"    column = {n_centers};")
+    if degree >= 1:
+        writer.emit(
+            f"    for (j = 0; j < {n_inputs}; ++j) {{",
+            f"        phi[column++] = {tag}_z[j];",
+            "    }",
+        )
+    if degree == 2:
+        writer.emit(
+            f"    for (i = 0; i < {n_inputs}; ++i) {{",
+            f"        for (j = i; j < {n_inputs}; ++j) {{",
+            f"            phi[column++] = {tag}_z[i] * {tag}_z[j];",
+            "        }",
+            "    }",
+        )
+    writer.emit("    phi[column] = 1.0;")
+
+
+def _linear_design(writer, tag, spec, source, degree):
+    """A linear model's output-layer design: its inputs, then 1."""
+    writer.emit(
+        f"    for (j = 0; j < {spec['n_inputs']}; ++j) {{",
+        f"        phi[j] = {source}[j];",
+        "    }",
+        f"    phi[{spec['n_inputs']}] = 1.0;",
+    )
+
+
+_DESIGNS = {"rbf_network": _rbf_design, "linear": _linear_design}
+
+
+def _adaptation_parts(writer, spec, prefix, adapt, forgetting, prior, degree):
+    """Fields, prototypes and functions of the RLS recalibration (empty without ``adapt``)."""
+    upper = prefix.upper()
+    if adapt is None:
+        return {
+            "adapt_define": "",
+            "adapt_fields": "",
+            "adapt_prototypes": "",
+            "adapt_init": "",
+            "adapt_functions": "",
+            "step_drift": f"    {prefix}_predict_features(features, drift);\n",
+        }
+    weights = np.asarray(prior["weights"], dtype=np.float64)
+    covariance = np.asarray(prior["covariance"], dtype=np.float64)
+    n_weights = weights.shape[0]
+    parameters = [
+        "/* Recalibration (RLS): initial output-layer weights and covariance. */\n"
+        + _array(f"{prefix}_initial_weights", weights, "double", "double"),
+        _array(f"{prefix}_initial_covariance", covariance, "double", "double"),
+    ]
+    parameters.append(
+        f"static void {prefix}_drift(\n"
+        f"    const {prefix}_state *state, const {prefix}_real features[{upper}_N_FEATURES],\n"
+        f"    double phi_out[{upper}_N_WEIGHTS], {prefix}_real base[{upper}_N_OUTPUTS],\n"
+        f"    {prefix}_real drift[{upper}_N_OUTPUTS]);\n"
+    )
+    writer.parameters.extend(parameters)
+    trace0 = format_c_literal(float(np.trace(covariance)))
+    lam = format_c_literal(forgetting)
+    design_lines = []
+    if adapt == "output":
+        saved, writer.lines = writer.lines, []
+        steps = spec["steps"]
+        for k, step in enumerate(steps[:-1], start=1):
+            writer.emit(f"    {writer.real} x{k}[{step['n_outputs']}];")
+        buffers = ["features"] + [f"x{k}" for k in range(1, len(steps))]
+        for k, step in enumerate(steps[:-1]):
+            _RENDERERS[step["op"]](writer, f"step{k}", step, buffers[k], buffers[k + 1])
+        last = steps[-1]
+        _DESIGNS[last["op"]](writer, f"step{len(steps) - 1}", last, buffers[-1], degree)
+        design_lines = ["    int i;", "    int j;", *writer.lines, "    (void)i;", "    (void)j;"]
+        writer.lines = saved
+    drift_lines = [
+        f"    double phi[{upper}_N_WEIGHTS];",
+        "    int i;",
+        "    int k;",
+    ]
+    if adapt == "output":
+        drift_lines += [
+            f"    {prefix}_design(features, phi);",
+            f"    for (k = 0; k < {upper}_N_OUTPUTS; ++k) {{",
+            "        double total = 0.0;",
+            f"        for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{",
+            "            total += phi[i] * state->weights[i][k];",
+            "        }",
+            "        base[k] = 0.0;",
+            f"        drift[k] = ({prefix}_real)total;",
+            "    }",
+        ]
+    else:
+        drift_lines += [
+            "    phi[0] = 1.0;",
+            "    (void)i;",
+            f"    {prefix}_predict_features(features, base);",
+            f"    for (k = 0; k < {upper}_N_OUTPUTS; ++k) {{",
+            f"        drift[k] = ({prefix}_real)(base[k] + state->weights[0][k]);",
+            "    }",
+        ]
+    functions = []
+    if adapt == "output":
+        functions.append(
+            "\n/* The final regressor's output layer: the row its drift is linear in. */\n"
+            f"static void {prefix}_design(\n"
+            f"    const {prefix}_real features[{upper}_N_FEATURES],\n"
+            f"    double phi[{upper}_N_WEIGHTS])\n"
+            "{\n" + "\n".join(design_lines) + "\n}\n"
+        )
+    functions.append(
+        f"""
+/* Drift of one sample's features with the current (recalibrated) weights; phi: the
+ * output-layer row, base: the fitted model's drift before the bias ("bias" mode). */
+static void {prefix}_drift(
+    const {prefix}_state *state, const {prefix}_real features[{upper}_N_FEATURES],
+    double phi_out[{upper}_N_WEIGHTS], {prefix}_real base[{upper}_N_OUTPUTS],
+    {prefix}_real drift[{upper}_N_OUTPUTS])
+{{
+{chr(10).join(drift_lines)}
+    for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
+        phi_out[i] = phi[i];
+    }}
+}}
+
+void {prefix}_reset_adaptation({prefix}_state *state)
+{{
+    int i;
+    int j;
+    for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
+        for (j = 0; j < {upper}_N_OUTPUTS; ++j) {{
+            state->weights[i][j] = {prefix}_initial_weights[i][j];
+        }}
+        for (j = 0; j < {upper}_N_WEIGHTS; ++j) {{
+            state->covariance[i][j] = {prefix}_initial_covariance[i][j];
+        }}
+    }}
+    state->n_updates = 0;
+    state->n_resets = 0;
+}}
+
+/* One recursive-least-squares update with forgetting (see {prefix}.h). */
+static void {prefix}_rls(
+    {prefix}_state *state, const double phi[{upper}_N_WEIGHTS],
+    const double target[{upper}_N_OUTPUTS])
+{{
+    double p_phi[{upper}_N_WEIGHTS];
+    double gain[{upper}_N_WEIGHTS];
+    double error[{upper}_N_OUTPUTS];
+    double quadratic = 0.0;
+    double trace = 0.0;
+    int positive = 1;
+    int i;
+    int j;
+    for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
+        double total = 0.0;
+        for (j = 0; j < {upper}_N_WEIGHTS; ++j) {{
+            total += state->covariance[i][j] * phi[j];
+        }}
+        p_phi[i] = total;
+        quadratic += phi[i] * total;
+    }}
+    if (!isfinite(quadratic) || quadratic < 0.0) {{
+        /* Not positive definite: back to the initial covariance. */
+        quadratic = 0.0;
+        for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
+            double total = 0.0;
+            for (j = 0; j < {upper}_N_WEIGHTS; ++j) {{
+                state->covariance[i][j] = {prefix}_initial_covariance[i][j];
+                total += state->covariance[i][j] * phi[j];
+            }}
+            p_phi[i] = total;
+            quadratic += phi[i] * total;
+        }}
+        state->n_resets += 1;
+    }}
+    for (j = 0; j < {upper}_N_OUTPUTS; ++j) {{
+        double total = 0.0;
+        for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
+            total += phi[i] * state->weights[i][j];
+        }}
+        error[j] = target[j] - total;
+    }}
+    for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
+        gain[i] = p_phi[i] / ({lam} + quadratic);
+        for (j = 0; j < {upper}_N_OUTPUTS; ++j) {{
+            state->weights[i][j] += gain[i] * error[j];
+        }}
+    }}
+    for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
+        for (j = 0; j < {upper}_N_WEIGHTS; ++j) {{
+            state->covariance[i][j] = (state->covariance[i][j] - gain[i] * p_phi[j]) / {lam};
+        }}
+    }}
+    for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
+        for (j = i + 1; j < {upper}_N_WEIGHTS; ++j) {{
+            const double mean = 0.5 * (state->covariance[i][j] + state->covariance[j][i]);
+            state->covariance[i][j] = mean;
+            state->covariance[j][i] = mean;
+        }}
+        if (!(state->covariance[i][i] > 0.0) || !isfinite(state->covariance[i][i])) {{
+            positive = 0;
+        }}
+        trace += state->covariance[i][i];
+    }}
+    if (!positive) {{
+        for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
+            for (j = 0; j < {upper}_N_WEIGHTS; ++j) {{
+                state->covariance[i][j] = {prefix}_initial_covariance[i][j];
+            }}
+        }}
+        state->n_resets += 1;
+    }} else if (trace > {trace0}) {{
+        const double shrink = {trace0} / trace;
+        for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
+            for (j = 0; j < {upper}_N_WEIGHTS; ++j) {{
+                state->covariance[i][j] *= shrink;
+            }}
+        }}
+    }}
+    state->n_updates += 1;
+}}
+
+void {prefix}_adapt(
+    {prefix}_state *state, double time, const double temperature[{upper}_N_SENSORS],
+    const {prefix}_real rate[{upper}_N_OUTPUTS], const double reference[{upper}_N_OUTPUTS],
+    {prefix}_real drift[{upper}_N_OUTPUTS])
+{{
+    {prefix}_real features[{upper}_N_FEATURES];
+    {prefix}_real base[{upper}_N_OUTPUTS];
+    double phi[{upper}_N_WEIGHTS];
+    double target[{upper}_N_OUTPUTS];
+    int k;
+    {prefix}_features(state, time, temperature, features);
+    {prefix}_drift(state, features, phi, base, drift);
+    for (k = 0; k < {upper}_N_OUTPUTS; ++k) {{
+        target[k] = ((double)rate[k] - reference[k]) - (double)base[k];
+    }}
+    {prefix}_rls(state, phi, target);
+}}
+"""
+    )
+    step_drift = (
+        f"    {prefix}_real base[{upper}_N_OUTPUTS];\n"
+        f"    double phi[{upper}_N_WEIGHTS];\n"
+        f"    {prefix}_drift(state, features, phi, base, drift);\n"
+    )
+    return {
+        "adapt_define": (
+            f"#define {upper}_N_WEIGHTS {n_weights}\n"
+            f"/* Forgetting factor of the recalibration. */\n"
+            f"#define {upper}_FORGETTING {lam}\n"
+        ),
+        "adapt_fields": (
+            '    /* Recalibration (recursive least squares, mode "' + adapt + '"): the output\n'
+            "     * layer's weights and their covariance (over the noise variance), the\n"
+            "     * references used and the covariance resets. */\n"
+            f"    double weights[{upper}_N_WEIGHTS][{upper}_N_OUTPUTS];\n"
+            f"    double covariance[{upper}_N_WEIGHTS][{upper}_N_WEIGHTS];\n"
+            "    long n_updates;\n"
+            "    long n_resets;\n"
+        ),
+        "adapt_prototypes": (
+            "/* Return the recalibration to the fitted model (init does it; reset does not). */\n"
+            f"void {prefix}_reset_adaptation({prefix}_state *state);\n\n"
+            "/* One sample whose true rate is known: write its drift (as step does), then learn\n"
+            " * from rate - reference (recursive least squares with forgetting). */\n"
+            f"void {prefix}_adapt(\n"
+            f"    {prefix}_state *state, double time,\n"
+            f"    const double temperature[{upper}_N_SENSORS],\n"
+            f"    const {prefix}_real rate[{upper}_N_OUTPUTS],\n"
+            f"    const double reference[{upper}_N_OUTPUTS],\n"
+            f"    {prefix}_real drift[{upper}_N_OUTPUTS]);\n\n"
+        ),
+        "adapt_init": f"    {prefix}_reset_adaptation(state);\n",
+        "adapt_functions": "".join(functions),
+        "step_drift": step_drift,
+    }
+
+
 _RENDERERS = {
     "center_scale": _center_scale,
     "multiply_add": _multiply_add,
@@ -359,7 +668,16 @@ _RENDERERS = {
 }
 
 
-def render_c(spec, prefix="ifog", precision="double"):
+def render_c(
+    spec,
+    prefix="ifog",
+    precision="double",
+    *,
+    adapt=None,
+    forgetting=0.999,
+    prior=None,
+    degree=None,
+):
     """Render the export schema's dict as C99 header and source text.
 
     Parameters
@@ -392,6 +710,7 @@ def render_c(spec, prefix="ifog", precision="double"):
     ]
     time_column = features["time"]
     lag_define, lag_field, lag_reset, lag_table = _state_parts(features, prefix)
+    adaptation = _adaptation_parts(writer, spec, prefix, adapt, forgetting, prior, degree)
     fields = {
         "prefix": prefix,
         "PREFIX": prefix.upper(),
@@ -422,19 +741,29 @@ def render_c(spec, prefix="ifog", precision="double"):
         "batch_prelude": "    (void)time; /* the model differences per sample */\n"
         if time_column is None
         else "",
+        **adaptation,
     }
     return HEADER.substitute(fields), SOURCE.substitute(fields)
 
 
-def to_c(pipeline, directory, precision="double", prefix="ifog"):
+def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, forgetting=0.999):
     """Write a fitted compensation Pipeline as a self-contained C99 header and source.
 
     The generated ``{prefix}.h`` / ``{prefix}.c`` need nothing beyond ``<math.h>`` and
     allocate no memory. They provide a state struct ``{prefix}_state`` with
     ``{prefix}_init`` / ``{prefix}_reset`` (at the start of every run), the streaming
     ``{prefix}_step`` (one sample in, the drift out) and ``{prefix}_compensate``, the batch
-    ``{prefix}_batch`` (one whole run), and ``{prefix}_predict_features`` (the stateless part
-    after ThermalFeatures). Parameters are written with round-trip precision. The causal front
+    ``{prefix}_batch`` (one whole run, with the fitted model), and
+    ``{prefix}_predict_features`` (the stateless part after ThermalFeatures, fitted model).
+
+    With ``adapt``, the state also carries the online recalibration of
+    :class:`~sklearn_ifog.streaming.StreamingCompensator` (same ``adapt`` and
+    ``forgetting``, same initial weights and covariance, same recursive least squares and
+    guards, in fixed-size double arrays): ``{prefix}_adapt(&state, time, temperature, rate,
+    reference, drift)`` compensates a sample whose true rate is known and then learns from
+    it, ``{prefix}_step`` uses the recalibrated weights, ``{prefix}_reset`` (a new run)
+    keeps them and ``{prefix}_reset_adaptation`` (called by ``{prefix}_init``) returns to
+    the fitted model. Parameters are written with round-trip precision. The causal front
     end (differences of time and temperature, the exact first-order lags of the lag terms and
     of the smoothing, with fixed-size state arrays) is computed in double even for
     ``precision="float"``: differencing 0.01 °C steps of a 30 °C reading in single precision
@@ -453,6 +782,12 @@ def to_c(pipeline, directory, precision="double", prefix="ifog"):
         C type of the parameters and of the network arithmetic.
     prefix : str, default="ifog"
         A C identifier: prefix of every generated name and the files' base name.
+    adapt : {None, "bias", "output"}, default=None
+        Online recalibration (see :class:`~sklearn_ifog.streaming.StreamingCompensator`);
+        needs ``precision="double"`` (a covariance updated in single precision soon loses
+        its positive definiteness).
+    forgetting : float, default=0.999
+        Forgetting factor of the recalibration, in (0, 1].
 
     Returns
     -------
@@ -490,8 +825,30 @@ def to_c(pipeline, directory, precision="double", prefix="ifog"):
             f"prefix must be a C identifier (a letter, then letters, digits or '_'), "
             f"got {prefix!r}."
         )
+    if adapt is not None and precision != "double":
+        raise ValueError(
+            f"adapt={adapt!r} needs precision='double', got {precision!r}: the recalibration's "
+            "covariance is updated in double."
+        )
     spec = describe_pipeline(pipeline)
-    header_text, source_text = render_c(spec, prefix=prefix, precision=precision)
+    prior, degree = None, None
+    if adapt is not None or forgetting != 0.999:
+        from sklearn_ifog.streaming import StreamingCompensator
+
+        # The same checks of adapt and forgetting, the same initial weights and covariance.
+        compensator = StreamingCompensator(pipeline, adapt=adapt, forgetting=forgetting)
+        prior = compensator._prior
+        if compensator.compiled:
+            degree = getattr(compensator._compiled.final, "degree", None)
+    header_text, source_text = render_c(
+        spec,
+        prefix=prefix,
+        precision=precision,
+        adapt=adapt,
+        forgetting=float(forgetting),
+        prior=prior,
+        degree=degree,
+    )
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     header = directory / f"{prefix}.h"

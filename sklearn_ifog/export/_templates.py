@@ -34,7 +34,7 @@ $pipeline_lines
 #define ${PREFIX}_N_SENSORS $n_sensors
 #define ${PREFIX}_N_FEATURES $n_features
 #define ${PREFIX}_N_OUTPUTS $n_outputs
-$lag_define
+$lag_define$adapt_define
 typedef $real ${prefix}_real;
 
 /* Everything the compensator remembers between samples of one run. */
@@ -45,7 +45,7 @@ $lag_field    /* Time of the last sample, s. */
     double last_time;
     /* 0: the next sample is the first of a run. */
     int has_history;
-} ${prefix}_state;
+$adapt_fields} ${prefix}_state;
 
 /* Initialise a state before its first use (same as a reset). */
 void ${prefix}_init(${prefix}_state *state);
@@ -75,7 +75,7 @@ void ${prefix}_predict_features(
     const ${prefix}_real features[${PREFIX}_N_FEATURES],
     ${prefix}_real drift[${PREFIX}_N_OUTPUTS]);
 
-#endif /* ${guard} */
+$adapt_prototypes#endif /* ${guard} */
 """
 )
 
@@ -92,7 +92,7 @@ $parameters
 void ${prefix}_init(${prefix}_state *state)
 {
     ${prefix}_reset(state);
-}
+$adapt_init}
 
 void ${prefix}_reset(${prefix}_state *state)
 {
@@ -129,8 +129,7 @@ void ${prefix}_step(
 {
     ${prefix}_real features[${PREFIX}_N_FEATURES];
     ${prefix}_features(state, time, temperature, features);
-    ${prefix}_predict_features(features, drift);
-}
+$step_drift}
 
 void ${prefix}_compensate(
     ${prefix}_state *state, double time, const double temperature[${PREFIX}_N_SENSORS],
@@ -150,12 +149,12 @@ void ${prefix}_batch(
 {
     ${prefix}_state state;
     long sample;
-$batch_prelude    ${prefix}_reset(&state);
+$batch_prelude    ${prefix}_init(&state);
     for (sample = 0; sample < n_samples; ++sample) {
         ${prefix}_step(
             &state, $batch_time, temperature + sample * ${PREFIX}_N_SENSORS,
             drift + sample * ${PREFIX}_N_OUTPUTS);
     }
 }
-"""
+$adapt_functions"""
 )

@@ -1,0 +1,342 @@
+"""A fitted Pipeline's steps after ThermalFeatures, compiled to plain numpy arithmetic.
+
+:func:`compile_steps` reads the fitted parameters once (the export schema of
+:func:`sklearn_ifog.export._spec.describe_pipeline`: scalers, PolynomialFeatures, a linear
+regressor or :class:`~sklearn_ifog.RBFNetRegressor`) and returns a :class:`CompiledSteps` that
+evaluates them without scikit-learn's per-call validation: on a block of rows with the same
+operations as the estimators (so a whole run gives ``pipeline.predict`` bit for bit), and on
+one row with the fewest numpy calls. It also gives the final regressor's *output-layer
+design* (the columns its prediction is linear in: the Gaussian activations, the tail and 1
+of the RBF network; the inputs and 1 of a linear model) and its weights, for online
+recalibration. A Pipeline with a step this module does not know is not compiled
+(:func:`compile_steps` returns None) and the caller keeps scikit-learn's path.
+"""
+
+import numpy as np
+
+from sklearn_ifog.rbf._basis import predict_network, tail_features
+
+__all__ = ["CompiledSteps", "FastRow", "compile_steps"]
+
+
+def _center_scale(spec):
+    center = np.asarray(spec["center"], dtype=np.float64)
+    scale = np.asarray(spec["scale"], dtype=np.float64)
+
+    def apply(X):
+        X = X - center
+        X /= scale
+        return X
+
+    return apply
+
+
+def _multiply_add(spec):
+    multiply = np.asarray(spec["multiply"], dtype=np.float64)
+    add = np.asarray(spec["add"], dtype=np.float64)
+    clip = spec["clip"]
+
+    def apply(X):
+        X = X * multiply
+        X += add
+        if clip is not None:
+            np.clip(X, clip[0], clip[1], out=X)
+        return X
+
+    return apply
+
+
+def _polynomial(spec):
+    powers = np.asarray(spec["powers"], dtype=int)
+    # Each output column as the product of its factors, left to right: one multiplication
+    # for every degree-2 monomial, as scikit-learn's PolynomialFeatures computes it.
+    factors = [np.repeat(np.arange(powers.shape[1]), row) for row in powers]
+
+    def apply(X):
+        out = np.empty((X.shape[0], len(factors)))
+        for column, columns in enumerate(factors):
+            if columns.size == 0:
+                out[:, column] = 1.0
+            elif columns.size == 1:
+                out[:, column] = X[:, columns[0]]
+            else:
+                product = X[:, columns[0]] * X[:, columns[1]]
+                for extra in columns[2:]:
+                    product = product * X[:, extra]
+                out[:, column] = product
+        return out
+
+    return apply
+
+
+_TRANSFORMS = {
+    "center_scale": _center_scale,
+    "multiply_add": _multiply_add,
+    "polynomial": _polynomial,
+}
+
+
+class _Linear:
+    """``y = X @ coef.T + intercept`` as scikit-learn's linear models compute it."""
+
+    kind = "linear"
+
+    def __init__(self, regressor):
+        self.coef = np.asarray(regressor.coef_, dtype=np.float64)
+        self.intercept = np.asarray(regressor.intercept_, dtype=np.float64)
+        coef2 = np.atleast_2d(self.coef)
+        self.n_outputs = coef2.shape[0]
+        # Output layer: the inputs, then 1.
+        self.weights = np.vstack([coef2.T, np.broadcast_to(self.intercept, (self.n_outputs,))])
+        self.bias_index = self.weights.shape[0] - 1
+
+    def predict(self, X):
+        Y = X @ self.coef.T + self.intercept
+        return Y.reshape(X.shape[0], -1)
+
+    def design(self, X):
+        return np.hstack([X, np.ones((X.shape[0], 1))])
+
+
+class _Network:
+    """An RBFNetRegressor's network, its output layer ``[phi(z), t(z), 1]``."""
+
+    kind = "rbf_network"
+
+    def __init__(self, regressor):
+        network = regressor._network()
+        self.network = network
+        self.x_mean = np.asarray(regressor.x_mean_, dtype=np.float64)
+        self.x_scale = np.asarray(regressor.x_scale_, dtype=np.float64)
+        self.centers = network.centers
+        self.gain = -0.5 / np.square(network.widths)
+        self.degree = network.tail_degree
+        self.n_outputs = network.coef.shape[0]
+        self.weights = np.vstack([network.coef.T, network.tail_coef.T, network.intercept[None]])
+        self.bias_index = self.weights.shape[0] - 1
+        n_inputs = self.centers.shape[1]
+        self.first, self.second = np.triu_indices(n_inputs)
+
+    def standardise(self, X):
+        return (X - self.x_mean) / self.x_scale
+
+    def predict(self, X):
+        # As RBFNetRegressor.predict: the same function on the same standardised inputs.
+        return predict_network(self.standardise(X), *self.network)
+
+    def design(self, X):
+        Z = self.standardise(X)
+        diff = Z[:, None, :] - self.centers
+        diff *= diff
+        phi = diff.sum(axis=2)
+        phi *= self.gain
+        np.exp(phi, out=phi)
+        return np.hstack([phi, tail_features(Z, self.degree), np.ones((Z.shape[0], 1))])
+
+    def predict_row(self, x):
+        """One row (1-D ``x``): the small-batch formula of the network, fewest calls."""
+        z = (x - self.x_mean) / self.x_scale
+        diff = z - self.centers
+        diff *= diff
+        phi = diff.sum(axis=1)
+        phi *= self.gain
+        np.exp(phi, out=phi)
+        network = self.network
+        out = network.coef @ phi
+        if self.degree:
+            n_inputs = z.shape[0]
+            out += network.tail_coef[:, :n_inputs] @ z
+            if self.degree == 2:
+                out += network.tail_coef[:, n_inputs:] @ (z[self.first] * z[self.second])
+        out += network.intercept
+        return out
+
+
+class CompiledSteps:
+    """The steps after ThermalFeatures as plain functions (see the module docstring).
+
+    Attributes
+    ----------
+    final : object
+        The final regressor's evaluator (``predict``, ``design``, ``weights``,
+        ``bias_index``, ``n_outputs``).
+    single_output : bool
+        The Pipeline predicts a 1-D array.
+    """
+
+    def __init__(self, transforms, final, single_output, specs=()):
+        self.transforms = transforms
+        self.specs = list(specs)
+        self.final = final
+        self.single_output = single_output
+
+    def transform(self, X):
+        """Rows through the transformers (before the final regressor)."""
+        for apply in self.transforms:
+            X = apply(X)
+        return X
+
+    def predict(self, features):
+        """Drift of feature rows, shape ``(n_samples, n_outputs)``."""
+        return self.final.predict(self.transform(features))
+
+    def design(self, features):
+        """Output-layer design rows of the final regressor, ``(n_samples, n_weights)``."""
+        return self.final.design(self.transform(features))
+
+    def predict_row(self, feature_row):
+        """Drift of one feature row (1-D), shape ``(n_outputs,)``."""
+        x = feature_row
+        for apply in self.transforms:
+            x = apply(x[None])[0]
+        if self.final.kind == "rbf_network":
+            return self.final.predict_row(x)
+        return self.final.predict(x[None])[0]
+
+
+def compile_steps(pipeline):
+    """Compile a fitted compensation Pipeline's steps after ThermalFeatures.
+
+    Parameters
+    ----------
+    pipeline : sklearn.pipeline.Pipeline
+        Fitted: ThermalFeatures, then steps the exporters know.
+
+    Returns
+    -------
+    compiled : CompiledSteps or None
+        None when a step is of a kind the exporters do not know (the caller then evaluates
+        the Pipeline with scikit-learn).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn.pipeline import make_pipeline
+    >>> from sklearn.preprocessing import StandardScaler
+    >>> from sklearn_ifog import ThermalFeatures
+    >>> from sklearn_ifog._compiled import compile_steps
+    >>> X = np.column_stack([np.arange(6.0), 20 + np.arange(6.0) ** 2 / 10])
+    >>> model = make_pipeline(
+    ...     ThermalFeatures(temperature=1, time=0), StandardScaler(), LinearRegression()
+    ... ).fit(X, X[:, 1])
+    >>> compiled = compile_steps(model)
+    >>> bool(np.allclose(compiled.predict(model[0].transform(X))[:, 0], model.predict(X)))
+    True
+    """
+    from sklearn_ifog.export._spec import LINEAR_REGRESSORS, describe_pipeline
+    from sklearn_ifog.rbf import RBFNetRegressor
+
+    try:
+        spec = describe_pipeline(pipeline)
+    except (TypeError, ValueError):
+        return None
+    transforms = [_TRANSFORMS[step["op"]](step) for step in spec["steps"][:-1]]
+    regressor = [s for s in pipeline.steps if s[1] not in (None, "passthrough")][-1][1]
+    if type(regressor) is RBFNetRegressor:
+        final = _Network(regressor)
+    elif type(regressor) in LINEAR_REGRESSORS:
+        final = _Linear(regressor)
+    else:  # pragma: no cover - describe_pipeline refuses these
+        return None
+    return CompiledSteps(transforms, final, spec["single_output"], spec["steps"][:-1])
+
+
+class FastRow:
+    """One row, one output, in Python floats and three numpy calls (the step's hot path).
+
+    For a Pipeline of affine scalers (StandardScaler, RobustScaler, MaxAbsScaler,
+    MinMaxScaler) then an RBF network or a linear model, with one output. The scalers and the
+    network's standardisation run on Python floats with the estimators' own operations (so
+    the standardised row is the batch one bit for bit); the network is the batch
+    formula of :func:`sklearn_ifog.rbf._basis.gaussian_design` with its polynomial tail and
+    intercept folded into the same product: ``r = M @ [z, ||z||², 1]``, then
+    ``drift = coef @ exp(r[:K]) + [z, ||z||², 1] @ r[K:]``.
+
+    Parameters
+    ----------
+    compiled : CompiledSteps
+        The compiled steps.
+    weights : ndarray of shape (n_weights, 1), default=None
+        Output-layer weights to use instead of the fitted ones (online recalibration).
+    """
+
+    def __init__(self, compiled, weights=None):
+        self.stages = []
+        for spec in compiled.specs:
+            if spec["op"] == "center_scale":
+                self.stages.append(("cs", list(zip(spec["center"], spec["scale"], strict=True))))
+            else:
+                clip = spec["clip"]
+                self.stages.append(
+                    ("ma", list(zip(spec["multiply"], spec["add"], strict=True)), clip)
+                )
+        final = compiled.final
+        self.kind = final.kind
+        weights = final.weights if weights is None else weights
+        self.set_weights(final, np.asarray(weights, dtype=np.float64)[:, 0])
+
+    @staticmethod
+    def supports(compiled):
+        """Whether ``compiled`` has the form this fast path evaluates."""
+        return (
+            compiled is not None
+            and compiled.final.n_outputs == 1
+            and all(spec["op"] != "polynomial" for spec in compiled.specs)
+        )
+
+    def set_weights(self, final, weights):
+        """Use the output-layer ``weights`` (1-D, the design's order)."""
+        if final.kind == "linear":
+            self.linear = (weights[:-1].tolist(), float(weights[-1]))
+            return
+        self.network = [
+            (float(m), float(s)) for m, s in zip(final.x_mean, final.x_scale, strict=True)
+        ]
+        centers = final.centers
+        n_centers, n_inputs = centers.shape
+        inv_var = -2.0 * final.gain  # 1 / widths**2
+        M = np.zeros((n_centers + n_inputs + 2, n_inputs + 2))
+        # As gaussian_design: [z, ||z||², 1] @ [c/σ²; -1/(2σ²); -||c||²/(2σ²)].
+        M[:n_centers, :n_inputs] = centers * inv_var[:, None]
+        M[:n_centers, n_inputs] = -0.5 * inv_var
+        M[:n_centers, n_inputs + 1] = -0.5 * inv_var * np.square(centers).sum(axis=1)
+        tail = weights[n_centers:-1]
+        Q = M[n_centers:]
+        if final.degree >= 1:
+            Q[:n_inputs, n_inputs + 1] = tail[:n_inputs]
+        if final.degree == 2:
+            Q[final.first, final.second] = tail[n_inputs:]
+        Q[n_inputs + 1, n_inputs + 1] = weights[-1]
+        self.M = M
+        self.n_centers = n_centers
+        self.coef = np.ascontiguousarray(weights[:n_centers])
+
+    def __call__(self, row):
+        """Drift (a float) of one feature row (a sequence of floats)."""
+        for stage in self.stages:
+            if stage[0] == "cs":
+                row = [(x - c) / s for x, (c, s) in zip(row, stage[1])]  # noqa: B905
+            else:
+                row = [x * m + a for x, (m, a) in zip(row, stage[1])]  # noqa: B905
+                if stage[2] is not None:
+                    low, high = stage[2]
+                    row = [low if x < low else high if x > high else x for x in row]
+        if self.kind == "linear":
+            coef, intercept = self.linear
+            total = 0.0
+            for x, w in zip(row, coef):  # noqa: B905
+                total += w * x
+            return total + intercept
+        z = [(x - m) / s for x, (m, s) in zip(row, self.network)]  # noqa: B905
+        norm2 = 0.0
+        for value in z:
+            norm2 += value * value
+        z.append(norm2)
+        z.append(1.0)
+        augmented = np.array(z)
+        r = self.M @ augmented
+        K = self.n_centers
+        phi = r[:K]
+        np.exp(phi, out=phi)
+        return float(self.coef @ phi + augmented @ r[K:])
