@@ -8,11 +8,14 @@ Usage (from the repository root)::
 Every held-out fold is one (unit, azimuth) pair of a simulated campaign
 (:class:`~sklearn_ifog.model_selection.LeaveOneAzimuthOut`, within each unit); the three
 methods are calibrated on the fold's training runs only, with the same drift model, the
-default :func:`~sklearn_ifog.make_compensation_pipeline` with ``RBFNetRegressor(refine=None)``
-inside (for speed), at 90 % nominal coverage:
+default :func:`~sklearn_ifog.make_compensation_pipeline` with
+``RBFNetRegressor(refine=None, criterion="holdout")`` inside (no refinement and a one-split
+choice of centres and width: about five times cheaper to fit, for speed), at 90 % nominal
+coverage, on campaigns of one unit, four azimuths, three runs each, 300 s samples:
 
 - ``ours``: :class:`~sklearn_ifog.ConformalRegressor` (run-wise, adaptive, CV+),
   ``cv=GroupKFold(5)`` over the training runs (the same folds as MAPIE by run);
+- ``ours_flat``: the same with ``adaptive=False`` (run-wise, absolute scores);
 - ``mapie_rows``: MAPIE ``CrossConformalRegressor(cv=KFold(5, shuffle))``, CV+;
 - ``mapie_runs``: MAPIE ``CrossConformalRegressor(cv=GroupKFold(5))`` with the runs as groups.
 
@@ -46,18 +49,21 @@ from sklearn_ifog.metrics import interval_coverage, mean_interval_width
 from sklearn_ifog.model_selection import LeaveOneAzimuthOut
 
 NOMINAL = 0.9
-METHODS = ("ours", "mapie_rows", "mapie_runs")
+METHODS = ("ours", "ours_flat", "mapie_rows", "mapie_runs")
 RESULTS = Path(__file__).parent / "results"
 
 
 def pipeline(**kwargs):
-    return make_compensation_pipeline(RBFNetRegressor(refine=None, random_state=0), **kwargs)
+    regressor = RBFNetRegressor(refine=None, criterion="holdout", random_state=0)
+    return make_compensation_pipeline(regressor, **kwargs)
 
 
 def fit_predict(method, X_train, y_train, groups, X_test, base):
     """(point prediction, bounds) of one method on the test rows."""
-    if method == "ours":
-        model = ConformalRegressor(base, coverage=NOMINAL, cv=GroupKFold(5))
+    if method in ("ours", "ours_flat"):
+        model = ConformalRegressor(
+            base, coverage=NOMINAL, cv=GroupKFold(5), adaptive=method == "ours"
+        )
         model.fit(X_train, y_train, groups=groups)
         return model.predict(X_test), model.predict_interval(X_test)
     from mapie.regression import CrossConformalRegressor
@@ -78,9 +84,7 @@ def fit_predict(method, X_train, y_train, groups, X_test, base):
 def score_fold(y, point, bounds, runs):
     residual = y - point
     oracle = float(np.quantile(residual, 0.95) - np.quantile(residual, 0.05))
-    per_run = [
-        interval_coverage(y[runs == run], bounds[runs == run]) for run in np.unique(runs)
-    ]
+    per_run = [interval_coverage(y[runs == run], bounds[runs == run]) for run in np.unique(runs)]
     return {
         "coverage": interval_coverage(y, bounds),
         "width": mean_interval_width(bounds),
@@ -91,9 +95,7 @@ def score_fold(y, point, bounds, runs):
 
 
 def evaluate_split(method, X, y, runs, train, test, base):
-    point, bounds = fit_predict(
-        method, X.iloc[train], y[train], runs[train], X.iloc[test], base
-    )
+    point, bounds = fit_predict(method, X.iloc[train], y[train], runs[train], X.iloc[test], base)
     return score_fold(y[test], point, bounds, runs[test])
 
 
@@ -169,7 +171,9 @@ def check_targets(results):
             continue
         ours = result["ours"]
         if not 0.87 <= ours["mean_coverage"] <= 0.95:
-            failures.append(f"{key}: mean coverage {ours['mean_coverage']:.3f} not in [0.87, 0.95]")
+            failures.append(
+                f"{key}: mean coverage {ours['mean_coverage']:.3f} not in [0.87, 0.95]"
+            )
         if ours["worst_fold"] < 0.85:
             failures.append(f"{key}: worst held-out fold {ours['worst_fold']:.3f} < 0.85")
         if ours["width_ratio"] > 1.2:
@@ -187,7 +191,7 @@ def markdown(results, failures, command, elapsed):
         "",
         f"Command: `{command}` ({elapsed:.0f} s). 90 % nominal; held-out folds: leave one "
         "azimuth out within each unit; drift model: make_compensation_pipeline with "
-        "RBFNetRegressor(refine=None). Oracle: 5-95 % range of the method's own held-out "
+        "RBFNetRegressor(refine=None, criterion='holdout'). Oracle: 5-95 % range of the method's own held-out "
         "residuals. Out of range: calibrated on the warmer half of the runs, tested on the "
         "colder half. Real: load_psim_tvc gyro_x, 5 blocks of 5 bursts held out in turn.",
         "",
@@ -217,6 +221,9 @@ def main(argv=None):
     parser.add_argument("--quick", action="store_true", help="one preset, one seed")
     parser.add_argument("--no-mapie", action="store_true", help="only ours")
     args = parser.parse_args(argv)
+    # 300-s samples leave too few selection rows for a quadratic tail on some folds; the
+    # network says so and falls back to a linear tail (the same for every method).
+    warnings.filterwarnings("ignore", message=".*quadratic tail.*")
     methods = ("ours",) if args.no_mapie else METHODS
     if not args.no_mapie:
         try:

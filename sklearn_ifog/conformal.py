@@ -33,10 +33,12 @@ import numbers
 from typing import ClassVar
 
 import numpy as np
+import scipy.sparse as sp
 from sklearn.base import BaseEstimator, MetaEstimatorMixin, RegressorMixin, clone
 from sklearn.linear_model import Ridge
 from sklearn.model_selection import GroupKFold, KFold, LeaveOneGroupOut, check_cv
 from sklearn.pipeline import Pipeline
+from sklearn.utils import check_array
 from sklearn.utils.validation import (
     check_consistent_length,
     check_is_fitted,
@@ -168,8 +170,9 @@ def plus_interval(predictions, scale, group_scores, group_fold, level):
     --------
     >>> import numpy as np
     >>> from sklearn_ifog.conformal import plus_interval
-    >>> plus_interval(np.array([[0.0], [1.0]]), np.ones(1), np.array([1.0, 2.0]),
-    ...               np.array([0, 1]), 0.5)
+    >>> plus_interval(
+    ...     np.array([[0.0], [1.0]]), np.ones(1), np.array([1.0, 2.0]), np.array([0, 1]), 0.5
+    ... )
     array([[-1.,  3.]])
     """
     centre = predictions[group_fold]  # (n_groups, n_samples)
@@ -203,6 +206,21 @@ def _soften(sigma, mean):
 # --------------------------------------------------------------------------------------------
 # The estimator
 # --------------------------------------------------------------------------------------------
+
+
+def _check_input(estimator, X, *, reset):
+    """X checked: column count and names; a DataFrame is kept as given (it carries the run
+    column), anything else becomes a 2-D array (values are the estimator's to check)."""
+    if sp.issparse(X):
+        raise TypeError(
+            "ConformalRegressor does not support sparse input; pass a dense array or a DataFrame."
+        )
+    if not _table.frame_kind(X):
+        X = check_array(
+            X, dtype=None, ensure_all_finite=False, ensure_min_samples=2 if reset else 1
+        )
+    validate_data(estimator, X, skip_check_array=True, reset=reset)
+    return X
 
 
 class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
@@ -268,6 +286,10 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         The conformal quantile of ``group_scores_`` (used by ``"base"`` and ``"minmax"``).
     oof_prediction_ : ndarray of shape (n_samples,)
         Out-of-fold prediction of every training row.
+    scores_ : ndarray of shape (n_samples,)
+        Normalised out-of-fold score of every training row (``|y - oof| / sigma``).
+    score_groups_ : ndarray of shape (n_samples,)
+        Group of every training row (the row number when there are no groups).
     n_features_in_ : int
         Number of columns of X seen during fit.
     feature_names_in_ : ndarray of shape (n_features_in_,)
@@ -388,7 +410,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         self : object
             Fitted estimator.
         """
-        validate_data(self, X, skip_check_array=True, reset=True)
+        X = _check_input(self, X, reset=True)
         y = column_or_1d(np.asarray(y), warn=True).astype(float, copy=False)
         check_consistent_length(X, y)
         n_samples = y.shape[0]
@@ -440,6 +462,8 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         else:
             sigma = np.ones(n_samples)
         scores = residual / sigma
+        self.scores_ = scores
+        self.score_groups_ = unit
         labels, group_scores = run_quantile_scores(scores, unit, self.coverage)
         first_row = {label: rows[0] for label, rows in _table.run_segments(unit, n_samples)}
         self.groups_ = labels
@@ -457,10 +481,11 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         raw = np.asarray(raw, dtype=float)
         return raw[:, None] if raw.ndim == 1 else raw
 
-    def _scale(self, X):
+    def _scale(self, raw):
+        """The difficulty of rows with difficulty inputs ``raw`` (None when not adaptive)."""
         if not self.adaptive:
             return None
-        features = (self._raw_features(X) - self.feature_mean_) / self.feature_scale_
+        features = (raw - self.feature_mean_) / self.feature_scale_
         sigma = _predict_difficulty(self.difficulty_, self.difficulty_floor_, features)
         return _soften(sigma, self.difficulty_mean_)
 
@@ -478,16 +503,19 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             Predicted target.
         """
         check_is_fitted(self)
-        validate_data(self, X, skip_check_array=True, reset=False)
+        X = _check_input(self, X, reset=False)
         return np.asarray(self.estimator_.predict(X), dtype=float)
 
-    def predict_interval(self, X):
+    def predict_interval(self, X, *, coverage=None):
         """Lower and upper bound of the band of every row.
 
         Parameters
         ----------
         X : array-like or DataFrame of shape (n_samples, n_columns)
             Samples.
+        coverage : float, default=None
+            Nominal coverage in (0, 1) of this band; None uses the ``coverage`` the model
+            was fitted with. Another value re-reads the stored out-of-fold scores (no refit).
 
         Returns
         -------
@@ -495,26 +523,38 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             Column 0 the lower bound, column 1 the upper bound (deg/h for a drift).
         """
         check_is_fitted(self)
-        validate_data(self, X, skip_check_array=True, reset=False)
-        n_samples = _table.as_table(X).shape[0] if _table.frame_kind(X) else len(X)
-        scale = self._scale(X)
-        if scale is None:
-            scale = np.ones(n_samples)
-        if self.method == "base":
-            centre = self.predict(X)
-            half = scale * self.quantile_
-            return np.column_stack([centre - half, centre + half])
+        X = _check_input(self, X, reset=False)
+        raw = self._raw_features(X) if self.adaptive else None
         predictions = np.stack(
             [np.asarray(model.predict(X), dtype=float) for model in self.estimators_]
         )
+        return self._bounds(self.predict(X), predictions, raw, coverage)
+
+    def _bounds(self, centre, predictions, raw, coverage=None):
+        """The bounds from the full model's and the fold models' predictions.
+
+        ``raw`` is the difficulty model's input (the pipeline's features before its last
+        step), None when not adaptive. Used by :meth:`predict_interval` and by
+        :class:`~sklearn_ifog.streaming.StreamingCompensator`.
+        """
+        group_scores, quantile = self.group_scores_, self.quantile_
+        if coverage is not None:
+            if not (isinstance(coverage, numbers.Real) and 0.0 < coverage < 1.0):
+                raise ValueError(f"coverage must be a float in (0, 1), got {coverage!r}.")
+            _, group_scores = run_quantile_scores(self.scores_, self.score_groups_, coverage)
+            quantile = float(conformal_quantile(group_scores, self.confidence))
+        scale = self._scale(raw)
+        if scale is None:
+            scale = np.ones(centre.shape[0])
+        if self.method == "base":
+            half = scale * quantile
+            return np.column_stack([centre - half, centre + half])
         if self.method == "minmax":
-            half = scale * self.quantile_
+            half = scale * quantile
             return np.column_stack(
                 [predictions.min(axis=0) - half, predictions.max(axis=0) + half]
             )
-        return plus_interval(
-            predictions, scale, self.group_scores_, self.group_fold_, self.confidence
-        )
+        return plus_interval(predictions, scale, group_scores, self.group_fold_, self.confidence)
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

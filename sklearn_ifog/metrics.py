@@ -660,9 +660,7 @@ def interval_score(y_true, y_interval, *, coverage=0.9):
     y_true, y_interval = _check_bounds(y_true, y_interval)
     alpha = 1.0 - coverage
     lower, upper = y_interval[:, 0], y_interval[:, 1]
-    penalty = (2.0 / alpha) * (
-        np.maximum(lower - y_true, 0.0) + np.maximum(y_true - upper, 0.0)
-    )
+    penalty = (2.0 / alpha) * (np.maximum(lower - y_true, 0.0) + np.maximum(y_true - upper, 0.0))
     return float(np.mean(upper - lower + penalty))
 
 

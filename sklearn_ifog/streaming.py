@@ -153,12 +153,18 @@ class StreamingCompensator:
 
     Parameters
     ----------
-    pipeline : sklearn.pipeline.Pipeline
+    pipeline : sklearn.pipeline.Pipeline or ConformalRegressor
         Fitted; its first step is a :class:`~sklearn_ifog.ThermalFeatures`, the later steps
-        act row by row (scalers, polynomial features, regressors).
+        act row by row (scalers, polynomial features, regressors). A fitted
+        :class:`~sklearn_ifog.ConformalRegressor` around such a pipeline also carries the
+        band: after every :meth:`step` or :meth:`update`, :attr:`last_interval` holds the
+        drift bounds of its rows, equal to the batch ``predict_interval``.
 
     Attributes
     ----------
+    last_interval : ndarray of shape (n_samples, 2) or None
+        Lower and upper drift bound (deg/h) of the rows of the last :meth:`step` (one row)
+        or :meth:`update`; None when built from a plain Pipeline.
     n_sensors : int
         Temperature sensors per sample.
     state : dict
@@ -188,6 +194,20 @@ class StreamingCompensator:
     """
 
     def __init__(self, pipeline):
+        from sklearn_ifog.conformal import ConformalRegressor
+
+        self.conformal = None
+        self.last_interval = None
+        if isinstance(pipeline, ConformalRegressor):
+            check_is_fitted(pipeline)
+            self.conformal = pipeline
+            for model in [pipeline.estimator_, *pipeline.estimators_]:
+                if not (isinstance(model, Pipeline) and model.steps[0][1] is not None):
+                    raise TypeError(
+                        "StreamingCompensator needs a ConformalRegressor around a Pipeline "
+                        f"whose first step is ThermalFeatures, got {type(model).__name__}."
+                    )
+            pipeline = pipeline.estimator_
         if not isinstance(pipeline, Pipeline):
             raise TypeError(
                 "StreamingCompensator needs a fitted sklearn.pipeline.Pipeline whose first "
@@ -420,8 +440,23 @@ class StreamingCompensator:
                 f"{drift.shape[1:]} (one rate per output)."
             )
         compensated = None if rate is None else rate - drift
+        interval = None if self.conformal is None else self._interval(features, drift)
         self.state = state
+        self.last_interval = interval
         return compensated, drift
+
+    def _interval(self, features, drift):
+        """The band of the rows with thermal ``features``, as predict_interval gives it."""
+        conformal = self.conformal
+        frame = self._frame(features)
+        predictions = np.stack(
+            [np.asarray(model[1:].predict(frame), dtype=float) for model in conformal.estimators_]
+        )
+        raw = None
+        if conformal.adaptive:
+            raw = self._rest[:-1].transform(frame) if len(self._rest.steps) > 1 else features
+            raw = np.asarray(raw, dtype=float)
+        return conformal._bounds(np.asarray(drift, dtype=float), predictions, raw)
 
     def _start_run(self, state, run_id):
         if run_id in state["finished_runs"]:

@@ -124,8 +124,12 @@ def test_default_cv_is_one_fold_per_run():
 
 def test_compensation_pipeline_on_a_campaign():
     X, y = make_thermal_campaign(
-        n_units=1, n_runs=2, azimuths=(0.0, 90.0, 180.0), sampling_period=300.0,
-        random_state=0, return_X_y=True,
+        n_units=1,
+        n_runs=2,
+        azimuths=(0.0, 90.0, 180.0),
+        sampling_period=300.0,
+        random_state=0,
+        return_X_y=True,
     )
     model = ConformalRegressor(make_compensation_pipeline(Ridge()), cv=3).fit(X, y)
     bounds = model.predict_interval(X)
@@ -143,7 +147,9 @@ def test_clone_params_gridsearch_and_joblib(tmp_path):
     assert "estimator__ridge__alpha" in params
     assert clone(model).get_params()["coverage"] == 0.9
     search = GridSearchCV(
-        model, {"estimator__ridge__alpha": [0.1, 10.0]}, cv=GroupKFold(3),
+        model,
+        {"estimator__ridge__alpha": [0.1, 10.0]},
+        cv=GroupKFold(3),
         scoring="neg_mean_squared_error",
     ).fit(X, y, groups=runs)
     assert search.best_params_["estimator__ridge__alpha"] in (0.1, 10.0)
@@ -212,3 +218,93 @@ def test_interval_metric_errors():
         interval_coverage([0.0, 1.0], [[0.0, 1.0]])
     with pytest.raises(ValueError, match="coverage"):
         interval_score([0.0], [[0.0, 1.0]], coverage=1.0)
+
+
+def test_compare_regressors_reports_coverage_and_width():
+    from sklearn_ifog.model_selection import compare_regressors
+
+    x, y, runs = _heteroscedastic(5, n_runs=12)
+    X = pd.DataFrame({"x": x[:, 0], "run": runs})
+    pipe = make_pipeline(StandardScaler(), LinearRegression())
+    summary, folds = compare_regressors(
+        X,
+        y,
+        regressors={"plain": pipe, "conformal": ConformalRegressor(pipe, cv=4)},
+        cv=3,
+        return_folds=True,
+    )
+    assert np.isnan(summary.loc["plain", "coverage"])
+    row = summary.loc["conformal"]
+    conformal_folds = folds[folds["model"] == "conformal"]
+    assert row["coverage"] == pytest.approx(conformal_folds["coverage"].mean())
+    assert row["worst_fold_coverage"] == conformal_folds["coverage"].min()
+    assert 0.5 < row["coverage"] <= 1.0
+    assert row["width"] > 0
+    assert row["interval_score"] >= row["width"]
+
+
+def test_report_table_has_per_run_coverage(tmp_path):
+    pytest.importorskip("matplotlib")
+    from sklearn_ifog.report import compensation_report
+
+    time = np.tile(np.arange(0.0, 600.0, 1.0), 2)
+    run = np.repeat(["a", "b"], 600)
+    drift = 0.01 * time
+    reference = 15.0
+    rate = reference + drift
+    # run a: band always holds the drift; run b: band misses the second half
+    interval = np.column_stack([drift - 1.0, drift + 1.0])
+    interval[900:] += 5.0
+    result = compensation_report(
+        tmp_path,
+        rate=rate,
+        drift=drift,
+        reference=reference,
+        temperature=20.0 + 0 * time,
+        time=time,
+        run=run,
+        interval=interval,
+    )
+    table = result.table
+    assert table.loc["a", "coverage"] == 1.0
+    assert table.loc["b", "coverage"] == 0.5
+    assert table.loc["(all runs)", "coverage"] == 0.75
+    assert table.loc["a", "width"] == pytest.approx(2.0)
+    with pytest.raises(ValueError, match="interval has shape"):
+        compensation_report(
+            tmp_path,
+            rate=rate,
+            drift=drift,
+            reference=reference,
+            temperature=20.0 + 0 * time,
+            interval=interval[:10],
+        )
+
+
+def test_streaming_carries_the_interval():
+    from sklearn_ifog.streaming import StreamingCompensator
+
+    X, y = make_thermal_campaign(
+        n_units=1,
+        n_runs=2,
+        azimuths=(0.0, 90.0, 180.0),
+        sampling_period=300.0,
+        random_state=2,
+        return_X_y=True,
+    )
+    model = ConformalRegressor(make_compensation_pipeline(Ridge()), cv=3).fit(X, y)
+    first = X[X["run"] == X["run"].iloc[0]]
+    batch = model.predict_interval(first)
+    compensator = StreamingCompensator(model)
+    chunks = []
+    for start in range(0, len(first), 7):
+        compensator.update(first.iloc[start : start + 7])
+        chunks.append(compensator.last_interval)
+    np.testing.assert_allclose(np.concatenate(chunks), batch, rtol=1e-9, atol=1e-9)
+    compensator.reset()
+    row = first.iloc[0]
+    compensator.step(row["time"], row["temperature"], run=row["run"])
+    np.testing.assert_allclose(compensator.last_interval, batch[:1], rtol=1e-9, atol=1e-9)
+    plain = StreamingCompensator(model.estimator_)
+    plain.update(first)
+    assert plain.last_interval is None
