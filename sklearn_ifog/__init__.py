@@ -14,8 +14,8 @@ from sklearn_ifog.pipeline import make_compensation_pipeline
 from sklearn_ifog.rbf import RBFNetRegressor
 
 __all__ = [
-    "ConformalRegressor",
     "TRUSTED_TYPES",
+    "ConformalRegressor",
     "RBFNetRegressor",
     "ThermalFeatures",
     "__version__",

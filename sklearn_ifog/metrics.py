@@ -26,13 +26,13 @@ __all__ = [
     "get_scorer",
     "get_scorer_names",
     "interval_coverage",
+    "interval_coverage_scorer",
     "interval_score",
     "mean_interval_width",
     "mean_squared_deviation",
     "neg_interval_score_scorer",
     "neg_mean_interval_width_scorer",
     "neg_mean_squared_deviation_scorer",
-    "interval_coverage_scorer",
     "per_run_metrics",
 ]
 
