@@ -193,7 +193,8 @@ def markdown(results, failures, command, elapsed):
         "azimuth out within each unit; drift model: make_compensation_pipeline with "
         "RBFNetRegressor(refine=None, criterion='holdout'). Oracle: 5-95 % range of the "
         "method's own held-out residuals. Out of range: calibrated on the warmer half of the "
-        "runs, tested on the colder half. Real: load_psim_tvc gyro_x, 5 blocks of 5 bursts held out in turn.",
+        "runs, tested on the colder half. Real: load_psim_tvc gyro_x, 5 blocks of 5 bursts "
+        "held out in turn.",
         "",
         "| data | method | mean coverage | worst fold | worst run | width / oracle | "
         "out-of-range coverage | out-of-range worst run |",
