@@ -60,9 +60,8 @@ __all__ = [
 # model of |r| can reach zero or below; a zero difficulty would give a zero-width band.
 _DIFFICULTY_FLOOR = 0.5
 # The difficulty enters the score as (sigma / mean sigma) ** _DIFFICULTY_POWER: the square root
-# keeps the band adaptive while damping the linear model's extrapolation (measured in
-# benchmarks/bench_conformal.py: power 1 widens the mean band by 10-25 % for the same
-# coverage; see docs/user_guide/conformal.rst).
+# keeps the band adaptive while damping the linear model's extrapolation (with power 1 the mean
+# band was wider for the same coverage on the campaigns of benchmarks/bench_conformal.py).
 _DIFFICULTY_POWER = 0.5
 # Ridge penalty of the difficulty model (features are standardised, targets in deg/h).
 _DIFFICULTY_ALPHA = 1.0
@@ -262,10 +261,9 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     confidence : float, default=0.6
         Level in (0, 1) of the conformal quantile taken over the runs' scores: a new run
         like the calibration runs holds its drift inside the band at least ``coverage`` of
-        its time with probability at least ``confidence`` (and the band is wider as
-        ``confidence`` grows). The default 0.6 is what meets the package's targets (mean
-        held-out coverage 0.87-0.95, every held-out fold at least 0.85 at
-        ``coverage=0.9``) with the narrowest band in ``benchmarks/bench_conformal.py``.
+        its time with probability at least ``confidence`` (the band widens as
+        ``confidence`` grows). With ``coverage=0.9``, 0.6 gave mean held-out coverages of
+        0.90-0.93 in ``benchmarks/bench_conformal.py`` (``benchmarks/results/conformal.md``).
     adaptive : bool, default=True
         Whether scores are normalised by the difficulty model; False gives a band of the
         same width everywhere (absolute residual scores).
