@@ -664,23 +664,71 @@ def interval_score(y_true, y_interval, *, coverage=0.9):
     return float(np.mean(upper - lower + penalty))
 
 
-def _interval_scorer(metric, *, sign, takes_y=True, **kwargs):
-    """A scorer ``scorer(estimator, X, y)`` on ``estimator.predict_interval(X)``."""
+def interval_coverage_scorer(estimator, X, y_true):
+    """The coverage of ``estimator.predict_interval(X)``: a scorer, to *report* coverage.
 
-    def scorer(estimator, X, y_true):
-        bounds = estimator.predict_interval(X)
-        value = metric(y_true, bounds, **kwargs) if takes_y else metric(bounds)
-        return sign * value
+    Greater is closer to 1; do not select models with it alone (an infinitely wide band
+    maximises it): use ``"neg_interval_score"``.
 
-    scorer.__name__ = f"{'neg_' if sign < 0 else ''}{metric.__name__}_scorer"
-    return scorer
+    Parameters
+    ----------
+    estimator : estimator with ``predict_interval``
+        E.g. a fitted :class:`~sklearn_ifog.ConformalRegressor`.
+    X : array-like
+        Samples.
+    y_true : array-like of shape (n_samples,)
+        True values.
+
+    Returns
+    -------
+    coverage : float
+        ``interval_coverage(y_true, estimator.predict_interval(X))``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn_ifog import ConformalRegressor
+    >>> from sklearn_ifog.metrics import get_scorer
+    >>> X = np.arange(40.0)[:, None]
+    >>> y = X[:, 0] + np.tile([0.5, -0.5], 20)
+    >>> model = ConformalRegressor(LinearRegression()).fit(X, y, groups=X[:, 0] // 10)
+    >>> 0.0 <= get_scorer("interval_coverage")(model, X, y) <= 1.0
+    True
+    """
+    return interval_coverage(y_true, estimator.predict_interval(X))
 
 
-#: Scorer: the coverage of ``estimator.predict_interval(X)`` (greater is closer to 1; use it
-#: to *report* coverage, not to select models: a band of infinite width maximises it).
-interval_coverage_scorer = _interval_scorer(interval_coverage, sign=1.0)
-#: Scorer: minus the mean width of ``estimator.predict_interval(X)``.
-neg_mean_interval_width_scorer = _interval_scorer(mean_interval_width, sign=-1.0, takes_y=False)
+def neg_mean_interval_width_scorer(estimator, X, y_true):
+    """Minus the mean width of ``estimator.predict_interval(X)``: a scorer.
+
+    Parameters
+    ----------
+    estimator : estimator with ``predict_interval``
+        E.g. a fitted :class:`~sklearn_ifog.ConformalRegressor`.
+    X : array-like
+        Samples.
+    y_true : array-like of shape (n_samples,)
+        True values (unused; scorers take them).
+
+    Returns
+    -------
+    score : float
+        ``-mean_interval_width(estimator.predict_interval(X))``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn_ifog import ConformalRegressor
+    >>> from sklearn_ifog.metrics import get_scorer
+    >>> X = np.arange(40.0)[:, None]
+    >>> y = X[:, 0] + np.tile([0.5, -0.5], 20)
+    >>> model = ConformalRegressor(LinearRegression()).fit(X, y, groups=X[:, 0] // 10)
+    >>> bool(get_scorer("neg_mean_interval_width")(model, X, y) < 0)
+    True
+    """
+    return -mean_interval_width(estimator.predict_interval(X))
 
 
 def neg_interval_score_scorer(estimator, X, y_true):
