@@ -7,6 +7,7 @@ model persistence. The rest lives in the submodules (``datasets``, ``metrics``,
 
 __version__ = "0.1.0.dev0"
 
+from sklearn_ifog.conformal import ConformalRegressor
 from sklearn_ifog.features import ThermalFeatures
 from sklearn_ifog.persistence import TRUSTED_TYPES, load_model, save_model
 from sklearn_ifog.pipeline import make_compensation_pipeline
@@ -14,6 +15,7 @@ from sklearn_ifog.rbf import RBFNetRegressor
 
 __all__ = [
     "TRUSTED_TYPES",
+    "ConformalRegressor",
     "RBFNetRegressor",
     "ThermalFeatures",
     "__version__",

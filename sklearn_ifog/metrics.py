@@ -25,7 +25,13 @@ __all__ = [
     "earth_rate",
     "get_scorer",
     "get_scorer_names",
+    "interval_coverage",
+    "interval_coverage_scorer",
+    "interval_score",
+    "mean_interval_width",
     "mean_squared_deviation",
+    "neg_interval_score_scorer",
+    "neg_mean_interval_width_scorer",
     "neg_mean_squared_deviation_scorer",
     "per_run_metrics",
 ]
@@ -523,11 +529,253 @@ def bias_stability(rate, *, sample_period=1.0, window=100.0):
     return float(stability) if rate.ndim == 1 else stability
 
 
+# -- prediction intervals ----------------------------------------------------------------------
+
+
+def _check_bounds(y_true, y_interval):
+    """y_true as a float vector and the bounds as an (n_samples, 2) float array."""
+    y_true = np.asarray(y_true, dtype=float)
+    y_interval = np.asarray(y_interval, dtype=float)
+    if y_true.ndim != 1:
+        raise ValueError(f"y_true must be 1-D, got shape {y_true.shape}.")
+    if y_interval.ndim != 2 or y_interval.shape[1] != 2:
+        raise ValueError(
+            "y_interval must have shape (n_samples, 2) (lower, upper bound), got "
+            f"{y_interval.shape}."
+        )
+    if y_interval.shape[0] != y_true.shape[0]:
+        raise ValueError(
+            f"y_interval has {y_interval.shape[0]} rows, y_true has {y_true.shape[0]}."
+        )
+    if y_true.shape[0] == 0:
+        raise ValueError("y_true is empty; an interval metric needs at least one sample.")
+    return y_true, y_interval
+
+
+@validate_params(
+    {"y_true": ["array-like"], "y_interval": ["array-like"]},
+    prefer_skip_nested_validation=True,
+)
+def interval_coverage(y_true, y_interval):
+    """Fraction of the samples whose true value lies inside its interval (bounds included).
+
+    Parameters
+    ----------
+    y_true : array-like of shape (n_samples,)
+        True values.
+    y_interval : array-like of shape (n_samples, 2)
+        Lower and upper bound of each sample's interval, as
+        :meth:`~sklearn_ifog.ConformalRegressor.predict_interval` returns them.
+
+    Returns
+    -------
+    coverage : float
+        In [0, 1].
+
+    See Also
+    --------
+    mean_interval_width : How wide the intervals are.
+    interval_score : Width and misses in one number.
+
+    Examples
+    --------
+    >>> from sklearn_ifog.metrics import interval_coverage
+    >>> interval_coverage([0.0, 1.0, 5.0], [[-1, 1], [0, 2], [0, 2]])
+    0.666...
+    """
+    y_true, y_interval = _check_bounds(y_true, y_interval)
+    inside = (y_interval[:, 0] <= y_true) & (y_true <= y_interval[:, 1])
+    return float(np.mean(inside))
+
+
+@validate_params({"y_interval": ["array-like"]}, prefer_skip_nested_validation=True)
+def mean_interval_width(y_interval):
+    """Mean width ``upper - lower`` of the intervals.
+
+    Parameters
+    ----------
+    y_interval : array-like of shape (n_samples, 2)
+        Lower and upper bound of each sample's interval.
+
+    Returns
+    -------
+    width : float
+        In the unit of the target (deg/h for a drift).
+
+    Examples
+    --------
+    >>> from sklearn_ifog.metrics import mean_interval_width
+    >>> mean_interval_width([[-1.0, 1.0], [0.0, 4.0]])
+    3.0
+    """
+    y_interval = np.asarray(y_interval, dtype=float)
+    _check_bounds(np.zeros(y_interval.shape[0] if y_interval.ndim else 0), y_interval)
+    return float(np.mean(y_interval[:, 1] - y_interval[:, 0]))
+
+
+@validate_params(
+    {
+        "y_true": ["array-like"],
+        "y_interval": ["array-like"],
+        "coverage": [Interval(Real, 0, 1, closed="neither")],
+    },
+    prefer_skip_nested_validation=True,
+)
+def interval_score(y_true, y_interval, *, coverage=0.9):
+    """Mean interval (Winkler) score: the width plus a penalty for every miss; lower is better.
+
+    For nominal coverage ``1 - alpha`` and bounds ``[l, u]`` (Gneiting & Raftery, 2007,
+    Eq. 43; Winkler, 1972)::
+
+        S = (u - l) + (2 / alpha) * (l - y) * [y < l] + (2 / alpha) * (y - u) * [y > u]
+
+    A proper scoring rule: in expectation it is smallest for the true ``alpha / 2`` and
+    ``1 - alpha / 2`` quantiles, so it rewards a band that is both narrow and right.
+
+    Parameters
+    ----------
+    y_true : array-like of shape (n_samples,)
+        True values.
+    y_interval : array-like of shape (n_samples, 2)
+        Lower and upper bound of each sample's interval.
+    coverage : float, default=0.9
+        Nominal coverage ``1 - alpha`` of the intervals, in (0, 1).
+
+    Returns
+    -------
+    score : float
+        Mean score, in the unit of the target.
+
+    References
+    ----------
+    T. Gneiting, A. E. Raftery, "Strictly proper scoring rules, prediction, and estimation",
+    JASA 102(477), 2007.
+
+    Examples
+    --------
+    >>> from sklearn_ifog.metrics import interval_score
+    >>> interval_score([0.0, 3.0], [[-1.0, 1.0], [0.0, 2.0]], coverage=0.8)
+    7.0
+    """
+    y_true, y_interval = _check_bounds(y_true, y_interval)
+    alpha = 1.0 - coverage
+    lower, upper = y_interval[:, 0], y_interval[:, 1]
+    penalty = (2.0 / alpha) * (np.maximum(lower - y_true, 0.0) + np.maximum(y_true - upper, 0.0))
+    return float(np.mean(upper - lower + penalty))
+
+
+def interval_coverage_scorer(estimator, X, y_true):
+    """The coverage of ``estimator.predict_interval(X)``: a scorer, to *report* coverage.
+
+    Greater is closer to 1; do not select models with it alone (an infinitely wide band
+    maximises it): use ``"neg_interval_score"``.
+
+    Parameters
+    ----------
+    estimator : estimator with ``predict_interval``
+        E.g. a fitted :class:`~sklearn_ifog.ConformalRegressor`.
+    X : array-like
+        Samples.
+    y_true : array-like of shape (n_samples,)
+        True values.
+
+    Returns
+    -------
+    coverage : float
+        ``interval_coverage(y_true, estimator.predict_interval(X))``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn_ifog import ConformalRegressor
+    >>> from sklearn_ifog.metrics import get_scorer
+    >>> X = np.arange(40.0)[:, None]
+    >>> y = X[:, 0] + np.tile([0.5, -0.5], 20)
+    >>> model = ConformalRegressor(LinearRegression()).fit(X, y, groups=X[:, 0] // 10)
+    >>> 0.0 <= get_scorer("interval_coverage")(model, X, y) <= 1.0
+    True
+    """
+    return interval_coverage(y_true, estimator.predict_interval(X))
+
+
+def neg_mean_interval_width_scorer(estimator, X, y_true):
+    """Minus the mean width of ``estimator.predict_interval(X)``: a scorer.
+
+    Parameters
+    ----------
+    estimator : estimator with ``predict_interval``
+        E.g. a fitted :class:`~sklearn_ifog.ConformalRegressor`.
+    X : array-like
+        Samples.
+    y_true : array-like of shape (n_samples,)
+        True values (unused; scorers take them).
+
+    Returns
+    -------
+    score : float
+        ``-mean_interval_width(estimator.predict_interval(X))``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn_ifog import ConformalRegressor
+    >>> from sklearn_ifog.metrics import get_scorer
+    >>> X = np.arange(40.0)[:, None]
+    >>> y = X[:, 0] + np.tile([0.5, -0.5], 20)
+    >>> model = ConformalRegressor(LinearRegression()).fit(X, y, groups=X[:, 0] // 10)
+    >>> bool(get_scorer("neg_mean_interval_width")(model, X, y) < 0)
+    True
+    """
+    return -mean_interval_width(estimator.predict_interval(X))
+
+
+def neg_interval_score_scorer(estimator, X, y_true):
+    """Minus the interval (Winkler) score of ``estimator.predict_interval(X)``.
+
+    The nominal coverage is the estimator's ``coverage`` parameter (0.9 if it has none).
+
+    Parameters
+    ----------
+    estimator : estimator with ``predict_interval``
+        E.g. a fitted :class:`~sklearn_ifog.ConformalRegressor`.
+    X : array-like
+        Samples.
+    y_true : array-like of shape (n_samples,)
+        True values.
+
+    Returns
+    -------
+    score : float
+        ``-interval_score(y_true, estimator.predict_interval(X), coverage=...)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn_ifog import ConformalRegressor
+    >>> from sklearn_ifog.metrics import get_scorer
+    >>> X = np.arange(40.0)[:, None]
+    >>> y = X[:, 0] + np.tile([0.5, -0.5], 20)
+    >>> model = ConformalRegressor(LinearRegression()).fit(X, y, groups=X[:, 0] // 10)
+    >>> bool(get_scorer("neg_interval_score")(model, X, y) < 0)
+    True
+    """
+    coverage = getattr(estimator, "coverage", 0.9)
+    return -interval_score(y_true, estimator.predict_interval(X), coverage=coverage)
+
+
 #: Scorer: minus the mean squared deviation (greater is better, as model selection expects).
 #: For a drift regressor fitted on the measured drift (``rate - reference``) it equals minus
 #: the MSD of the compensated rate from the reference (see :func:`mean_squared_deviation`).
 neg_mean_squared_deviation_scorer = make_scorer(mean_squared_deviation, greater_is_better=False)
-_SCORERS = {"neg_mean_squared_deviation": neg_mean_squared_deviation_scorer}
+_SCORERS = {
+    "neg_mean_squared_deviation": neg_mean_squared_deviation_scorer,
+    "interval_coverage": interval_coverage_scorer,
+    "neg_mean_interval_width": neg_mean_interval_width_scorer,
+    "neg_interval_score": neg_interval_score_scorer,
+}
 
 
 @validate_params(
@@ -540,7 +788,9 @@ def get_scorer(scoring):
     Parameters
     ----------
     scoring : str, callable or None
-        ``"neg_mean_squared_deviation"``, any name of
+        ``"neg_mean_squared_deviation"``, ``"interval_coverage"``,
+        ``"neg_mean_interval_width"``, ``"neg_interval_score"`` (the last three call the
+        estimator's ``predict_interval``), any name of
         :func:`sklearn.metrics.get_scorer_names`, or a scorer (returned as is).
 
     Returns
@@ -574,8 +824,8 @@ def get_scorer_names():
     Examples
     --------
     >>> from sklearn_ifog.metrics import get_scorer_names
-    >>> get_scorer_names()[0]
-    'neg_mean_squared_deviation'
+    >>> get_scorer_names()[:2]
+    ['interval_coverage', 'neg_interval_score']
     """
     return sorted(_SCORERS) + [
         name for name in _sklearn_get_scorer_names() if name not in _SCORERS

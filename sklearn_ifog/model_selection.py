@@ -66,7 +66,12 @@ from sklearn_ifog._compat import (
 )
 from sklearn_ifog._contract import DEFAULT_TERMS
 from sklearn_ifog.features import ThermalFeatures
-from sklearn_ifog.metrics import mean_squared_deviation
+from sklearn_ifog.metrics import (
+    interval_coverage,
+    interval_score,
+    mean_interval_width,
+    mean_squared_deviation,
+)
 from sklearn_ifog.pipeline import _traditional_terms, make_compensation_pipeline
 from sklearn_ifog.rbf import RBFNetRegressor
 
@@ -668,6 +673,16 @@ def _fit_and_evaluate(name, estimator, X, y, train, test, fold):
     y_test = np.asarray(y_test, dtype=np.float64)
     msd_before = mean_squared_deviation(y_test, np.zeros_like(y_test))
     msd_after = mean_squared_deviation(y_test, np.asarray(y_pred, dtype=np.float64))
+    interval = {}
+    if hasattr(model, "predict_interval"):
+        bounds = model.predict_interval(X_test)
+        interval = {
+            "coverage": interval_coverage(y_test, bounds),
+            "width": mean_interval_width(bounds),
+            "interval_score": interval_score(
+                y_test, bounds, coverage=getattr(model, "coverage", 0.9)
+            ),
+        }
     return {
         "model": name,
         "fold": fold,
@@ -679,6 +694,7 @@ def _fit_and_evaluate(name, estimator, X, y, train, test, fold):
         "reduction": float(msd_before / msd_after) if msd_after > 0 else np.inf,
         "fit_time": fit_time,
         "predict_time": predict_time,
+        **interval,
     }
 
 
@@ -695,6 +711,14 @@ def _summarize(folds, names):
         n_folds=("fold", "count"),
     )
     summary.insert(3, "reduction", summary["msd_before"] / summary["msd_after"])
+    if "coverage" in folds.columns:
+        intervals = grouped.agg(
+            coverage=("coverage", "mean"),
+            worst_fold_coverage=("coverage", "min"),
+            width=("width", "mean"),
+            interval_score=("interval_score", "mean"),
+        )
+        summary = summary.join(intervals)
     return summary.reindex(names)
 
 
@@ -762,11 +786,17 @@ def compare_regressors(
         One row per model (index ``model``, in the order given): ``msd_before``,
         ``msd_after`` (means over folds), ``msd_after_std``, ``reduction`` (ratio of the two
         means), ``worst_fold_reduction``, ``fit_time`` and ``predict_time`` (mean seconds
-        per fold), ``n_folds``.
+        per fold), ``n_folds``. When a model has ``predict_interval`` (e.g.
+        :class:`~sklearn_ifog.ConformalRegressor`) also ``coverage`` (mean over folds of
+        :func:`~sklearn_ifog.metrics.interval_coverage`), ``worst_fold_coverage``,
+        ``width`` (mean :func:`~sklearn_ifog.metrics.mean_interval_width`) and
+        ``interval_score`` (:func:`~sklearn_ifog.metrics.interval_score`); NaN for the
+        models without intervals.
     folds : pandas.DataFrame
         Only with ``return_folds=True``: one row per (model, fold) with ``model``, ``fold``,
         ``test`` (the units, azimuths and runs tested), ``n_train``, ``n_test``,
-        ``msd_before``, ``msd_after``, ``reduction``, ``fit_time``, ``predict_time``.
+        ``msd_before``, ``msd_after``, ``reduction``, ``fit_time``, ``predict_time`` (and
+        ``coverage``, ``width``, ``interval_score`` for models with intervals).
 
     Examples
     --------

@@ -38,6 +38,7 @@ __all__ = ["TRUSTED_TYPES", "ModelVersionWarning", "load_model", "save_model"]
 #: already trusts scikit-learn's estimators, numpy arrays and dtypes, and Python builtins.
 TRUSTED_TYPES = [
     # the package's estimators
+    "sklearn_ifog.conformal.ConformalRegressor",
     "sklearn_ifog.features.ThermalFeatures",
     "sklearn_ifog.model_selection.SubsampledRegressor",
     "sklearn_ifog.rbf._network.RBFNetRegressor",

@@ -93,6 +93,7 @@ def plot_compensation(
     temperature=None,
     *,
     reference=None,
+    interval=None,
     time_unit="h",
     ax=None,
     title=None,
@@ -116,6 +117,11 @@ def plot_compensation(
         Coil temperature (deg C), drawn on the right axis; None draws none.
     reference : float or array-like of shape (n_samples,), default=None
         True input rate (deg/h), drawn dashed.
+    interval : array-like of shape (n_samples, 2), default=None
+        Lower and upper bound of the *drift* (deg/h), e.g.
+        :meth:`~sklearn_ifog.ConformalRegressor.predict_interval`; the band where the true
+        input rate should lie, ``[rate - upper, rate - lower]``, is shaded around the
+        compensated output (label ``"band"``).
     time_unit : {"s", "min", "h"}, default="h"
         Unit of the time axis.
     ax : matplotlib.axes.Axes, default=None
@@ -147,6 +153,11 @@ def plot_compensation(
     ['raw', 'compensated']
     >>> temperature_ax.get_ylabel()
     'temperature (°C)'
+    >>> drift = 0.01 * temperature
+    >>> band = np.column_stack([drift - 0.05, drift + 0.05])
+    >>> ax, _ = plot_compensation(time, rate, rate - drift, interval=band)
+    >>> [patch.get_label() for patch in ax.collections]
+    ['band']
     """
     if time_unit not in SECONDS_PER_UNIT:
         raise ValueError(
@@ -159,6 +170,13 @@ def plot_compensation(
     if temperature is not None:
         temperature = np.asarray(temperature, dtype=float)
         named["temperature"] = temperature
+    if interval is not None:
+        interval = np.asarray(interval, dtype=float)
+        if interval.shape != (*time.shape, 2):
+            raise ValueError(
+                f"interval has shape {interval.shape} but time has shape {time.shape}; give "
+                "(lower, upper) per sample, shape (n_samples, 2)."
+            )
     for name, values in named.items():
         if values.shape != time.shape:
             raise ValueError(
@@ -169,6 +187,16 @@ def plot_compensation(
         ax = _new_axes((8.0, 4.0))
     hours = time / SECONDS_PER_UNIT[time_unit]
     ax.plot(hours, rate, color=_RAW_COLOR, linewidth=0.8, label="raw")
+    if interval is not None:
+        ax.fill_between(
+            hours,
+            rate - interval[:, 1],
+            rate - interval[:, 0],
+            color=_SERIES_COLORS[0],
+            alpha=0.25,
+            linewidth=0,
+            label="band",
+        )
     for (label, values), color in zip(series.items(), _SERIES_COLORS * 4, strict=False):
         ax.plot(hours, values, color=color, linewidth=0.8, label=label)
     if reference is not None:

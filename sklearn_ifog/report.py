@@ -295,6 +295,7 @@ def compensation_report(
     bias_window=100.0,
     report=None,
     heading="Compensation",
+    interval=None,
 ):
     """Measure a compensation and write its report (Markdown and HTML) with figures.
 
@@ -333,6 +334,12 @@ def compensation_report(
         starts a new one.
     heading : str, default="Compensation"
         Heading of the section this function adds.
+    interval : array-like of shape (n_samples, 2), default=None
+        Lower and upper bound of the drift (deg/h), e.g. from
+        :meth:`~sklearn_ifog.ConformalRegressor.predict_interval`. The table then gains the
+        columns ``coverage`` (fraction of the run's samples whose measured drift,
+        ``rate - reference``, lies inside) and ``width`` (mean width, deg/h), and the
+        figures shade the band.
 
     Returns
     -------
@@ -395,7 +402,28 @@ def compensation_report(
             for label, rows in _table.run_segments(run, rate.shape[0])
         },
         has_runs=run is not None,
+        interval=None,
     )
+    if interval is not None:
+        from sklearn_ifog.metrics import interval_coverage, mean_interval_width
+
+        interval = np.asarray(interval, dtype=float)
+        if interval.shape != (rate.shape[0], 2):
+            raise ValueError(
+                f"interval has shape {interval.shape}; expected ({rate.shape[0]}, 2), the "
+                "lower and upper drift bound of every sample."
+            )
+        data.interval = interval
+        measured = rate - reference
+        coverage, width = {}, {}
+        for label, rows in data.segments.items():
+            coverage[label] = interval_coverage(measured[rows], interval[rows])
+            width[label] = mean_interval_width(interval[rows])
+        if run is not None:
+            coverage[_ALL_RUNS] = interval_coverage(measured, interval)
+            width[_ALL_RUNS] = mean_interval_width(interval)
+        table["coverage"] = table.index.map(coverage)
+        table["width"] = table.index.map(width)
     if report is None:
         report = Report(title)
     _add_summary(report, heading, data, table, data_name, bias_window, time is None)
@@ -456,13 +484,15 @@ def _add_compensation_figures(report, directory, data, max_runs):
             data.compensated[rows_of_run],
             data.temperature[rows_of_run],
             reference=data.reference[rows_of_run],
+            interval=None if data.interval is None else data.interval[rows_of_run],
             title=f"run {label}" if data.has_runs else None,
         )
         path = save_figure(ax, Path(directory) / f"compensation_{index + 1}.png")
         figures.append(path)
+        band = "" if data.interval is None else ", the band where the true rate should lie"
         report.add_figure(
             path,
-            f"Run {label}: raw (grey) and compensated output, reference (dashed) and "
+            f"Run {label}: raw (grey) and compensated output{band}, reference (dashed) and "
             "temperature (red, right axis).",
         )
     return figures

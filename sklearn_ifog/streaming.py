@@ -185,11 +185,17 @@ class StreamingCompensator:
 
     Parameters
     ----------
-    pipeline : sklearn.pipeline.Pipeline
+    pipeline : sklearn.pipeline.Pipeline or ConformalRegressor
         Fitted; its first step is a :class:`~sklearn_ifog.ThermalFeatures`, the later steps
-        act row by row (scalers, polynomial features, regressors).
+        act row by row (scalers, polynomial features, regressors). A fitted
+        :class:`~sklearn_ifog.ConformalRegressor` around such a pipeline also carries the
+        band: after every :meth:`step` or :meth:`update`, :attr:`last_interval` holds the
+        drift bounds of its rows, equal to the batch ``predict_interval``.
     adapt : {None, "bias", "output"}, default=None
-        Online recalibration from the samples given a ``reference`` (None: none).
+        Online recalibration from the samples given a ``reference`` (None: none). Not with
+        a :class:`~sklearn_ifog.ConformalRegressor` (a ``ValueError``): its band is
+        calibrated on the out-of-fold residuals of the fitted model, and says nothing of a
+        recalibrated one; recalibrate its ``estimator_`` (a plain Pipeline) instead.
     forgetting : float, default=0.999
         Forgetting factor of the recalibration, in (0, 1]: each sample with a reference
         weighs the earlier ones by this factor (memory of about ``1 / (1 - forgetting)``
@@ -197,6 +203,9 @@ class StreamingCompensator:
 
     Attributes
     ----------
+    last_interval : ndarray of shape (n_samples, 2) or None
+        Lower and upper drift bound (deg/h) of the rows of the last :meth:`step` (one row)
+        or :meth:`update`; None when built from a plain Pipeline.
     n_sensors : int
         Temperature sensors per sample.
     n_outputs : int
@@ -243,6 +252,8 @@ class StreamingCompensator:
     """
 
     def __init__(self, pipeline, *, adapt=None, forgetting=0.999):
+        from sklearn_ifog.conformal import ConformalRegressor
+
         if adapt not in ADAPT_MODES:
             raise ValueError(f"adapt must be None, 'bias' or 'output', got {adapt!r}.")
         if (
@@ -251,6 +262,26 @@ class StreamingCompensator:
             or not (0.0 < float(forgetting) <= 1.0)
         ):
             raise ValueError(f"forgetting must be a number in (0, 1], got {forgetting!r}.")
+        self.conformal = None
+        self.last_interval = None
+        if isinstance(pipeline, ConformalRegressor):
+            if adapt is not None:
+                raise ValueError(
+                    f"adapt={adapt!r} is not available with a ConformalRegressor: its band is "
+                    "calibrated for the fitted model, not a recalibrated one. Use adapt=None, "
+                    "or recalibrate its estimator_ (a plain Pipeline) without a band."
+                )
+            check_is_fitted(pipeline)
+            self.conformal = pipeline
+            for model in [pipeline.estimator_, *pipeline.estimators_]:
+                if not (
+                    isinstance(model, Pipeline) and type(model.steps[0][1]) is ThermalFeatures
+                ):
+                    raise TypeError(
+                        "StreamingCompensator needs a ConformalRegressor around a Pipeline "
+                        f"whose first step is ThermalFeatures, got {type(model).__name__}."
+                    )
+            pipeline = pipeline.estimator_
         if not isinstance(pipeline, Pipeline):
             raise TypeError(
                 "StreamingCompensator needs a fitted sklearn.pipeline.Pipeline whose first "
@@ -300,6 +331,11 @@ class StreamingCompensator:
         self._names_in = getattr(self._first_later_step(), "feature_names_in_", None)
         self._compiled = compile_steps(pipeline)
         self.compiled = self._compiled is not None
+        self._fold_compiled = None
+        if self.conformal is not None and self.compiled:
+            folds = [compile_steps(model) for model in self.conformal.estimators_]
+            if all(fold is not None for fold in folds):
+                self._fold_compiled = folds
         if self.compiled:
             self.n_outputs = self._compiled.final.n_outputs
             self._single_output = self._compiled.single_output
@@ -606,6 +642,8 @@ class StreamingCompensator:
             if adapt == "output" and fast is not None:
                 fast = FastRow(self._compiled, weights)
         compensated = None if rates is None else rates - drift
+        if self.conformal is not None:
+            self.last_interval = self._interval(np.array([row], dtype=np.float64), drift)
         self.state = {**state, **feature_state, "rls": rls}
         self._fast = fast
         if single:
@@ -818,11 +856,49 @@ class StreamingCompensator:
                 f"{drift.shape[1:]} (one rate per output)."
             )
         compensated = None if rate is None else rate - drift
+        interval = None if self.conformal is None else self._interval(features, drift)
         state["rls"] = rls
         self.state = state
+        self.last_interval = interval
         if self.adapt == "output" and has_reference is not None and has_reference.any():
             self._refresh_fast()
         return compensated, drift
+
+    def _interval(self, features, drift):
+        """The band of the rows with thermal ``features``, as predict_interval gives it.
+
+        The fold models and the difficulty model's inputs (the features through the steps
+        before the regressor) are evaluated compiled when every fold model compiles, else by
+        scikit-learn.
+        """
+        conformal = self.conformal
+        n_samples = features.shape[0]
+        if self._fold_compiled is not None:
+            predictions = np.stack(
+                [
+                    compiled.predict(features).reshape(n_samples, -1)[:, 0]
+                    for compiled in self._fold_compiled
+                ]
+            )
+        else:
+            frame = self._frame(features)
+            predictions = np.stack(
+                [
+                    np.asarray(model[1:].predict(frame), dtype=float).reshape(n_samples)
+                    for model in conformal.estimators_
+                ]
+            )
+        raw = None
+        if conformal.adaptive:
+            if len(self._rest.steps) == 1:
+                raw = features
+            elif self._fold_compiled is not None:
+                raw = self._compiled.transform(features)
+            else:
+                raw = self._rest[:-1].transform(self._frame(features))
+            raw = np.asarray(raw, dtype=float)
+        centre = np.asarray(drift, dtype=float).reshape(n_samples)
+        return conformal._bounds(centre, predictions, raw)
 
     def _sequential_features(self, temperature, time, state):
         """Features of consecutive rows of one run by the per-sample step (see _advance)."""

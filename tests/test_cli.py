@@ -568,3 +568,70 @@ def test_demo_failing_half_way_leaves_nothing(tmp_path, monkeypatch, capsys):
     assert "[7/7] writing the campaign as CSV: failed after" in capsys.readouterr().err
     assert _snapshot(out) == before
     assert _listing(tmp_path) == ["demo"]
+
+
+def test_fit_and_compensate_with_interval(campaign_csv, fitted_model, tmp_path, capsys):
+    model_path = tmp_path / "conformal.joblib"
+    args = ["fit", str(campaign_csv), *FIT_ARGS, "--model", "linear", "--interval", "0.9"]
+    assert main([*args, "-o", str(model_path)]) == 0
+    model = load_model(model_path)
+    assert type(model).__name__ == "ConformalRegressor"
+    out = tmp_path / "out.csv"
+    assert (
+        main(
+            ["compensate", str(model_path), str(campaign_csv), "-o", str(out), "--interval", "0.9"]
+        )
+        == 0
+    )
+    table = _read(out)
+    assert {"drift_lower", "drift_upper"} <= set(table.columns)
+    assert (table["drift_lower"] < table["drift_upper"]).all()
+    wider = tmp_path / "wider.csv"
+    assert (
+        main(
+            [
+                "compensate",
+                str(model_path),
+                str(campaign_csv),
+                "-o",
+                str(wider),
+                "--interval",
+                "0.99",
+            ]
+        )
+        == 0
+    )
+    wide = _read(wider)
+    assert (
+        (wide["drift_upper"] - wide["drift_lower"])
+        >= (table["drift_upper"] - table["drift_lower"]) - 1e-12
+    ).all()
+    report = tmp_path / "report"
+    assert main(["report", str(model_path), str(campaign_csv), "--out", str(report)]) == 0
+    assert "coverage" in (report / "report.md").read_text()
+    capsys.readouterr()
+    # a plain model has no intervals; a coverage outside (0, 1) is refused; no output
+    bad = tmp_path / "bad.csv"
+    assert (
+        main(
+            [
+                "compensate",
+                str(fitted_model),
+                str(campaign_csv),
+                "-o",
+                str(bad),
+                "--interval",
+                "0.9",
+            ]
+        )
+        == 2
+    )
+    assert "fit ... --interval" in capsys.readouterr().err
+    assert (
+        main(
+            ["compensate", str(model_path), str(campaign_csv), "-o", str(bad), "--interval", "1.5"]
+        )
+        == 2
+    )
+    assert "(0, 1)" in capsys.readouterr().err
+    assert not bad.exists()

@@ -351,7 +351,8 @@ def test_get_scorer():
     assert get_scorer("r2")(model, X, y) == pytest.approx(model.score(X, y))
     assert get_scorer(neg_mean_squared_deviation_scorer) is neg_mean_squared_deviation_scorer
     names = get_scorer_names()
-    assert names[0] == "neg_mean_squared_deviation"
+    ours = ["interval_coverage", "neg_interval_score", "neg_mean_interval_width"]
+    assert names[:4] == sorted([*ours, "neg_mean_squared_deviation"])
     assert "r2" in names
     assert len(names) == len(set(names))
     with pytest.raises(ValueError, match="'nope' is not a valid scoring value"):

@@ -209,8 +209,12 @@ def command_fit(args):
     metadata = {"columns": columns.as_dict()}
     if splitter is not None:
         cross_validation = _cross_validate(args, pipeline, X, target, splitter, groups, path)
+    fit_params = {}
+    if getattr(args, "interval", None) is not None:
+        pipeline, fit_params = _conformal(args, pipeline, frame, columns, path)
+        metadata["interval"] = {"coverage": args.interval}
     try:
-        pipeline.fit(X, target)
+        pipeline.fit(X, target, **fit_params)
     except (ValueError, TypeError) as error:
         raise InputError(f"{path}: {one_line(error)}") from None
     prediction = np.asarray(pipeline.predict(X), dtype=np.float64).reshape(-1)
@@ -231,6 +235,31 @@ def command_fit(args):
     )
     print(f"Wrote the model to {args.output}")
     return EXIT_OK
+
+
+def _check_coverage(value, option="--interval"):
+    if not 0.0 < value < 1.0:
+        raise InputError(f"{option} must be a coverage in (0, 1), e.g. 0.9; got {value:g}")
+
+
+def _conformal(args, pipeline, frame, columns, path):
+    """(ConformalRegressor around the pipeline, its fit parameters) for ``fit --interval``."""
+    from sklearn_ifog.conformal import ConformalRegressor
+
+    _check_coverage(args.interval)
+    if columns.run is None:
+        raise InputError(
+            f"{path}: --interval calibrates run by run and needs the run column (--run COL)"
+        )
+    runs = frame[columns.run].to_numpy()
+    n_runs = len(np.unique(runs))
+    if n_runs < 2:
+        raise InputError(
+            f"{path}: --interval needs at least two runs to calibrate on, column "
+            f"{columns.run!r} has {n_runs}"
+        )
+    model = ConformalRegressor(pipeline, coverage=args.interval, cv=min(5, n_runs))
+    return model, {"groups": runs}
 
 
 def _compensate_frame(model, metadata, model_path, data_path):
@@ -261,15 +290,36 @@ def command_compensate(args):
             )
     if args.drift_column == args.compensated_column:
         raise InputError("--drift-column and --compensated-column must differ")
+    bounds = None
+    if args.interval is not None:
+        _check_coverage(args.interval)
+        if not hasattr(model, "predict_interval"):
+            raise InputError(
+                f"{model_path}: the model has no intervals; fit it with "
+                "'sklearn-ifog fit ... --interval 0.9'"
+            )
+        X, _ = model_input(frame, Columns.from_metadata(metadata, model_path), data_path)
+        bounds = model.predict_interval(X, coverage=args.interval)
+        for suffix in ("_lower", "_upper"):
+            if args.drift_column + suffix in frame.columns:
+                raise InputError(
+                    f"{data_path} already has a column {args.drift_column + suffix!r}; "
+                    "name the drift column with --drift-column"
+                )
     # the input columns are written back as the text they were (no reformatted numbers)
     output = read_csv(data_path, as_text=True)
     output[args.drift_column] = drift
     output[args.compensated_column] = rate - drift
+    added = [args.drift_column, args.compensated_column]
+    if bounds is not None:
+        output[args.drift_column + "_lower"] = bounds[:, 0]
+        output[args.drift_column + "_upper"] = bounds[:, 1]
+        added += [args.drift_column + "_lower", args.drift_column + "_upper"]
     with atomic_path(args.output) as temporary:
         output.to_csv(temporary, index=False)
     print(
         f"Compensated {len(output)} rows of {data_path}; wrote {args.output} with columns "
-        f"{args.drift_column!r} and {args.compensated_column!r} added."
+        f"{', '.join(repr(name) for name in added)} added."
     )
     return EXIT_OK
 
@@ -288,6 +338,10 @@ def command_report(args):
     reference = read_reference(frame, columns, data_path)
     time_values = None if columns.time is None else frame[columns.time].to_numpy(float)
     runs = None if columns.run is None else frame[columns.run].to_numpy()
+    interval = None
+    if hasattr(model, "predict_interval"):  # fitted with 'fit --interval': show the band
+        X, _ = model_input(frame, columns, data_path)
+        interval = model.predict_interval(X)
     with staged_directory(args.out) as staging:
         written = compensation_report(
             staging,
@@ -300,6 +354,7 @@ def command_report(args):
             title=f"Thermal compensation of {data_path.name}",
             model_metadata=metadata,
             data_name=str(data_path),
+            interval=interval,
         )
     print_table("MSD per run ((deg/h)^2):", written.table)
     print(

@@ -113,6 +113,14 @@ def _build_parser():
     fit.add_argument("--random-state", type=int, default=0, help="seed of the RBF network")
     fit.add_argument("--n-jobs", type=int, default=None, help="parallel CV jobs")
     fit.add_argument(
+        "--interval",
+        type=float,
+        default=None,
+        metavar="COVERAGE",
+        help="also calibrate prediction intervals (ConformalRegressor, run by run, 5 folds "
+        "of runs; needs --run and at least two runs), e.g. 0.9",
+    )
+    fit.add_argument(
         "-o",
         "--output",
         required=True,
@@ -129,6 +137,14 @@ def _build_parser():
     compensate.add_argument("-o", "--output", required=True, metavar="OUT.csv")
     compensate.add_argument("--drift-column", default="drift", metavar="NAME")
     compensate.add_argument("--compensated-column", default="compensated", metavar="NAME")
+    compensate.add_argument(
+        "--interval",
+        type=float,
+        default=None,
+        metavar="COVERAGE",
+        help="add the drift band's bounds as <drift>_lower and <drift>_upper columns "
+        "(a model fitted with 'fit --interval'), e.g. 0.9",
+    )
     compensate.set_defaults(handler=command_compensate)
 
     report = commands.add_parser(

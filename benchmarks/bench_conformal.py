@@ -1,0 +1,316 @@
+"""Run-wise adaptive conformal intervals against MAPIE row-wise and MAPIE by run.
+
+Usage (from the repository root)::
+
+    nice -n 10 python benchmarks/bench_conformal.py           # full: 3 presets x 3 seeds + real
+    nice -n 10 python benchmarks/bench_conformal.py --quick   # one preset, one seed
+
+Every held-out fold is one (unit, azimuth) pair of a simulated campaign
+(:class:`~sklearn_ifog.model_selection.LeaveOneAzimuthOut`, within each unit); the three
+methods are calibrated on the fold's training runs only, with the same drift model, the
+default :func:`~sklearn_ifog.make_compensation_pipeline` with
+``RBFNetRegressor(refine=None, criterion="holdout")`` inside (no refinement and a one-split
+choice of centres and width: about five times cheaper to fit, for speed), at 90 % nominal
+coverage, on campaigns of one unit, four azimuths, three runs each, 300 s samples:
+
+- ``ours``: :class:`~sklearn_ifog.ConformalRegressor` (run-wise, adaptive, CV+),
+  ``cv=GroupKFold(5)`` over the training runs (the same folds as MAPIE by run);
+- ``ours_flat``: the same with ``adaptive=False`` (run-wise, absolute scores);
+- ``mapie_rows``: MAPIE ``CrossConformalRegressor(cv=KFold(5, shuffle))``, CV+;
+- ``mapie_runs``: MAPIE ``CrossConformalRegressor(cv=GroupKFold(5))`` with the runs as groups.
+
+The oracle width of a fold is the 5-95 % range of the same method's residuals on the held-out
+runs themselves (no method can know it in advance); ``width/oracle`` is the mean over folds of
+the ratio. Out of range: a second split per campaign calibrates on the runs whose coldest
+reading is above the campaign's median and tests on the others, which all go colder than
+anything calibrated. The real recording (``load_psim_tvc``, gyro_x, one cooling run) is split
+into 5 blocks of 5 bursts, each held out in turn, the bursts being the calibration groups.
+
+Targets (on ``ours``, every preset, every seed): mean coverage in [0.87, 0.95], every held-out
+fold >= 0.85, mean width <= 1.2 x oracle, out-of-range coverage >= 0.85 (every run group).
+Results go to ``benchmarks/results/conformal[_quick].md`` and ``.json``; exit 1 if a target
+fails.
+"""
+
+import argparse
+import json
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+from sklearn.model_selection import GroupKFold, KFold
+
+from sklearn_ifog import ConformalRegressor, RBFNetRegressor, make_compensation_pipeline
+from sklearn_ifog._io import write_text_files
+from sklearn_ifog.datasets import load_psim_tvc, make_thermal_campaign
+from sklearn_ifog.metrics import interval_coverage, mean_interval_width
+from sklearn_ifog.model_selection import LeaveOneAzimuthOut
+
+NOMINAL = 0.9
+METHODS = ("ours", "ours_flat", "mapie_rows", "mapie_runs")
+RESULTS = Path(__file__).parent / "results"
+
+
+def pipeline(**kwargs):
+    regressor = RBFNetRegressor(refine=None, criterion="holdout", random_state=0)
+    return make_compensation_pipeline(regressor, **kwargs)
+
+
+def fit_predict(method, X_train, y_train, groups, X_test, base):
+    """(point prediction, bounds) of one method on the test rows."""
+    if method in ("ours", "ours_flat"):
+        model = ConformalRegressor(
+            base, coverage=NOMINAL, cv=GroupKFold(5), adaptive=method == "ours"
+        )
+        model.fit(X_train, y_train, groups=groups)
+        return model.predict(X_test), model.predict_interval(X_test)
+    from mapie.regression import CrossConformalRegressor
+
+    if method == "mapie_rows":
+        cv = KFold(5, shuffle=True, random_state=0)
+        fit_groups = None
+    else:
+        cv, fit_groups = GroupKFold(5), groups
+    model = CrossConformalRegressor(base, confidence_level=NOMINAL, cv=cv, method="plus")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model.fit_conformalize(X_train, y_train, groups=fit_groups)
+        point, bounds = model.predict_interval(X_test)
+    return np.asarray(point), np.asarray(bounds)[:, :, 0]
+
+
+def score_fold(y, point, bounds, runs):
+    residual = y - point
+    oracle = float(np.quantile(residual, 0.95) - np.quantile(residual, 0.05))
+    per_run = [interval_coverage(y[runs == run], bounds[runs == run]) for run in np.unique(runs)]
+    return {
+        "coverage": interval_coverage(y, bounds),
+        "width": mean_interval_width(bounds),
+        "oracle": oracle,
+        "ratio": mean_interval_width(bounds) / oracle,
+        "worst_run": float(min(per_run)),
+    }
+
+
+def evaluate_split(method, X, y, runs, train, test, base):
+    point, bounds = fit_predict(method, X.iloc[train], y[train], runs[train], X.iloc[test], base)
+    return score_fold(y[test], point, bounds, runs[test])
+
+
+def campaign(physics, seed, quick):
+    bunch = make_thermal_campaign(
+        n_units=1,
+        n_runs=3,
+        azimuths=(0.0, 45.0, 90.0, 135.0),
+        sampling_period=300.0,
+        physics=physics,
+        random_state=seed,
+    )
+    return bunch.data, bunch.target.to_numpy()
+
+
+def run_campaign(physics, seed, methods, quick):
+    X, y = campaign(physics, seed, quick)
+    runs = X["run"].to_numpy()
+    base = pipeline()
+    result = {}
+    folds = list(LeaveOneAzimuthOut().split(X))
+    # Out of range: calibrate on the warm runs, test on the cold ones.
+    coldest = X.groupby("run")["temperature"].min()
+    cold_runs = coldest.index[coldest < coldest.median()].to_numpy()
+    cold = np.isin(runs, cold_runs)
+    for method in methods:
+        rows = [evaluate_split(method, X, y, runs, tr, te, base) for tr, te in folds]
+        cold_row = evaluate_split(
+            method, X, y, runs, np.flatnonzero(~cold), np.flatnonzero(cold), base
+        )
+        result[method] = {
+            "folds": rows,
+            "mean_coverage": float(np.mean([r["coverage"] for r in rows])),
+            "worst_fold": float(min(r["coverage"] for r in rows)),
+            "worst_run": float(min(r["worst_run"] for r in rows)),
+            "width_ratio": float(np.mean([r["ratio"] for r in rows])),
+            "mean_width": float(np.mean([r["width"] for r in rows])),
+            "out_of_range_coverage": cold_row["coverage"],
+            "out_of_range_worst_run": cold_row["worst_run"],
+            "out_of_range_ratio": cold_row["ratio"],
+        }
+    return result
+
+
+def run_real(methods):
+    bunch = load_psim_tvc(drop_spikes=True)
+    X = bunch.data
+    y = bunch.target["gyro_x"].to_numpy()
+    bursts = X["burst"].to_numpy()
+    block = bursts // 5
+    base = pipeline(time=None, run=None, terms=("T",))
+    result = {}
+    for method in methods:
+        rows = []
+        for held in np.unique(block):
+            train, test = np.flatnonzero(block != held), np.flatnonzero(block == held)
+            rows.append(evaluate_split(method, X, y, bursts, train, test, base))
+        result[method] = {
+            "folds": rows,
+            "mean_coverage": float(np.mean([r["coverage"] for r in rows])),
+            "worst_fold": float(min(r["coverage"] for r in rows)),
+            "worst_run": float(min(r["worst_run"] for r in rows)),
+            "width_ratio": float(np.mean([r["ratio"] for r in rows])),
+            "mean_width": float(np.mean([r["width"] for r in rows])),
+        }
+    return result
+
+
+def check_targets(results):
+    failures = []
+    for key, result in results.items():
+        if key.startswith("real"):
+            continue
+        ours = result["ours"]
+        if not 0.87 <= ours["mean_coverage"] <= 0.95:
+            failures.append(
+                f"{key}: mean coverage {ours['mean_coverage']:.3f} not in [0.87, 0.95]"
+            )
+        if ours["worst_fold"] < 0.85:
+            failures.append(f"{key}: worst held-out fold {ours['worst_fold']:.3f} < 0.85")
+        if ours["width_ratio"] > 1.2:
+            failures.append(f"{key}: width/oracle {ours['width_ratio']:.3f} > 1.2")
+        if ours["out_of_range_coverage"] < 0.85:
+            failures.append(
+                f"{key}: out-of-range coverage {ours['out_of_range_coverage']:.3f} < 0.85"
+            )
+    return failures
+
+
+def summary_lines(results):
+    """Per method, over the simulated campaigns: ranges, failing folds, lowest out-of-range."""
+    campaigns = {key: value for key, value in results.items() if not key.startswith("real")}
+    if not campaigns:
+        return []
+    lines = [
+        f"Summary over the {len(campaigns)} simulated campaign(s):",
+        "",
+        "| method | mean coverage (range) | folds below 0.85 | width / oracle (range; mean) "
+        "| out-of-range coverage (lowest) |",
+        "|---|---|---|---|---|",
+    ]
+    methods = next(iter(campaigns.values())).keys()
+    for method in methods:
+        rows = [campaign[method] for campaign in campaigns.values()]
+        means = [row["mean_coverage"] for row in rows]
+        ratios = [row["width_ratio"] for row in rows]
+        folds = [fold["coverage"] for row in rows for fold in row["folds"]]
+        below = sum(coverage < 0.85 for coverage in folds)
+        lines.append(
+            f"| {method} | {min(means):.3f}-{max(means):.3f} | {below} of {len(folds)} | "
+            f"{min(ratios):.2f}-{max(ratios):.2f}; {np.mean(ratios):.2f} | "
+            f"{min(row['out_of_range_coverage'] for row in rows):.3f} |"
+        )
+    return lines
+
+
+def markdown(results, failures, command, elapsed):
+    lines = [
+        "# Conformal intervals: ours vs MAPIE row-wise vs MAPIE by run",
+        "",
+        f"Command: `{command}` ({elapsed:.0f} s). 90 % nominal; held-out folds: leave one "
+        "azimuth out within each unit; drift model: make_compensation_pipeline with "
+        "RBFNetRegressor(refine=None, criterion='holdout'). Oracle: 5-95 % range of the "
+        "method's own held-out residuals. Out of range: calibrated on the warmer half of the "
+        "runs, tested on the colder half. Real: load_psim_tvc gyro_x, 5 blocks of 5 bursts "
+        "held out in turn.",
+        "",
+        "| data | method | mean coverage | worst fold | worst run | width / oracle | "
+        "out-of-range coverage | out-of-range worst run |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for key, result in results.items():
+        for method, row in result.items():
+            oor = row.get("out_of_range_coverage")
+            oor_run = row.get("out_of_range_worst_run")
+            lines.append(
+                f"| {key} | {method} | {row['mean_coverage']:.3f} | {row['worst_fold']:.3f} | "
+                f"{row['worst_run']:.3f} | {row['width_ratio']:.3f} | "
+                + ("-" if oor is None else f"{oor:.3f}")
+                + " | "
+                + ("-" if oor_run is None else f"{oor_run:.3f}")
+                + " |"
+            )
+    lines += ["", *summary_lines(results)]
+    lines += ["", "## Verdict", ""]
+    lines += [f"- FAIL {f}" for f in failures] or ["- PASS: every target on every campaign."]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="one preset, one seed")
+    parser.add_argument("--no-mapie", action="store_true", help="only ours")
+    parser.add_argument(
+        "--rewrite",
+        action="store_true",
+        help="re-render results/conformal[_quick].md from its .json (no new measurement)",
+    )
+    args = parser.parse_args(argv)
+    if args.rewrite:
+        stem = "conformal_quick" if args.quick else "conformal"
+        payload = json.loads((RESULTS / f"{stem}.json").read_text())
+        elapsed = payload.get("elapsed", float("nan"))
+        text = markdown(payload["results"], payload["failures"], payload["command"], elapsed)
+        write_text_files({RESULTS / f"{stem}.md": text})
+        print(text)
+        return 1 if payload["failures"] else 0
+    # 300-s samples leave too few selection rows for a quadratic tail on some folds; the
+    # network says so and falls back to a linear tail (the same for every method).
+    warnings.filterwarnings("ignore", message=".*quadratic tail.*")
+    methods = ("ours",) if args.no_mapie else METHODS
+    if not args.no_mapie:
+        try:
+            import mapie  # noqa: F401
+        except ImportError:
+            print("MAPIE is not installed (pip install 'sklearn-ifog[conformal]').")
+            return 2
+    presets = ("lumped",) if args.quick else ("lumped", "layered", "layered_glass")
+    seeds = (0,) if args.quick else (0, 1, 2)
+    start = time.perf_counter()
+    results = {}
+    for physics in presets:
+        for seed in seeds:
+            key = f"{physics} seed {seed}"
+            results[key] = run_campaign(physics, seed, methods, args.quick)
+            row = results[key]["ours"]
+            print(
+                f"{key}: ours mean {row['mean_coverage']:.3f} worst {row['worst_fold']:.3f} "
+                f"ratio {row['width_ratio']:.3f} out-of-range {row['out_of_range_coverage']:.3f}"
+                f" ({time.perf_counter() - start:.0f} s)",
+                flush=True,
+            )
+    if not args.quick:
+        results["real psim_tvc gyro_x"] = run_real(methods)
+    elapsed = time.perf_counter() - start
+    failures = check_targets(results)
+    command = "python benchmarks/bench_conformal.py" + (" --quick" if args.quick else "")
+    text = markdown(results, failures, command, elapsed)
+    stem = "conformal_quick" if args.quick else "conformal"
+    RESULTS.mkdir(exist_ok=True)
+    payload = {
+        "command": command,
+        "elapsed": elapsed,
+        "results": results,
+        "failures": failures,
+    }
+    write_text_files(
+        {
+            RESULTS / f"{stem}.md": text,
+            RESULTS / f"{stem}.json": json.dumps(payload, indent=1) + "\n",
+        }
+    )
+    print(text)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

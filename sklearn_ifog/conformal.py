@@ -1,0 +1,561 @@
+"""Prediction intervals that hold run by run: adaptive, run-wise cross-conformal regression.
+
+:class:`ConformalRegressor` wraps a drift model and gives every prediction an interval
+``[lower, upper]`` meant to hold the true drift ``coverage`` of the time *on each run*, not
+only on average over all rows. Two things differ from row-wise conformal prediction (MAPIE's
+``CrossConformalRegressor`` with ``KFold``):
+
+1. **The run is the unit of exchangeability.** Rows of one thermal-test run are strongly
+   correlated (the residual of a model is a slow function of the thermal history), so rows
+   are not exchangeable, runs are. The out-of-fold scores of each calibration run are reduced
+   to one number, the run's ``coverage`` quantile, and the conformal quantile (level
+   ``confidence``) is then taken over runs: a new run like the calibration runs holds its
+   drift at least ``coverage`` of its time with probability at least ``confidence``.
+2. **The band is adaptive.** The score of a row is its absolute out-of-fold residual divided
+   by a difficulty estimate ``sigma(x)``: a linear model of the absolute residual on the
+   model's own (causal) features and their magnitudes (for the compensation pipeline: T,
+   dT, T·dT and the temperature lags, standardised), fitted on the out-of-fold residuals and
+   cross-fitted over the same folds so that a calibration row is never normalised by a model
+   of its own residual. Linear in ``|z|``, it grows outside the calibrated conditions (colder,
+   faster ramps): a run unlike the calibration runs gets a wider band, not a silently wrong
+   one.
+
+Why not MAPIE: MAPIE 1.x takes the conformal quantile over rows (there is no per-group
+aggregation of scores before the quantile), and its adaptive score
+(``ResidualNormalisedScore``) is documented for split and prefit conformal only, not for the
+cross-conformal (CV+) methods. The calibration here is a few lines of numpy
+(:func:`run_quantile_scores`, :func:`conformal_quantile`, :func:`plus_interval`), so the
+estimator needs only scikit-learn; MAPIE is used in ``benchmarks/bench_conformal.py`` as the
+peer it is measured against.
+"""
+
+import numbers
+from typing import ClassVar
+
+import numpy as np
+import scipy.sparse as sp
+from sklearn.base import BaseEstimator, MetaEstimatorMixin, RegressorMixin, clone
+from sklearn.linear_model import Ridge
+from sklearn.model_selection import GroupKFold, KFold, LeaveOneGroupOut, check_cv
+from sklearn.pipeline import Pipeline
+from sklearn.utils import check_array
+from sklearn.utils.validation import (
+    check_consistent_length,
+    check_is_fitted,
+    column_or_1d,
+    validate_data,
+)
+
+from sklearn_ifog import _table
+from sklearn_ifog._compat import HasMethods, Interval, StrOptions, _fit_context, _safe_indexing
+
+__all__ = [
+    "ConformalRegressor",
+    "conformal_quantile",
+    "plus_interval",
+    "run_quantile_scores",
+]
+
+# Floor of the difficulty estimate, as a fraction of the mean absolute residual: a linear
+# model of |r| can reach zero or below; a zero difficulty would give a zero-width band.
+_DIFFICULTY_FLOOR = 0.5
+# The difficulty enters the score as (sigma / mean sigma) ** _DIFFICULTY_POWER: the square root
+# keeps the band adaptive while damping the linear model's extrapolation (with power 1 the mean
+# band was wider for the same coverage on the campaigns of benchmarks/bench_conformal.py).
+_DIFFICULTY_POWER = 0.5
+# Ridge penalty of the difficulty model (features are standardised, targets in deg/h).
+_DIFFICULTY_ALPHA = 1.0
+
+
+# --------------------------------------------------------------------------------------------
+# Numerics (numpy in, numpy out)
+# --------------------------------------------------------------------------------------------
+
+
+def conformal_quantile(scores, level):
+    """The conformal quantile of ``scores``: the ``ceil((n + 1) * level)``-th smallest.
+
+    With ``n`` exchangeable scores and a new one exchangeable with them, the new score is
+    at most this value with probability at least ``level`` (Vovk et al., 2005). When
+    ``ceil((n + 1) * level) > n`` the guarantee needs more scores than there are; the
+    largest score is returned (the guarantee is then approximate).
+
+    Parameters
+    ----------
+    scores : array-like of shape (n_scores,) or (n_scores, n_samples)
+        Scores, along the first axis.
+    level : float
+        Level in (0, 1).
+
+    Returns
+    -------
+    quantile : float or ndarray of shape (n_samples,)
+        The quantile along the first axis.
+
+    Examples
+    --------
+    >>> from sklearn_ifog.conformal import conformal_quantile
+    >>> float(conformal_quantile([1.0, 2.0, 3.0, 4.0], 0.5))
+    3.0
+    """
+    scores = np.asarray(scores, dtype=float)
+    n_scores = scores.shape[0]
+    rank = min(int(np.ceil((n_scores + 1) * level)), n_scores)
+    rank = max(rank, 1)
+    return np.partition(scores, rank - 1, axis=0)[rank - 1]
+
+
+def run_quantile_scores(scores, groups, level):
+    """Each group's ``level`` quantile of its scores (one score per group).
+
+    Parameters
+    ----------
+    scores : array-like of shape (n_samples,)
+        Conformity scores of the rows.
+    groups : array-like of shape (n_samples,)
+        Group (run) of every row.
+    level : float
+        Quantile level in (0, 1) (linear interpolation within a group).
+
+    Returns
+    -------
+    labels : ndarray of shape (n_groups,)
+        The groups, in order of first appearance.
+    group_scores : ndarray of shape (n_groups,)
+        The quantile of each group's scores.
+
+    Examples
+    --------
+    >>> from sklearn_ifog.conformal import run_quantile_scores
+    >>> labels, q = run_quantile_scores([1.0, 2.0, 3.0, 10.0, 20.0], [0, 0, 0, 1, 1], 0.5)
+    >>> labels.tolist(), q.tolist()
+    ([0, 1], [2.0, 15.0])
+    """
+    scores = np.asarray(scores, dtype=float)
+    segments = _table.run_segments(np.asarray(groups), scores.shape[0])
+    labels = np.array([label for label, _ in segments])
+    group_scores = np.array([np.quantile(scores[rows], level) for _, rows in segments])
+    return labels, group_scores
+
+
+def plus_interval(predictions, scale, group_scores, group_fold, level):
+    """CV+ bounds with one score per calibration group (Barber et al., 2021, by group).
+
+    For every calibration group ``g`` (out of fold ``k(g)``) and every test row ``x`` the
+    candidates are ``pred_k(g)(x) -/+ scale(x) * s_g``; the lower bound is the conformal
+    ``1 - level`` quantile of the lower candidates (taken as minus the conformal ``level``
+    quantile of their negatives), the upper bound the conformal ``level`` quantile of the
+    upper ones.
+
+    Parameters
+    ----------
+    predictions : ndarray of shape (n_folds, n_samples)
+        Prediction of each fold's model.
+    scale : ndarray of shape (n_samples,)
+        Difficulty estimate of each test row (1 for an absolute score).
+    group_scores : ndarray of shape (n_groups,)
+        Score of each calibration group.
+    group_fold : ndarray of int of shape (n_groups,)
+        Fold whose model did not see each group.
+    level : float
+        Level in (0, 1) of the conformal quantile over the groups.
+
+    Returns
+    -------
+    bounds : ndarray of shape (n_samples, 2)
+        Lower and upper bound of every row.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn_ifog.conformal import plus_interval
+    >>> plus_interval(
+    ...     np.array([[0.0], [1.0]]), np.ones(1), np.array([1.0, 2.0]), np.array([0, 1]), 0.5
+    ... )
+    array([[-1.,  3.]])
+    """
+    centre = predictions[group_fold]  # (n_groups, n_samples)
+    spread = group_scores[:, None] * scale[None, :]
+    lower = -conformal_quantile(-(centre - spread), level)
+    upper = conformal_quantile(centre + spread, level)
+    return np.column_stack([lower, upper])
+
+
+def _difficulty_design(features):
+    """The difficulty model's inputs: the standardised features and their magnitudes."""
+    return np.hstack([features, np.abs(features)])
+
+
+def _fit_difficulty(features, abs_residual):
+    """A linear model of the absolute residual; returns (model, floor)."""
+    model = Ridge(alpha=_DIFFICULTY_ALPHA).fit(_difficulty_design(features), abs_residual)
+    floor = _DIFFICULTY_FLOOR * float(np.mean(abs_residual))
+    return model, max(floor, np.finfo(float).tiny)
+
+
+def _predict_difficulty(model, floor, features):
+    return np.maximum(model.predict(_difficulty_design(features)), floor)
+
+
+def _soften(sigma, mean):
+    """The difficulty as it scales the scores: (sigma / mean) ** _DIFFICULTY_POWER."""
+    return (sigma / mean) ** _DIFFICULTY_POWER
+
+
+# --------------------------------------------------------------------------------------------
+# The estimator
+# --------------------------------------------------------------------------------------------
+
+
+def _check_input(estimator, X, *, reset):
+    """X checked: column count and names; a DataFrame is kept as given (it carries the run
+    column), anything else becomes a 2-D array (values are the estimator's to check)."""
+    if sp.issparse(X):
+        raise TypeError(
+            "ConformalRegressor does not support sparse input; pass a dense array or a DataFrame."
+        )
+    if not _table.frame_kind(X):
+        X = check_array(
+            X, dtype=None, ensure_all_finite=False, ensure_min_samples=2 if reset else 1
+        )
+    validate_data(estimator, X, skip_check_array=True, reset=reset)
+    return X
+
+
+class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
+    """Adaptive prediction intervals calibrated run by run (cross-conformal, CV+).
+
+    ``fit`` cross-validates ``estimator`` with the run (or the given group) as the unit:
+    each fold's model predicts the runs it did not see, giving out-of-fold residuals. A
+    difficulty model ``sigma(x)`` (a ridge model of the absolute residual on the estimator's
+    features and their magnitudes, cross-fitted) normalises them; each run keeps the
+    ``coverage`` quantile of its normalised scores, and the bands are the conformal quantile
+    of those per-run scores (``method="plus"``: the CV+ construction, each fold's model
+    carrying the scores of the runs it did not see). ``predict`` is the prediction of
+    ``estimator`` refitted on all rows.
+
+    See the module notes (:mod:`sklearn_ifog.conformal`) for why the run and not the row,
+    and why this is not MAPIE.
+
+    Parameters
+    ----------
+    estimator : regressor
+        The drift model (e.g. :func:`~sklearn_ifog.make_compensation_pipeline`). Cloned.
+        When it is a :class:`~sklearn.pipeline.Pipeline`, the difficulty model reads the
+        output of its steps before the last (the thermal features, scaled); otherwise it
+        reads the numeric columns of X.
+    coverage : float, default=0.9
+        Nominal coverage in (0, 1): the fraction of a run's time its drift should lie
+        inside the band.
+    cv : int, cross-validation generator or iterable, default=None
+        How the calibration runs are split. None: one fold per group (run), i.e.
+        :class:`~sklearn.model_selection.LeaveOneGroupOut`. An int ``k``:
+        :class:`~sklearn.model_selection.GroupKFold` ``(k)`` over the groups (a plain
+        :class:`~sklearn.model_selection.KFold` when there are no groups). Any scikit-learn
+        splitter, called with the groups; every row must be in exactly one test fold.
+    method : {"plus", "base", "minmax"}, default="plus"
+        ``"plus"``: CV+ (each calibration run's score around the prediction of the model
+        that did not see it); ``"base"``: the full model's prediction plus/minus
+        ``sigma(x) * q``; ``"minmax"``: from the lowest to the highest fold prediction,
+        widened by ``sigma(x) * q`` (conservative).
+    confidence : float, default=0.6
+        Level in (0, 1) of the conformal quantile taken over the runs' scores: a new run
+        like the calibration runs holds its drift inside the band at least ``coverage`` of
+        its time with probability at least ``confidence`` (the band widens as
+        ``confidence`` grows). With ``coverage=0.9``, 0.6 gave mean held-out coverages of
+        0.90-0.93 in ``benchmarks/bench_conformal.py`` (``benchmarks/results/conformal.md``).
+    adaptive : bool, default=True
+        Whether scores are normalised by the difficulty model; False gives a band of the
+        same width everywhere (absolute residual scores).
+
+    Attributes
+    ----------
+    estimator_ : estimator
+        ``estimator`` fitted on all rows (gives ``predict``).
+    estimators_ : list of estimator
+        One fitted clone per fold.
+    groups_ : ndarray of shape (n_groups,)
+        The calibration groups (runs), in order of first appearance.
+    group_scores_ : ndarray of shape (n_groups,)
+        Each group's ``coverage`` quantile of its normalised out-of-fold scores.
+    group_fold_ : ndarray of shape (n_groups,)
+        The fold that held each group out.
+    quantile_ : float
+        The conformal quantile of ``group_scores_`` (used by ``"base"`` and ``"minmax"``).
+    oof_prediction_ : ndarray of shape (n_samples,)
+        Out-of-fold prediction of every training row.
+    scores_ : ndarray of shape (n_samples,)
+        Normalised out-of-fold score of every training row (``|y - oof| / sigma``).
+    score_groups_ : ndarray of shape (n_samples,)
+        Group of every training row (the row number when there are no groups).
+    n_features_in_ : int
+        Number of columns of X seen during fit.
+    feature_names_in_ : ndarray of shape (n_features_in_,)
+        Column names of X, when X has string column names.
+
+    Raises
+    ------
+    ValueError
+        If ``coverage`` is outside (0, 1); if there are fewer than two groups to calibrate
+        on; if ``groups`` does not have one label per row; if X has no ``run`` column, no
+        ``groups`` are given and ``cv`` is None; if ``cv`` leaves a row out of every test
+        fold or puts it in two.
+
+    See Also
+    --------
+    sklearn_ifog.metrics.interval_coverage : Fraction of the truth inside the band.
+    sklearn_ifog.metrics.mean_interval_width : Mean width of the band.
+    sklearn_ifog.metrics.interval_score : Winkler score of the band.
+
+    References
+    ----------
+    R. F. Barber, E. J. Candès, A. Ramdas, R. J. Tibshirani, "Predictive inference with the
+    jackknife+", Annals of Statistics 49(1), 2021. J. Lei, M. G'Sell, A. Rinaldo,
+    R. J. Tibshirani, L. Wasserman, "Distribution-free predictive inference for regression",
+    JASA 113(523), 2018 (normalised scores).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn_ifog import ConformalRegressor
+    >>> rng = np.random.RandomState(0)
+    >>> X = rng.uniform(-1, 1, size=(600, 1))
+    >>> y = 2 * X[:, 0] + rng.normal(scale=0.1, size=600)
+    >>> runs = np.repeat(np.arange(12), 50)
+    >>> model = ConformalRegressor(LinearRegression(), coverage=0.9).fit(X, y, groups=runs)
+    >>> bounds = model.predict_interval(X)
+    >>> bounds.shape
+    (600, 2)
+    >>> bool(np.all(bounds[:, 0] <= model.predict(X)))
+    True
+    >>> ConformalRegressor(LinearRegression()).fit(X, y, groups=np.zeros(600))
+    Traceback (most recent call last):
+    ...
+    ValueError: ConformalRegressor needs at least two groups (runs) to calibrate on, got 1.
+    """
+
+    _parameter_constraints: ClassVar[dict] = {
+        "estimator": [HasMethods(["fit", "predict"])],
+        "coverage": [Interval(numbers.Real, 0, 1, closed="neither")],
+        "cv": ["cv_object", None],
+        "method": [StrOptions({"plus", "base", "minmax"})],
+        "confidence": [Interval(numbers.Real, 0, 1, closed="neither")],
+        "adaptive": ["boolean"],
+    }
+
+    def __init__(
+        self, estimator, *, coverage=0.9, cv=None, method="plus", confidence=0.6, adaptive=True
+    ):
+        self.estimator = estimator
+        self.coverage = coverage
+        self.cv = cv
+        self.method = method
+        self.confidence = confidence
+        self.adaptive = adaptive
+
+    # -- helpers ------------------------------------------------------------------------------
+
+    def _groups(self, X, groups, n_samples):
+        if groups is not None:
+            groups = np.asarray(groups)
+            if groups.ndim != 1 or groups.shape[0] != n_samples:
+                raise ValueError(
+                    f"groups must have one label per row of X: shape ({n_samples},), got "
+                    f"{groups.shape}."
+                )
+            return groups
+        position = _table.find_column(X, "run") if _table.frame_kind(X) else None
+        if position is not None:
+            return np.asarray(_table.column_at(X, position))
+        if self.cv is None:
+            raise ValueError(
+                "ConformalRegressor calibrates run by run: X has no 'run' column and groups "
+                "is None; pass groups= (the run of every row), or an explicit cv."
+            )
+        return None
+
+    def _splits(self, X, y, groups):
+        if self.cv is None:
+            cv = LeaveOneGroupOut()
+        elif isinstance(self.cv, numbers.Integral):
+            cv = GroupKFold(n_splits=self.cv) if groups is not None else KFold(self.cv)
+        else:
+            cv = check_cv(self.cv)
+        return list(cv.split(X, y, groups))
+
+    # -- fit / predict -------------------------------------------------------------------------
+
+    @_fit_context(
+        # The wrapped estimator validates its own parameters.
+        prefer_skip_nested_validation=False
+    )
+    def fit(self, X, y, groups=None):
+        """Fit the model on all rows and calibrate the bands on out-of-fold residuals.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_columns)
+            Training data, as ``estimator`` takes it (for the compensation pipeline a
+            thermal-test table with a ``run`` column).
+        y : array-like of shape (n_samples,)
+            Target (the drift, deg/h).
+        groups : array-like of shape (n_samples,), default=None
+            Group (run) of every row; None reads X's ``run`` column.
+
+        Returns
+        -------
+        self : object
+            Fitted estimator.
+        """
+        X = _check_input(self, X, reset=True)
+        y = column_or_1d(np.asarray(y), warn=True).astype(float, copy=False)
+        check_consistent_length(X, y)
+        n_samples = y.shape[0]
+        if not np.all(np.isfinite(y)):
+            raise ValueError("Input y contains NaN or infinity.")
+        groups = self._groups(X, groups, n_samples)
+        unit = groups if groups is not None else np.arange(n_samples)
+        n_groups = np.unique(unit).shape[0]
+        if n_groups < 2:
+            raise ValueError(
+                "ConformalRegressor needs at least two groups (runs) to calibrate on, got "
+                f"{n_groups}."
+            )
+        splits = self._splits(X, y, groups)
+        fold_of = np.full(n_samples, -1)
+        for k, (_, test) in enumerate(splits):
+            if np.any(fold_of[test] >= 0):
+                raise ValueError(f"cv puts row(s) in two test folds (fold {k}); use a partition.")
+            fold_of[test] = k
+        if np.any(fold_of < 0):
+            raise ValueError(
+                f"cv leaves {int(np.sum(fold_of < 0))} row(s) out of every test fold; every "
+                "row must be in exactly one test fold (e.g. GroupKFold, LeaveOneGroupOut)."
+            )
+        self.estimators_ = []
+        oof = np.empty(n_samples)
+        for train, test in splits:
+            model = clone(self.estimator).fit(_safe_indexing(X, train), y[train])
+            oof[test] = model.predict(_safe_indexing(X, test))
+            self.estimators_.append(model)
+        self.estimator_ = clone(self.estimator).fit(X, y)
+        self.oof_prediction_ = oof
+        residual = np.abs(y - oof)
+
+        if self.adaptive:
+            raw = self._raw_features(X)
+            self.feature_mean_ = raw.mean(axis=0)
+            scale = raw.std(axis=0)
+            self.feature_scale_ = np.where(scale > 0, scale, 1.0)
+            features = (raw - self.feature_mean_) / self.feature_scale_
+            sigma = np.empty(n_samples)
+            for k, (_, test) in enumerate(splits):
+                inside = fold_of != k
+                model, floor = _fit_difficulty(features[inside], residual[inside])
+                sigma[test] = _predict_difficulty(model, floor, features[test])
+            self.difficulty_, self.difficulty_floor_ = _fit_difficulty(features, residual)
+            self.difficulty_mean_ = float(np.mean(sigma))
+            sigma = _soften(sigma, self.difficulty_mean_)
+        else:
+            sigma = np.ones(n_samples)
+        scores = residual / sigma
+        self.scores_ = scores
+        self.score_groups_ = unit
+        labels, group_scores = run_quantile_scores(scores, unit, self.coverage)
+        first_row = {label: rows[0] for label, rows in _table.run_segments(unit, n_samples)}
+        self.groups_ = labels
+        self.group_scores_ = group_scores
+        self.group_fold_ = np.array([fold_of[first_row[label]] for label in labels])
+        self.quantile_ = float(conformal_quantile(group_scores, self.confidence))
+        return self
+
+    def _raw_features(self, X):
+        model = self.estimator_
+        if isinstance(model, Pipeline) and len(model.steps) > 1:
+            raw = model[:-1].transform(X)
+        else:
+            raw = _table.as_table(X) if _table.frame_kind(X) else X
+        raw = np.asarray(raw, dtype=float)
+        return raw[:, None] if raw.ndim == 1 else raw
+
+    def _scale(self, raw):
+        """The difficulty of rows with difficulty inputs ``raw`` (None when not adaptive)."""
+        if not self.adaptive:
+            return None
+        features = (raw - self.feature_mean_) / self.feature_scale_
+        sigma = _predict_difficulty(self.difficulty_, self.difficulty_floor_, features)
+        return _soften(sigma, self.difficulty_mean_)
+
+    def predict(self, X):
+        """Predict with the estimator fitted on all rows.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_columns)
+            Samples.
+
+        Returns
+        -------
+        y_pred : ndarray of shape (n_samples,)
+            Predicted target.
+        """
+        check_is_fitted(self)
+        X = _check_input(self, X, reset=False)
+        return np.asarray(self.estimator_.predict(X), dtype=float)
+
+    def predict_interval(self, X, *, coverage=None):
+        """Lower and upper bound of the band of every row.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_columns)
+            Samples.
+        coverage : float, default=None
+            Nominal coverage in (0, 1) of this band; None uses the ``coverage`` the model
+            was fitted with. Another value re-reads the stored out-of-fold scores (no refit).
+
+        Returns
+        -------
+        bounds : ndarray of shape (n_samples, 2)
+            Column 0 the lower bound, column 1 the upper bound (deg/h for a drift).
+        """
+        check_is_fitted(self)
+        X = _check_input(self, X, reset=False)
+        raw = self._raw_features(X) if self.adaptive else None
+        predictions = np.stack(
+            [np.asarray(model.predict(X), dtype=float) for model in self.estimators_]
+        )
+        return self._bounds(self.predict(X), predictions, raw, coverage)
+
+    def _bounds(self, centre, predictions, raw, coverage=None):
+        """The bounds from the full model's and the fold models' predictions.
+
+        ``raw`` is the difficulty model's input (the pipeline's features before its last
+        step), None when not adaptive. Used by :meth:`predict_interval` and by
+        :class:`~sklearn_ifog.streaming.StreamingCompensator`.
+        """
+        group_scores, quantile = self.group_scores_, self.quantile_
+        if coverage is not None:
+            if not (isinstance(coverage, numbers.Real) and 0.0 < coverage < 1.0):
+                raise ValueError(f"coverage must be a float in (0, 1), got {coverage!r}.")
+            _, group_scores = run_quantile_scores(self.scores_, self.score_groups_, coverage)
+            quantile = float(conformal_quantile(group_scores, self.confidence))
+        scale = self._scale(raw)
+        if scale is None:
+            scale = np.ones(centre.shape[0])
+        if self.method == "base":
+            half = scale * quantile
+            return np.column_stack([centre - half, centre + half])
+        if self.method == "minmax":
+            half = scale * quantile
+            return np.column_stack(
+                [predictions.min(axis=0) - half, predictions.max(axis=0) + half]
+            )
+        return plus_interval(predictions, scale, group_scores, self.group_fold_, self.confidence)
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.single_output = True
+        tags.target_tags.multi_output = False
+        return tags

@@ -1,0 +1,391 @@
+"""ConformalRegressor and the interval metrics: behaviour, invariants, errors."""
+
+import joblib
+import numpy as np
+import pandas as pd
+import pytest
+from sklearn.base import clone
+from sklearn.linear_model import LinearRegression, Ridge
+from sklearn.model_selection import GridSearchCV, GroupKFold, TimeSeriesSplit
+from sklearn.neighbors import KNeighborsRegressor
+from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import StandardScaler
+
+from sklearn_ifog import ConformalRegressor, RBFNetRegressor, make_compensation_pipeline
+from sklearn_ifog.conformal import conformal_quantile, plus_interval, run_quantile_scores
+from sklearn_ifog.datasets import make_thermal_campaign
+from sklearn_ifog.metrics import (
+    get_scorer,
+    interval_coverage,
+    interval_score,
+    mean_interval_width,
+)
+
+
+def _heteroscedastic(seed, n_runs=20, per_run=60):
+    """Runs whose noise grows with |x|; x drawn per run from a run-specific range."""
+    rng = np.random.RandomState(seed)
+    centre = rng.uniform(-2, 2, size=n_runs)
+    x = (centre[:, None] + rng.uniform(-0.5, 0.5, size=(n_runs, per_run))).ravel()
+    noise = (0.05 + 0.3 * np.abs(x)) * rng.normal(size=x.size)
+    y = 1.5 * x + noise
+    runs = np.repeat(np.arange(n_runs), per_run)
+    return x[:, None], y, runs
+
+
+# -- numerics ------------------------------------------------------------------------------
+
+
+def test_conformal_quantile_rank():
+    scores = np.arange(1.0, 10.0)  # 9 scores
+    # ceil(10 * 0.9) = 9: the largest
+    assert conformal_quantile(scores, 0.9) == 9.0
+    # ceil(10 * 0.5) = 5
+    assert conformal_quantile(scores, 0.5) == 5.0
+    # More than n needed: the largest is returned.
+    assert conformal_quantile(scores[:3], 0.99) == 3.0
+
+
+def test_run_quantile_scores_one_per_group_in_order():
+    labels, group_scores = run_quantile_scores(
+        [5.0, 1.0, 2.0, 3.0, 9.0], ["b", "a", "a", "a", "b"], 1.0
+    )
+    assert labels.tolist() == ["b", "a"]
+    assert group_scores.tolist() == [9.0, 3.0]
+
+
+def test_plus_interval_brackets_every_fold_prediction_with_zero_scores():
+    predictions = np.array([[0.0, 1.0], [2.0, 3.0]])
+    bounds = plus_interval(predictions, np.ones(2), np.zeros(2), np.array([0, 1]), 0.9)
+    np.testing.assert_allclose(bounds, [[0.0, 2.0], [1.0, 3.0]])
+
+
+# -- the estimator -------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("method", ["plus", "base", "minmax"])
+def test_bounds_ordered_and_contain_prediction(method):
+    X, y, runs = _heteroscedastic(0)
+    model = ConformalRegressor(LinearRegression(), method=method).fit(X, y, groups=runs)
+    bounds = model.predict_interval(X)
+    assert bounds.shape == (X.shape[0], 2)
+    assert np.all(bounds[:, 0] <= bounds[:, 1])
+    if method != "plus":  # CV+ centres on the fold models, not the full model
+        prediction = model.predict(X)
+        assert np.all((bounds[:, 0] <= prediction) & (prediction <= bounds[:, 1]))
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_adaptive_band_is_wider_where_the_noise_is(seed):
+    X, y, runs = _heteroscedastic(seed)
+    model = ConformalRegressor(LinearRegression()).fit(X, y, groups=runs)
+    grid = np.array([[0.0], [2.0]])
+    width = np.diff(model.predict_interval(grid), axis=1).ravel()
+    # noise sd 0.05 at x=0, 0.65 at x=2; the band follows the square root of the
+    # difficulty, floored (see the module notes), so the ratio is damped but clear.
+    assert width[1] > 1.3 * width[0]
+    flat = ConformalRegressor(LinearRegression(), adaptive=False).fit(X, y, groups=runs)
+    flat_width = np.diff(flat.predict_interval(grid), axis=1).ravel()
+    assert flat_width[1] == pytest.approx(flat_width[0], rel=0.2)
+
+
+def test_held_out_run_coverage_every_seed():
+    """On 10 seeds, new runs from the same process: pooled coverage near nominal."""
+    coverages = []
+    for seed in range(10):
+        X, y, runs = _heteroscedastic(seed, n_runs=30)
+        train = runs < 20
+        model = ConformalRegressor(LinearRegression(), cv=5).fit(
+            X[train], y[train], groups=runs[train]
+        )
+        coverages.append(interval_coverage(y[~train], model.predict_interval(X[~train])))
+    assert np.mean(coverages) >= 0.85
+    assert min(coverages) >= 0.7
+
+
+def test_run_column_of_a_dataframe_is_the_default_group():
+    X, y, runs = _heteroscedastic(1)
+    frame = pd.DataFrame({"x": X[:, 0], "run": runs})
+    pipe = make_pipeline(StandardScaler(), LinearRegression())
+    by_column = ConformalRegressor(pipe, cv=4).fit(frame, y)
+    by_groups = ConformalRegressor(pipe, cv=4).fit(frame, y, groups=runs)
+    np.testing.assert_array_equal(by_column.groups_, by_groups.groups_)
+    np.testing.assert_allclose(
+        by_column.predict_interval(frame), by_groups.predict_interval(frame)
+    )
+    assert by_column.groups_.shape == (20,)
+
+
+def test_default_cv_is_one_fold_per_run():
+    X, y, runs = _heteroscedastic(2, n_runs=6)
+    model = ConformalRegressor(LinearRegression()).fit(X, y, groups=runs)
+    assert len(model.estimators_) == 6
+    assert sorted(model.group_fold_.tolist()) == list(range(6))
+
+
+def test_compensation_pipeline_on_a_campaign():
+    X, y = make_thermal_campaign(
+        n_units=1,
+        n_runs=2,
+        azimuths=(0.0, 90.0, 180.0),
+        sampling_period=300.0,
+        random_state=0,
+        return_X_y=True,
+    )
+    model = ConformalRegressor(make_compensation_pipeline(Ridge()), cv=3).fit(X, y)
+    bounds = model.predict_interval(X)
+    assert bounds.shape == (len(y), 2)
+    assert np.all(bounds[:, 1] > bounds[:, 0])
+    assert model.groups_.size == X["run"].nunique()
+
+
+def test_clone_params_gridsearch_and_joblib(tmp_path):
+    x, y, runs = _heteroscedastic(3)
+    # The run travels inside X (GridSearchCV does not route groups to fit).
+    X = pd.DataFrame({"x": x[:, 0], "run": runs})
+    model = ConformalRegressor(make_pipeline(StandardScaler(), Ridge()), cv=GroupKFold(4))
+    params = model.get_params()
+    assert "estimator__ridge__alpha" in params
+    assert clone(model).get_params()["coverage"] == 0.9
+    search = GridSearchCV(
+        model,
+        {"estimator__ridge__alpha": [0.1, 10.0]},
+        cv=GroupKFold(3),
+        scoring="neg_mean_squared_error",
+    ).fit(X, y, groups=runs)
+    assert search.best_params_["estimator__ridge__alpha"] in (0.1, 10.0)
+    fitted = model.fit(X, y, groups=runs)
+    path = tmp_path / "model.joblib"
+    joblib.dump(fitted, path)
+    np.testing.assert_array_equal(
+        joblib.load(path).predict_interval(X), fitted.predict_interval(X)
+    )
+
+
+@pytest.mark.parametrize("coverage", [0.0, 1.0, 1.5, -0.1])
+def test_bad_coverage(coverage):
+    X, y, runs = _heteroscedastic(0)
+    with pytest.raises(ValueError, match="coverage"):
+        ConformalRegressor(LinearRegression(), coverage=coverage).fit(X, y, groups=runs)
+
+
+def test_bad_groups():
+    X, y, runs = _heteroscedastic(0)
+    with pytest.raises(ValueError, match="at least two groups"):
+        ConformalRegressor(LinearRegression()).fit(X, y, groups=np.zeros(len(y)))
+    with pytest.raises(ValueError, match="one label per row"):
+        ConformalRegressor(LinearRegression()).fit(X, y, groups=runs[:-1])
+    with pytest.raises(ValueError, match="no 'run' column"):
+        ConformalRegressor(LinearRegression()).fit(X, y)
+    with pytest.raises(ValueError, match="out of every test fold"):
+        ConformalRegressor(LinearRegression(), cv=TimeSeriesSplit(3)).fit(X, y, groups=runs)
+
+
+def test_scorers():
+    X, y, runs = _heteroscedastic(4)
+    model = ConformalRegressor(LinearRegression(), cv=4).fit(X, y, groups=runs)
+    bounds = model.predict_interval(X)
+    assert get_scorer("interval_coverage")(model, X, y) == interval_coverage(y, bounds)
+    assert get_scorer("neg_mean_interval_width")(model, X, y) == -mean_interval_width(bounds)
+    assert get_scorer("neg_interval_score")(model, X, y) == -interval_score(
+        y, bounds, coverage=0.9
+    )
+
+
+# -- metrics -------------------------------------------------------------------------------
+
+
+def test_interval_metrics_values():
+    y = np.array([0.0, 1.0, 4.0, -3.0])
+    bounds = np.array([[-1.0, 1.0], [1.0, 2.0], [0.0, 2.0], [-2.0, 0.0]])
+    assert interval_coverage(y, bounds) == 0.5
+    assert mean_interval_width(bounds) == 1.75
+    # misses: y=4 above 2 by 2, y=-3 below -2 by 1; alpha = 0.2 -> penalty 10 per unit
+    assert interval_score(y, bounds, coverage=0.8) == pytest.approx(1.75 + (20 + 10) / 4)
+
+
+def test_interval_score_is_minimised_by_the_true_quantiles():
+    rng = np.random.RandomState(0)
+    y = rng.normal(size=200_000)
+    true = np.tile([-1.6449, 1.6449], (y.size, 1))
+    assert interval_score(y, true) < interval_score(y, 0.8 * true)
+    assert interval_score(y, true) < interval_score(y, 1.25 * true)
+
+
+def test_interval_metric_errors():
+    with pytest.raises(ValueError, match=r"shape \(n_samples, 2\)"):
+        interval_coverage([0.0, 1.0], [0.0, 1.0])
+    with pytest.raises(ValueError, match="rows"):
+        interval_coverage([0.0, 1.0], [[0.0, 1.0]])
+    with pytest.raises(ValueError, match="coverage"):
+        interval_score([0.0], [[0.0, 1.0]], coverage=1.0)
+
+
+def test_compare_regressors_reports_coverage_and_width():
+    from sklearn_ifog.model_selection import compare_regressors
+
+    x, y, runs = _heteroscedastic(5, n_runs=12)
+    X = pd.DataFrame({"x": x[:, 0], "run": runs})
+    pipe = make_pipeline(StandardScaler(), LinearRegression())
+    summary, folds = compare_regressors(
+        X,
+        y,
+        regressors={"plain": pipe, "conformal": ConformalRegressor(pipe, cv=4)},
+        cv=3,
+        return_folds=True,
+    )
+    assert np.isnan(summary.loc["plain", "coverage"])
+    row = summary.loc["conformal"]
+    conformal_folds = folds[folds["model"] == "conformal"]
+    assert row["coverage"] == pytest.approx(conformal_folds["coverage"].mean())
+    assert row["worst_fold_coverage"] == conformal_folds["coverage"].min()
+    assert 0.5 < row["coverage"] <= 1.0
+    assert row["width"] > 0
+    assert row["interval_score"] >= row["width"]
+
+
+def test_report_table_has_per_run_coverage(tmp_path):
+    pytest.importorskip("matplotlib")
+    from sklearn_ifog.report import compensation_report
+
+    time = np.tile(np.arange(0.0, 600.0, 1.0), 2)
+    run = np.repeat(["a", "b"], 600)
+    drift = 0.01 * time
+    reference = 15.0
+    rate = reference + drift
+    # run a: band always holds the drift; run b: band misses the second half
+    interval = np.column_stack([drift - 1.0, drift + 1.0])
+    interval[900:] += 5.0
+    result = compensation_report(
+        tmp_path,
+        rate=rate,
+        drift=drift,
+        reference=reference,
+        temperature=20.0 + 0 * time,
+        time=time,
+        run=run,
+        interval=interval,
+    )
+    table = result.table
+    assert table.loc["a", "coverage"] == 1.0
+    assert table.loc["b", "coverage"] == 0.5
+    assert table.loc["(all runs)", "coverage"] == 0.75
+    assert table.loc["a", "width"] == pytest.approx(2.0)
+    with pytest.raises(ValueError, match="interval has shape"):
+        compensation_report(
+            tmp_path,
+            rate=rate,
+            drift=drift,
+            reference=reference,
+            temperature=20.0 + 0 * time,
+            interval=interval[:10],
+        )
+
+
+def test_streaming_carries_the_interval():
+    from sklearn_ifog.streaming import StreamingCompensator
+
+    X, y = make_thermal_campaign(
+        n_units=1,
+        n_runs=2,
+        azimuths=(0.0, 90.0, 180.0),
+        sampling_period=300.0,
+        random_state=2,
+        return_X_y=True,
+    )
+    model = ConformalRegressor(make_compensation_pipeline(Ridge()), cv=3).fit(X, y)
+    first = X[X["run"] == X["run"].iloc[0]]
+    batch = model.predict_interval(first)
+    compensator = StreamingCompensator(model)
+    chunks = []
+    for start in range(0, len(first), 7):
+        compensator.update(first.iloc[start : start + 7])
+        chunks.append(compensator.last_interval)
+    np.testing.assert_allclose(np.concatenate(chunks), batch, rtol=1e-9, atol=1e-9)
+    compensator.reset()
+    row = first.iloc[0]
+    compensator.step(row["time"], row["temperature"], run=row["run"])
+    np.testing.assert_allclose(compensator.last_interval, batch[:1], rtol=1e-9, atol=1e-9)
+    plain = StreamingCompensator(model.estimator_)
+    plain.update(first)
+    assert plain.last_interval is None
+
+
+@pytest.mark.parametrize(
+    ("regressor", "compiled"),
+    [
+        (Ridge(), True),
+        (RBFNetRegressor(n_centers=8, tail="linear", random_state=0), True),
+        (KNeighborsRegressor(n_neighbors=5), False),
+    ],
+    ids=["ridge", "rbf", "knn-not-compiled"],
+)
+@pytest.mark.parametrize("method", ["plus", "base", "minmax"])
+def test_streaming_interval_step_by_step_and_in_chunks(regressor, compiled, method):
+    # The compiled fast path (issue 13) and the band (issue 14) together: every sample's
+    # band, given step by step or in chunks, is the batch predict_interval's.
+    from sklearn_ifog.streaming import StreamingCompensator
+
+    X, y = make_thermal_campaign(
+        n_units=1,
+        n_runs=2,
+        azimuths=(0.0, 90.0, 180.0),
+        sampling_period=300.0,
+        random_state=3,
+        return_X_y=True,
+    )
+    model = ConformalRegressor(make_compensation_pipeline(regressor), cv=3, method=method)
+    model.fit(X, y)
+    first = X[X["run"] == X["run"].iloc[0]]
+    batch = model.predict_interval(first)
+    drift = model.predict(first)
+    assert np.all(batch[:, 1] > batch[:, 0])
+
+    stepper = StreamingCompensator(model)
+    assert stepper.compiled is compiled
+    assert (stepper._fold_compiled is not None) is compiled  # the fold models too
+    bands, drifts = [], []
+    rows = zip(first["time"], first["temperature"], first["run"], strict=True)
+    for time, temperature, run in rows:
+        drifts.append(stepper.step(time, temperature, run=run)[1])
+        assert stepper.last_interval.shape == (1, 2)
+        bands.append(stepper.last_interval)
+    np.testing.assert_allclose(drifts, drift, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(np.concatenate(bands), batch, rtol=1e-9, atol=1e-9)
+
+    chunker = StreamingCompensator(model)
+    bands = []
+    for start in range(0, len(first), 11):
+        chunker.update(first.iloc[start : start + 11])
+        bands.append(chunker.last_interval)
+    np.testing.assert_allclose(np.concatenate(bands), batch, rtol=1e-9, atol=1e-9)
+
+    # Restored mid-run from a saved state, the band continues as in batch.
+    half = len(first) // 2
+    saved = StreamingCompensator(model)
+    saved.update(first.iloc[:half])
+    restored = StreamingCompensator(model).set_state(saved.get_state())
+    restored.update(first.iloc[half:])
+    np.testing.assert_allclose(restored.last_interval, batch[half:], rtol=1e-9, atol=1e-9)
+
+    # A call that raises leaves the last band as it was.
+    before = restored.last_interval.copy()
+    with pytest.raises(ValueError, match="temperature"):
+        restored.step(first["time"].iloc[-1] + 300.0, np.nan)
+    np.testing.assert_array_equal(restored.last_interval, before)
+
+
+@pytest.mark.parametrize("adapt", ["bias", "output"])
+def test_streaming_refuses_adaptation_of_a_conformal_regressor(adapt):
+    from sklearn_ifog.streaming import StreamingCompensator
+
+    X, y = make_thermal_campaign(
+        n_units=1, n_runs=1, sampling_period=300.0, random_state=0, return_X_y=True
+    )
+    model = ConformalRegressor(make_compensation_pipeline(Ridge()), cv=3).fit(X, y)
+    with pytest.raises(ValueError, match=f"adapt='{adapt}' is not available with a Conformal"):
+        StreamingCompensator(model, adapt=adapt)
+    # The wrapped, fitted pipeline itself recalibrates (without a band).
+    compensator = StreamingCompensator(model.estimator_, adapt=adapt)
+    assert compensator.adapt == adapt
+    assert compensator.last_interval is None
