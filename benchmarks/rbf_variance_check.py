@@ -1,0 +1,169 @@
+"""Where the held-out excess of the thermal-state models comes from: bias or variance.
+
+Issue 12 asks the default RBF network to leave at most 0.8x the excess (MSD over the noise
+floor) of the best baseline on the thermal-state features. Before changing the network,
+this diagnostic measures what limits every model there, on the campaigns and folds of
+``bench_thermal_state.py`` (leave one azimuth out; features
+``ThermalFeatures(time="time", run="run")``, the package default):
+
+- **representation**: a polynomial of degree 1, 2 or 3 in the features, fitted to the
+  held-out fold's own true drift (no noise, in sample): what the features can express;
+- **estimation**: the same polynomials fitted on the training folds' noisy rates and scored
+  on the held-out fold's true drift, with ridge penalties from 1e-3 (the benchmark's
+  ``poly2 Ridge``) to 1e3 on standardised monomials.
+
+Each number is the pooled thermal residual ``sum((predicted - drift)^2) / sum(floor)`` over
+the folds and seeds of one (physics, sample period). A representation residual far below
+the estimation residual says the excess is estimation variance (fitting slowly varying
+gyro noise through slowly varying features), which a better-regularised output layer
+removes, not a more flexible one. No targets: a diagnostic (always exits 0 when it ran).
+
+Run::
+
+    python benchmarks/rbf_variance_check.py --n-jobs 2
+
+``--quick``: one seed, 60 s samples, the lumped and layered presets.
+Writes ``benchmarks/results/rbf_variance[_quick].md`` and ``.json``.
+"""
+
+import argparse
+import itertools
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from joblib import Parallel, delayed
+from sklearn.linear_model import Ridge
+from sklearn.pipeline import Pipeline
+from sklearn.preprocessing import PolynomialFeatures, StandardScaler
+
+from sklearn_ifog import ThermalFeatures
+from sklearn_ifog._io import write_text_files
+from sklearn_ifog.datasets import make_thermal_campaign, noise_floor
+from sklearn_ifog.model_selection import LeaveOneAzimuthOut
+
+RESULTS = Path(__file__).parent / "results"
+PHYSICS = ("lumped", "layered", "layered_glass")
+FULL = {"n_units": 1, "n_runs": 3, "azimuths": (0.0, 90.0, 180.0, 270.0)}
+RIDGE_ALPHAS = (1e-3, 1.0, 10.0, 100.0, 1000.0)
+
+
+def polynomial(degree, alpha):
+    return Pipeline(
+        [
+            ("scale", StandardScaler()),
+            ("poly", PolynomialFeatures(degree, include_bias=False)),
+            ("scale_monomials", StandardScaler()),
+            ("ridge", Ridge(alpha)),
+        ]
+    )
+
+
+def _campaign_rows(seed, physics, period):
+    campaign = make_thermal_campaign(
+        **FULL,
+        profile="mix",
+        sampling_period=period,
+        physics=physics,
+        random_state=seed,
+    )
+    X, y = campaign.data, np.asarray(campaign.target)
+    drift = campaign.frame["drift"].to_numpy()
+    rows = []
+    for fold, (train, test) in enumerate(LeaveOneAzimuthOut().split(X)):
+        features = ThermalFeatures(time="time", run="run")
+        F_train = features.fit_transform(X.iloc[train])
+        F_test = features.transform(X.iloc[test])
+        record = {
+            "seed": seed,
+            "physics": physics,
+            "period": period,
+            "fold": fold,
+            "n_test": int(test.size),
+            "floor": noise_floor(campaign.frame, test),
+            "residual": {},
+        }
+        for degree in (1, 2, 3):
+            fitted = polynomial(degree, 1e-9).fit(F_test, drift[test])
+            error = fitted.predict(F_test) - drift[test]
+            record["residual"][f"in-sample poly{degree}"] = float(np.mean(np.square(error)))
+        for alpha in RIDGE_ALPHAS:
+            fitted = polynomial(2, alpha).fit(F_train, y[train])
+            error = fitted.predict(F_test) - drift[test]
+            record["residual"][f"poly2 Ridge({alpha:g})"] = float(np.mean(np.square(error)))
+        rows.append(record)
+    return rows
+
+
+def summarize(records):
+    groups = {}
+    for record in records:
+        groups.setdefault((record["physics"], record["period"]), []).append(record)
+    summary = {}
+    for (physics, period), group in sorted(groups.items()):
+        floor = sum(r["floor"] * r["n_test"] for r in group)
+        names = list(group[0]["residual"])
+        summary[f"{physics}|{period:g}"] = {
+            name: sum(r["residual"][name] * r["n_test"] for r in group) / floor for name in names
+        }
+    return summary
+
+
+def markdown(summary, command, seconds):
+    names = list(next(iter(summary.values())))
+    lines = [
+        "# Held-out excess of the thermal-state features: representation or estimation",
+        "",
+        f"Command: `{command}` ({seconds / 60:.1f} min)",
+        "",
+        "Pooled thermal residual sum((predicted - true drift)^2) / sum(noise floor) over the "
+        "leave-one-azimuth-out folds and seeds. 'in-sample polyN': fitted to the held-out "
+        "fold's own true drift (what the features can represent); 'poly2 Ridge(a)': fitted "
+        "on the training folds' noisy rates, ridge penalty a on standardised monomials.",
+        "",
+        "| physics, period | " + " | ".join(names) + " |",
+        "|---|" + "---|" * len(names),
+    ]
+    for key, values in summary.items():
+        physics, period = key.split("|")
+        lines.append(
+            f"| {physics}, {period} s | " + " | ".join(f"{values[n]:.4f}" for n in names) + " |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="CI mode: small and fast")
+    parser.add_argument("--n-jobs", type=int, default=1)
+    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
+    args = parser.parse_args(argv)
+    if args.quick:
+        tasks = list(itertools.product([0], ("lumped", "layered"), [60.0]))
+    else:
+        tasks = list(itertools.product([0, 1, 2], PHYSICS, [10.0, 60.0]))
+    started = time.perf_counter()
+    chunks = Parallel(n_jobs=args.n_jobs)(delayed(_campaign_rows)(*task) for task in tasks)
+    records = [record for chunk in chunks for record in chunk]
+    seconds = time.perf_counter() - started
+    summary = summarize(records)
+    command = "python benchmarks/rbf_variance_check.py" + (" --quick" if args.quick else "")
+    text = markdown(summary, command, seconds)
+    stem = "rbf_variance_quick" if args.quick else "rbf_variance"
+    args.out.mkdir(parents=True, exist_ok=True)
+    write_text_files(
+        {
+            args.out / f"{stem}.md": text,
+            args.out / f"{stem}.json": json.dumps(
+                {"command": command, "summary": summary, "records": records}, indent=1
+            ),
+        }
+    )
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
