@@ -16,6 +16,8 @@ the scale of the columns. ``lam = 0`` is the unit's own least-squares weights on
 basis, ``lam = inf`` the lot's weights.
 """
 
+from itertools import pairwise
+
 import numpy as np
 
 __all__ = [
@@ -139,7 +141,7 @@ def cv_folds(runs, n_blocks=SINGLE_RUN_BLOCKS):
     >>> [mask.astype(int).tolist() for mask in cv_folds(np.array([0, 0, 1, 1]))]
     [[1, 1, 0, 0], [0, 0, 1, 1]]
     >>> [int(mask.sum()) for mask in cv_folds(np.zeros(10), n_blocks=4)]
-    [3, 2, 3, 2]
+    [2, 3, 3, 2]
     """
     labels = np.unique(runs)
     if labels.size >= 2:
@@ -147,7 +149,7 @@ def cv_folds(runs, n_blocks=SINGLE_RUN_BLOCKS):
     n_samples = runs.shape[0]
     edges = np.linspace(0, n_samples, min(n_blocks, n_samples) + 1).round().astype(int)
     positions = np.arange(n_samples)
-    return [(positions >= low) & (positions < high) for low, high in zip(edges[:-1], edges[1:])]
+    return [(positions >= low) & (positions < high) for low, high in pairwise(edges)]
 
 
 def lot_statistics(Phi, Y, prior):
