@@ -54,7 +54,7 @@ N_RUNS = 6
 N_TEST = 2
 CALIBRATION_RUNS = (1, 2, 4)
 LOT_SPREAD = 0.15
-SAMPLING_PERIOD = 120.0
+SAMPLING_PERIOD = 300.0
 POOLINGS = ("none", "full", "partial")
 SKLEGO_SHRINKAGE = ("relative", "equal", "constant")
 # "constant" shrinkage needs its weight of the unit's own model against the lot's.

@@ -55,12 +55,15 @@ def _unit_rows(lot, unit):
 def test_none_fits_each_unit_alone(lot):
     X, y = lot.data, lot.target.to_numpy()
     model = UnitwiseRegressor(_linear(), pooling="none").fit(X, y)
-    assert model.lot_estimator_ is None and model.shrinkage_ is None
+    assert model.lot_estimator_ is None
+    assert model.shrinkage_ is None
     prediction = model.predict(X)
     for unit in range(4):
         rows = _unit_rows(lot, unit)
         alone = _linear().fit(X[rows].drop(columns="unit"), y[rows])
-        np.testing.assert_array_equal(prediction[rows], alone.predict(X[rows].drop(columns="unit")))
+        np.testing.assert_array_equal(
+            prediction[rows], alone.predict(X[rows].drop(columns="unit"))
+        )
 
 
 def test_full_is_one_model_for_the_lot(lot):
@@ -195,7 +198,7 @@ def test_arrays_and_polars_give_the_pandas_result(lot):
 
 def test_missing_unit_column_is_named(lot):
     X, y = lot.data.drop(columns="unit"), lot.target
-    with pytest.raises(ValueError, match="Column 'unit' \\(unit\\) not found"):
+    with pytest.raises(ValueError, match=r"Column 'unit' \(unit\) not found"):
         UnitwiseRegressor(_linear()).fit(X, y)
     model = UnitwiseRegressor(_linear(), pooling="none").fit(lot.data, y)
     with pytest.raises(ValueError, match="unit"):
@@ -206,7 +209,7 @@ def test_unknown_unit_at_predict_is_named(lot):
     model = UnitwiseRegressor(_linear(), pooling="full").fit(lot.data, lot.target)
     X = lot.data.copy()
     X.loc[X.index[5:], "unit"] = 42
-    with pytest.raises(ValueError, match="unit 42 .*not seen in fit.*\\[0, 1, 2, 3\\]"):
+    with pytest.raises(ValueError, match=r"unit 42 .*not seen in fit.*\[0, 1, 2, 3\]"):
         model.predict(X)
 
 
@@ -226,7 +229,7 @@ def test_partial_needs_a_linear_output_layer(lot):
 def test_partial_names_a_missing_run_column(lot):
     X = lot.data.rename(columns={"run": "recording"})
     estimator = make_compensation_pipeline(LinearRegression(), run="recording")
-    with pytest.raises(ValueError, match="Column 'run' \\(run\\) not found.*run=None"):
+    with pytest.raises(ValueError, match=r"Column 'run' \(run\) not found.*run=None"):
         UnitwiseRegressor(estimator, pooling="partial").fit(X, lot.target)
     model = UnitwiseRegressor(estimator, pooling="partial", run="recording").fit(X, lot.target)
     assert set(model.n_folds_.values()) == {3}
@@ -243,7 +246,9 @@ def test_a_failing_unit_is_named(lot):
 def test_clone_and_params():
     model = UnitwiseRegressor(_linear(), unit="gyro", pooling="none", run=None)
     copy = clone(model)
-    assert copy.get_params()["unit"] == "gyro" and copy.pooling == "none" and copy.run is None
+    assert copy.get_params()["unit"] == "gyro"
+    assert copy.pooling == "none"
+    assert copy.run is None
 
 
 # -- numerics ---------------------------------------------------------------------------------
