@@ -10,6 +10,7 @@ READING_ORDER = (
     "plot_grid_search_azimuths.py",
     "plot_baselines.py",
     "plot_allan_deviation.py",
+    "plot_production_lot.py",
     "plot_paper_experiments.py",
     "plot_real_recording.py",
 )

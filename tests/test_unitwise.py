@@ -289,3 +289,40 @@ def test_cv_folds_cover_every_row_once():
     for runs in (np.repeat([4, 7, 9], [3, 5, 2]), np.zeros(13, dtype=int)):
         folds = shrinkage.cv_folds(runs)
         np.testing.assert_array_equal(np.sum(folds, axis=0), np.ones(runs.size))
+
+
+@pytest.mark.parametrize("suffix", [".joblib", ".skops"])
+def test_save_and_load_give_the_same_predictions(lot, tmp_path, suffix):
+    from sklearn_ifog import load_model, save_model
+
+    model = UnitwiseRegressor(_rbf(), pooling="partial").fit(lot.data, lot.target)
+    path = tmp_path / f"lot{suffix}"
+    save_model(model, path)
+    loaded = load_model(path)
+    np.testing.assert_array_equal(loaded.predict(lot.data), model.predict(lot.data))
+    assert loaded.shrinkage_ == model.shrinkage_
+
+
+def test_compare_regressors_by_unit_scores_each_unit(lot):
+    from sklearn_ifog.model_selection import LeaveOneRunOut, compare_regressors
+
+    X, y = lot.data, lot.target.to_numpy()
+    model = UnitwiseRegressor(_linear(), pooling="none")
+    summary, folds = compare_regressors(
+        X,
+        y,
+        regressors={"none": model},
+        cv=LeaveOneRunOut(within_unit=True),
+        by="unit",
+        return_folds=True,
+    )
+    assert summary.index.names == ["model", "unit"]
+    assert summary.loc[("none", 2), "n_folds"] == 3
+    # unit 2's mean over its folds, computed by hand
+    errors = []
+    for run in lot.frame.loc[lot.frame.unit == 2, "run"].unique():
+        test = (lot.frame.run == run).to_numpy()
+        fitted = clone(model).fit(X[~test], y[~test])
+        errors.append(np.mean((y[test] - fitted.predict(X[test])) ** 2))
+    np.testing.assert_allclose(summary.loc[("none", 2), "msd_after"], np.mean(errors))
+    assert set(folds["group"]) == {0, 1, 2, 3}
