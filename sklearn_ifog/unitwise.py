@@ -350,6 +350,10 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         self : UnitwiseRegressor
             Fitted.
         """
+        if y is None:
+            raise ValueError(
+                f"{type(self).__name__} requires y to be passed, but the target y is None."
+            )
         X_inner, units, X = self._split_unit(X, reset=True)
         y = check_array(y, ensure_2d=False, dtype=np.float64, input_name="y")
         check_consistent_length(X, y)
@@ -436,9 +440,11 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         known = set(self.estimators_)
         for unit in present:
             if _label(unit) not in known:
+                fitted = [_label(u) for u in self.units_[:10]]
+                more = "" if self.units_.size <= 10 else f" and {self.units_.size - 10} more"
                 raise ValueError(
                     f"unit {_label(unit)!r} (column {self.unit!r} of X) was not seen in fit; "
-                    f"the fitted units are {[_label(u) for u in self.units_]}."
+                    f"the fitted units are {fitted}{more}."
                 )
         output = None
         for unit in present:
