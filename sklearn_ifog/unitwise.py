@@ -181,7 +181,9 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
       strength is chosen per unit by cross-validation over its runs (one run held out at a
       time), so a unit calibrated on one or two runs borrows what the lot knows and a unit
       unlike the lot keeps its own weights. Everything before the output layer (feature
-      step, scaler, the network's centres and widths) is the lot model's.
+      step, scaler, the network's centres and widths) is the lot model's; the unit's own
+      model (as with ``"none"``, its own centres and widths) is a further candidate of the
+      same cross-validation, kept when it beats every shrinkage.
 
     Parameters
     ----------
@@ -216,11 +218,15 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         The model fitted on the whole lot (None with ``"none"``).
     shrinkage_ : dict or None
         ``"partial"``: unit -> chosen strength ``lam`` (0: own weights on the lot's basis,
-        ``inf``: the lot's weights; the same for every unit with a single run); None
-        otherwise.
+        ``inf``: the lot's weights; the same for every unit with a single run; None where
+        the unit's own model was kept); None otherwise.
     shrinkage_scores_ : dict or None
         ``"partial"``: unit -> held-out mean squared error of every strength of
         ``shrinkage_grid_`` on the unit's own folds; None otherwise.
+    own_scores_ : dict or None
+        ``"partial"``: unit -> held-out mean squared error of the unit's own model on the
+        same held-out runs (None for a unit with a single run: it is not a candidate
+        there); None otherwise.
     shrinkage_grid_ : ndarray or None
         ``"partial"``: the strengths tried, increasing; None otherwise.
     n_folds_ : dict or None
@@ -255,6 +261,13 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     noisy choice, one strength is chosen for all single-run units from the sum of their
     held-out errors (a lot-level choice; per unit it was measurably worse on the similar
     lot of ``benchmarks/bench_unitwise.py``).
+
+    A unit with two runs or more also tries its own model, fitted as with ``"none"`` on
+    its other runs and scored on the same held-out runs: for a model whose basis is learnt
+    (the RBF network's centres and widths), a unit unlike the lot, or with enough runs, is
+    better served by its own basis than by any weights on the lot's. This costs one fit of
+    ``estimator`` per held-out run. With a single run the own model is not tried: held-out
+    blocks of one run favour a unit's own fit, as they did for the strength above.
     ``benchmarks/bench_unitwise.py`` measures the three poolings on simulated lots.
 
     Examples
@@ -363,7 +376,8 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         self.units_ = np.unique(units)
         rows = {_label(unit): np.flatnonzero(units == unit) for unit in self.units_}
         self.lot_estimator_ = None
-        self.shrinkage_ = self.shrinkage_scores_ = self.shrinkage_grid_ = self.n_folds_ = None
+        self.shrinkage_ = self.shrinkage_scores_ = self.shrinkage_grid_ = None
+        self.n_folds_ = self.own_scores_ = None
         if self.pooling == "none":
             self.estimators_ = {
                 unit: self._fit_unit(unit, X_inner, y, index) for unit, index in rows.items()
@@ -395,26 +409,55 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         grid = _shrinkage.SHRINKAGE_GRID
         self.shrinkage_grid_ = grid.copy()
         self.estimators_, self.shrinkage_, self.shrinkage_scores_, self.n_folds_ = {}, {}, {}, {}
+        self.own_scores_ = {}
         single = {}  # units with one run: their strength is chosen for the lot
         for unit, index in rows.items():
             folds = _shrinkage.cv_folds(runs[index])
             strength, scores = _shrinkage.choose_shrinkage(
                 Phi[index], Y[index], prior, scale, folds, grid, lot=lot_sums
             )
-            if np.unique(runs[index]).size < 2:
-                single[unit] = index.size
             self.shrinkage_[unit] = strength
             self.shrinkage_scores_[unit] = scores
             self.n_folds_[unit] = len(folds)
+            if np.unique(runs[index]).size < 2:
+                single[unit] = index.size
+                self.own_scores_[unit] = None
+            else:
+                self.own_scores_[unit] = self._own_score(X_inner, y, index, folds)
         if single:
             total = sum(self.shrinkage_scores_[unit] * size for unit, size in single.items())
             shared = _shrinkage.pick_strength(total, grid)
             self.shrinkage_.update(dict.fromkeys(single, shared))
         for unit, index in rows.items():
+            own = self.own_scores_[unit]
+            if own is not None and own < np.nanmin(self.shrinkage_scores_[unit]):
+                # the unit's own model beats every shrinkage of the lot's output layer
+                self.shrinkage_[unit] = None
+                self.estimators_[unit] = self._fit_unit(unit, X_inner, y, index)
+                continue
             (weights,) = _shrinkage.solve_shrunk(
                 Phi[index], Y[index], prior, scale, [self.shrinkage_[unit]]
             )
             self.estimators_[unit] = _with_weights(lot, weights)
+
+    def _own_score(self, X_inner, y, index, folds):
+        """Held-out mean squared error of the unit's own model, fitted fold by fold."""
+        sse, n_held = 0.0, 0
+        for test in folds:
+            try:
+                model = clone(self.estimator).fit(
+                    _safe_indexing(X_inner, index[~test]), y[index[~test]]
+                )
+            except ValueError:  # e.g. too few rows for the model: not a candidate
+                return np.inf
+            prediction = np.asarray(
+                model.predict(_safe_indexing(X_inner, index[test])), dtype=np.float64
+            )
+            sse += float(
+                np.square(y[index[test]] - prediction.reshape(y[index[test]].shape)).sum()
+            )
+            n_held += y[index[test]].size
+        return sse / n_held
 
     def predict(self, X):
         """Predict every row with the model of its unit.

@@ -107,7 +107,9 @@ def test_partial_keeps_the_lot_basis_and_predicts_with_its_own_weights(lot, make
     model = UnitwiseRegressor(make(), pooling="partial").fit(X, y)
     lot_final = model.lot_estimator_.steps[-1][1]
     prediction = model.predict(X)
-    for unit in range(4):
+    shrunk = [unit for unit in range(4) if model.shrinkage_[unit] is not None]
+    assert shrunk  # a lot of similar units: the lot's layer serves some of them
+    for unit in shrunk:
         rows = _unit_rows(lot, unit)
         estimator = model.estimators_[unit]
         final = estimator.steps[-1][1]
@@ -119,6 +121,7 @@ def test_partial_keeps_the_lot_basis_and_predicts_with_its_own_weights(lot, make
         np.testing.assert_allclose(prediction[rows], (Phi @ W)[:, 0], rtol=1e-9, atol=1e-12)
         assert model.n_folds_[unit] == 3  # one held-out run at a time
         assert model.shrinkage_[unit] in model.shrinkage_grid_
+        assert model.own_scores_[unit] >= np.nanmin(model.shrinkage_scores_[unit])
     # the lot model is left untouched by the per-unit copies
     assert model.lot_estimator_.steps[-1][1] is lot_final
 
@@ -145,7 +148,8 @@ def test_partial_lets_a_unit_unlike_the_lot_keep_its_own_weights(lot):
     model = UnitwiseRegressor(_linear(), pooling="partial").fit(X, y)
     none = UnitwiseRegressor(_linear(), pooling="none").fit(X, y)
     full = UnitwiseRegressor(_linear(), pooling="full").fit(X, y)
-    assert model.shrinkage_[2] < 1e-2
+    # its own weights on the lot's basis, or its own model altogether
+    assert model.shrinkage_[2] is None or model.shrinkage_[2] < 1e-2
     msd = {
         name: np.mean((y[odd] - m.predict(X[odd])) ** 2)
         for name, m in (("partial", model), ("none", none), ("full", full))
@@ -301,6 +305,27 @@ def test_save_and_load_give_the_same_predictions(lot, tmp_path, suffix):
     loaded = load_model(path)
     np.testing.assert_array_equal(loaded.predict(lot.data), model.predict(lot.data))
     assert loaded.shrinkage_ == model.shrinkage_
+
+
+def test_partial_keeps_a_units_own_model_when_it_wins_on_held_out_runs(lot):
+    """A unit unlike the lot with its own basis: its own model, chosen on held-out runs."""
+    X, y = lot.data, lot.target.to_numpy().copy()
+    odd = _unit_rows(lot, 1)
+    y[odd] = -5.0 * y[odd] + 0.3
+    model = UnitwiseRegressor(_rbf(), pooling="partial").fit(X, y)
+    for unit in range(4):
+        own, shrunk = model.own_scores_[unit], np.nanmin(model.shrinkage_scores_[unit])
+        final = model.estimators_[unit].steps[-1][1]
+        lot_final = model.lot_estimator_.steps[-1][1]
+        if own < shrunk:
+            assert model.shrinkage_[unit] is None
+            alone = _rbf().fit(
+                X[_unit_rows(lot, unit)].drop(columns="unit"), y[_unit_rows(lot, unit)]
+            )
+            np.testing.assert_array_equal(final.coef_, alone.steps[-1][1].coef_)
+        else:
+            assert model.shrinkage_[unit] is not None
+            np.testing.assert_array_equal(final.centers_, lot_final.centers_)
 
 
 def test_compare_regressors_by_unit_scores_each_unit(lot):
