@@ -653,6 +653,8 @@ def test_unit_errors_are_one_line(lot_csv, tmp_path, capsys):
     assert "no column 'gyro' (given by --unit)" in capsys.readouterr().err
     assert main([*base, "--unit", "unit", "--cv", "run"]) == 2
     assert "drop --cv" in capsys.readouterr().err
+    assert main([*base, "--pooling", "none"]) == 2
+    assert "give --unit COL" in capsys.readouterr().err
     assert main([*base, "--unit", "unit", "--pooling", "none"]) == 0
     capsys.readouterr()
     other = tmp_path / "other.csv"

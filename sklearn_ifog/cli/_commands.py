@@ -120,6 +120,10 @@ def _cv_splitter(args, frame, columns, path):
 
 def _fit_columns(args):
     """The column roles given to ``fit``, checked for consistency."""
+    if args.pooling is not None and args.unit is None:
+        raise InputError("--pooling says how the units of --unit COL share; give --unit COL")
+    if args.unit is not None and args.pooling is None:
+        args.pooling = "partial"
     if args.latitude is not None and args.reference is not None:
         raise InputError("give either --reference COL or --latitude DEG --azimuth COL, not both")
     if args.latitude is not None and args.azimuth is None:

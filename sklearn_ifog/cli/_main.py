@@ -119,7 +119,7 @@ def _build_parser():
     fit.add_argument(
         "--pooling",
         choices=("partial", "none", "full"),
-        default="partial",
+        default=None,
         help="with --unit: how the units share (default: partial, each unit's output layer "
         "shrunk towards the lot's)",
     )
