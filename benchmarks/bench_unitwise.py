@@ -142,7 +142,10 @@ def run_case(physics, lot, seed, quick):
                         "noise_floor": floor,
                         "fit_time": time.perf_counter() - start,
                         "shrinkage": (
-                            {str(k): float(v) for k, v in model.shrinkage_.items()}
+                            {
+                                str(k): None if v is None else float(v)
+                                for k, v in model.shrinkage_.items()
+                            }
                             if method == "partial"
                             else None
                         ),
