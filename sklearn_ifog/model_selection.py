@@ -659,8 +659,9 @@ def _describe_fold(X, test):
     return "; ".join(parts) if parts else f"{test.size} rows"
 
 
-def _fit_and_evaluate(name, estimator, X, y, train, test, fold):
-    """Fit a clone on ``train``, predict ``test``: one row of the per-fold table."""
+def _fit_and_evaluate(name, estimator, X, y, train, test, fold, by=None):
+    """Fit a clone on ``train``, predict ``test``: the rows of the per-fold table (one, or
+    one per value of ``by`` among the test rows)."""
     X_train, X_test = _safe_indexing(X, train), _safe_indexing(X, test)
     y_train, y_test = _safe_indexing(y, train), _safe_indexing(y, test)
     model = clone(estimator)
@@ -668,39 +669,52 @@ def _fit_and_evaluate(name, estimator, X, y, train, test, fold):
     model.fit(X_train, y_train)
     fit_time = time.perf_counter() - start
     start = time.perf_counter()
-    y_pred = model.predict(X_test)
+    y_pred = np.asarray(model.predict(X_test), dtype=np.float64)
     predict_time = time.perf_counter() - start
     y_test = np.asarray(y_test, dtype=np.float64)
-    msd_before = mean_squared_deviation(y_test, np.zeros_like(y_test))
-    msd_after = mean_squared_deviation(y_test, np.asarray(y_pred, dtype=np.float64))
-    interval = {}
-    if hasattr(model, "predict_interval"):
-        bounds = model.predict_interval(X_test)
-        interval = {
-            "coverage": interval_coverage(y_test, bounds),
-            "width": mean_interval_width(bounds),
-            "interval_score": interval_score(
-                y_test, bounds, coverage=getattr(model, "coverage", 0.9)
-            ),
-        }
-    return {
-        "model": name,
-        "fold": fold,
-        "test": _describe_fold(X, test),
-        "n_train": len(train),
-        "n_test": len(test),
-        "msd_before": float(msd_before),
-        "msd_after": float(msd_after),
-        "reduction": float(msd_before / msd_after) if msd_after > 0 else np.inf,
-        "fit_time": fit_time,
-        "predict_time": predict_time,
-        **interval,
-    }
+    parts = [(None, np.ones(len(test), dtype=bool))]
+    if by is not None:
+        labels = by[test]
+        parts = [(label, labels == label) for label in np.unique(labels)]
+    bounds = model.predict_interval(X_test) if hasattr(model, "predict_interval") else None
+    rows = []
+    for label, mask in parts:
+        msd_before = mean_squared_deviation(y_test[mask], np.zeros_like(y_test[mask]))
+        msd_after = mean_squared_deviation(y_test[mask], y_pred[mask])
+        row = {"model": name}
+        if by is not None:
+            row["group"] = label.item() if isinstance(label, np.generic) else label
+        row.update(
+            {
+                "fold": fold,
+                "test": _describe_fold(X, test[mask]),
+                "n_train": len(train),
+                "n_test": int(mask.sum()),
+                "msd_before": float(msd_before),
+                "msd_after": float(msd_after),
+                "reduction": float(msd_before / msd_after) if msd_after > 0 else np.inf,
+                "fit_time": fit_time,
+                "predict_time": predict_time,
+            }
+        )
+        if bounds is not None:
+            row.update(
+                {
+                    "coverage": interval_coverage(y_test[mask], bounds[mask]),
+                    "width": mean_interval_width(bounds[mask]),
+                    "interval_score": interval_score(
+                        y_test[mask], bounds[mask], coverage=getattr(model, "coverage", 0.9)
+                    ),
+                }
+            )
+        rows.append(row)
+    return rows
 
 
-def _summarize(folds, names):
-    """Per-model summary of the per-fold table."""
-    grouped = folds.groupby("model", sort=False)
+def _summarize(folds, names, by=None):
+    """Per-model (per model and group with ``by``) summary of the per-fold table."""
+    keys = ["model"] if by is None else ["model", "group"]
+    grouped = folds.groupby(keys, sort=False)
     summary = grouped.agg(
         msd_before=("msd_before", "mean"),
         msd_after=("msd_after", "mean"),
@@ -719,7 +733,13 @@ def _summarize(folds, names):
             interval_score=("interval_score", "mean"),
         )
         summary = summary.join(intervals)
-    return summary.reindex(names)
+    if by is None:
+        return summary.reindex(names)
+    summary.index = summary.index.set_names(["model", by])
+    order = {name: position for position, name in enumerate(names)}
+    return summary.sort_index(
+        level=[0, 1], key=lambda index: index.map(order) if index.name == "model" else index
+    )
 
 
 def compare_regressors(
@@ -734,6 +754,7 @@ def compare_regressors(
     verbose=0,
     return_folds=False,
     random_state=0,
+    by=None,
 ):
     """Cross-validate drift models against baselines, in one call.
 
@@ -779,11 +800,16 @@ def compare_regressors(
         Whether to also return the per-fold table.
     random_state : int, RandomState instance or None, default=0
         Seeds the default models (ignored when ``regressors`` is given).
+    by : str or None, default=None
+        A column of X (e.g. ``"unit"``): every fold's test rows are scored separately for
+        each of its values, and the summary has one row per (model, value): the results of
+        every gyro of a lot, e.g. of a :class:`~sklearn_ifog.UnitwiseRegressor`.
 
     Returns
     -------
     summary : pandas.DataFrame
-        One row per model (index ``model``, in the order given): ``msd_before``,
+        One row per model (index ``model``, in the order given; with ``by``, a two-level
+        index ``(model, by)``, one row per model and value of the column): ``msd_before``,
         ``msd_after`` (means over folds), ``msd_after_std``, ``reduction`` (ratio of the two
         means), ``worst_fold_reduction``, ``fit_time`` and ``predict_time`` (mean seconds
         per fold), ``n_folds``. When a model has ``predict_interval`` (e.g.
@@ -793,7 +819,8 @@ def compare_regressors(
         ``interval_score`` (:func:`~sklearn_ifog.metrics.interval_score`); NaN for the
         models without intervals.
     folds : pandas.DataFrame
-        Only with ``return_folds=True``: one row per (model, fold) with ``model``, ``fold``,
+        Only with ``return_folds=True``: one row per (model, fold) (per model, fold and
+        value of ``by`` with ``by``, in a column ``group``) with ``model``, ``fold``,
         ``test`` (the units, azimuths and runs tested), ``n_train``, ``n_test``,
         ``msd_before``, ``msd_after``, ``reduction``, ``fit_time``, ``predict_time`` (and
         ``coverage``, ``width``, ``interval_score`` for models with intervals).
@@ -819,6 +846,10 @@ def compare_regressors(
     model
     raw         0.05       0.05        1.0
     bias        0.05       0.01        5.0
+    >>> X["unit"] = np.repeat([7, 7, 8], 4)
+    >>> by_unit = compare_regressors(X, y, regressors={"bias": DummyRegressor()}, cv=3, by="unit")
+    >>> by_unit["n_folds"].to_dict()
+    {('bias', 7): 2, ('bias', 8): 1}
     """
     import pandas as pd
 
@@ -844,6 +875,11 @@ def compare_regressors(
                     "groups is None; pass groups= (the run of each row)."
                 )
         cv = GroupKFold(n_splits=cv)
+    by_values = None
+    if by is not None:
+        by_values = _column_values(X, by)
+        if by_values is None:
+            raise ValueError(f"by={by!r} names no column of X; pass the column of the groups.")
     splits = list(cv.split(X, y, groups)) if hasattr(cv, "split") else list(cv)
     names = list(regressors)
     if verbose:
@@ -854,25 +890,26 @@ def compare_regressors(
             flush=True,
         )
     tasks = (
-        delayed(_fit_and_evaluate)(name, regressors[name], X, y, train, test, fold)
+        delayed(_fit_and_evaluate)(name, regressors[name], X, y, train, test, fold, by_values)
         for name in names
         for fold, (train, test) in enumerate(splits)
     )
     parallel = Parallel(n_jobs=n_jobs, verbose=max(0, verbose - 1), return_as="generator")
     rows = []
     done = dict.fromkeys(names, 0)
-    for row in parallel(tasks):
-        rows.append(row)
+    for fold_rows in parallel(tasks):
+        rows.extend(fold_rows)
+        row = fold_rows[0]
         done[row["model"]] += 1
         if verbose and done[row["model"]] == len(splits):
             print(
-                f"[compare_regressors] {row['model']}: done ({len(rows)}/"
+                f"[compare_regressors] {row['model']}: done ({sum(done.values())}/"
                 f"{len(names) * len(splits)} fits)",
                 file=sys.stderr,
                 flush=True,
             )
     folds = pd.DataFrame(rows)
-    summary = _summarize(folds, names)
+    summary = _summarize(folds, names, by)
     if return_folds:
         return summary, folds
     return summary

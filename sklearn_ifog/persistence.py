@@ -42,6 +42,7 @@ TRUSTED_TYPES = [
     "sklearn_ifog.features.ThermalFeatures",
     "sklearn_ifog.model_selection.SubsampledRegressor",
     "sklearn_ifog.rbf._network.RBFNetRegressor",
+    "sklearn_ifog.unitwise.UnitwiseRegressor",
     # the kernel of compare_regressors' Gaussian process baseline (kernels are not estimators,
     # so skops does not trust them by default)
     "sklearn.gaussian_process.kernels.ConstantKernel",

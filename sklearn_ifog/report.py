@@ -288,6 +288,7 @@ def compensation_report(
     temperature,
     time=None,
     run=None,
+    unit=None,
     title="Thermal compensation report",
     model_metadata=None,
     data_name=None,
@@ -318,6 +319,10 @@ def compensation_report(
         Time, seconds (None: the sample index, at an assumed 1 s period).
     run : array-like of shape (n_samples,), default=None
         Run label of each row; None means one run. Rows of a run are in time order.
+    unit : array-like of shape (n_samples,), default=None
+        Unit (gyro) label of each row, e.g. for a :class:`~sklearn_ifog.UnitwiseRegressor`:
+        a per-unit table (MSD before and after, their ratio, runs and samples) is added
+        before the per-run one.
     title : str, default="Thermal compensation report"
         Report title (ignored when ``report`` is given).
     model_metadata : dict, default=None
@@ -346,8 +351,8 @@ def compensation_report(
     result : sklearn.utils.Bunch
         ``report`` (the :class:`Report`), ``table`` (DataFrame indexed by run, with a last
         row ``"(all runs)"`` for all rows together; without ``run``, that row only),
-        ``figures`` (list of Path) and ``paths`` (``{"markdown": Path, "html":
-        Path}``).
+        ``unit_table`` (DataFrame indexed by unit, or None without ``unit``), ``figures``
+        (list of Path) and ``paths`` (``{"markdown": Path, "html": Path}``).
 
     Examples
     --------
@@ -424,21 +429,78 @@ def compensation_report(
             width[_ALL_RUNS] = mean_interval_width(interval)
         table["coverage"] = table.index.map(coverage)
         table["width"] = table.index.map(width)
+    unit_table = None if unit is None else per_unit_table(rate, drift, reference, unit, run)
     if report is None:
         report = Report(title)
-    _add_summary(report, heading, data, table, data_name, bias_window, time is None)
+    _add_summary(report, heading, data, table, data_name, bias_window, time is None, unit_table)
     figures = _add_compensation_figures(report, directory, data, max_runs)
     figures += _add_allan_deviation(report, directory, data)
     if model_metadata:
         _add_model(report, model_metadata)
     paths = report.write(directory)
-    return Bunch(report=report, table=table, figures=figures, paths=paths)
+    return Bunch(report=report, table=table, unit_table=unit_table, figures=figures, paths=paths)
+
+
+def per_unit_table(rate, drift, reference, unit, run=None):
+    """MSD before and after compensation for every unit of a lot.
+
+    Parameters
+    ----------
+    rate, drift, reference : array-like of shape (n_samples,)
+        Gyro output, predicted drift and true input rate, deg/h (``reference`` may be a
+        scalar).
+    unit : array-like of shape (n_samples,)
+        Unit label of every row.
+    run : array-like of shape (n_samples,), default=None
+        Run label of every row, to count each unit's runs (None: one per unit).
+
+    Returns
+    -------
+    table : pandas.DataFrame
+        Indexed by unit (sorted): ``msd_before``, ``msd_after``, ``reduction``, ``n_runs``,
+        ``n_samples``.
+
+    Examples
+    --------
+    >>> from sklearn_ifog.report import per_unit_table
+    >>> table = per_unit_table([1.0, 1.2, 2.0], [0.0, 0.2, 1.0], 1.0, ["a", "a", "b"])
+    >>> table[["msd_before", "msd_after", "n_samples"]].round(3)
+          msd_before  msd_after  n_samples
+    unit
+    a           0.02        0.0          2
+    b           1.00        0.0          1
+    """
+    import pandas as pd
+
+    rate = np.asarray(rate, dtype=np.float64)
+    error = rate - np.broadcast_to(np.asarray(reference, dtype=np.float64), rate.shape)
+    compensated = error - np.asarray(drift, dtype=np.float64)
+    unit = np.asarray(unit)
+    frame = pd.DataFrame(
+        {
+            "unit": unit,
+            "before": error**2,
+            "after": compensated**2,
+            "run": np.zeros(unit.shape[0]) if run is None else np.asarray(run),
+        }
+    )
+    grouped = frame.groupby("unit", sort=True)
+    table = pd.DataFrame(
+        {
+            "msd_before": grouped["before"].mean(),
+            "msd_after": grouped["after"].mean(),
+        }
+    )
+    table["reduction"] = table["msd_before"] / table["msd_after"]
+    table["n_runs"] = grouped["run"].nunique()
+    table["n_samples"] = grouped.size()
+    return table
 
 
 # -- the sections of compensation_report -----------------------------------------------------
 
 
-def _add_summary(report, heading, data, table, data_name, bias_window, no_time):
+def _add_summary(report, heading, data, table, data_name, bias_window, no_time, unit_table=None):
     """The heading, what was measured, the overall MSD and the per-run table."""
     from sklearn_ifog.metrics import mean_squared_deviation
 
@@ -463,6 +525,10 @@ def _add_summary(report, heading, data, table, data_name, bias_window, no_time):
         f"Overall MSD: {overall_before:.3g} before, {overall_after:.3g} after compensation "
         f"(reduction {table.loc[_ALL_RUNS, 'reduction']:.3g}x)."
     )
+    if unit_table is not None:
+        report.add_table(
+            unit_table, caption="Per-unit MSD before and after compensation, (deg/h)^2."
+        )
     report.add_table(table, caption="Per-run MSD and bias stability, before and after.")
 
 

@@ -635,3 +635,101 @@ def test_fit_and_compensate_with_interval(campaign_csv, fitted_model, tmp_path, 
     )
     assert "(0, 1)" in capsys.readouterr().err
     assert not bad.exists()
+
+
+# -- a production lot: --unit ----------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def lot_csv(tmp_path_factory):
+    """Three similar units, two runs each, as CSV."""
+    campaign = make_thermal_campaign(
+        n_units=3,
+        n_runs=2,
+        azimuths=(0.0,),
+        sampling_period=300.0,
+        lot_spread=0.15,
+        random_state=2,
+    )
+    path = tmp_path_factory.mktemp("lot") / "lot.csv"
+    campaign.frame.drop(columns="drift").to_csv(path, index=False)
+    return path
+
+
+def test_fit_warns_when_a_unit_column_holds_several_units(lot_csv, tmp_path, capsys):
+    model = tmp_path / "one.joblib"
+    args = ["fit", str(lot_csv), *FIT_ARGS, "--model", "linear", "-o", str(model)]
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    warnings = [line for line in err.splitlines() if "warning" in line]
+    assert len(warnings) == 1
+    assert "column 'unit'" in warnings[0]
+    assert "3 units" in warnings[0]
+    assert "--unit" in warnings[0]
+    # one unit's rows: no warning
+    one = tmp_path / "unit0.csv"
+    _read(lot_csv).query("unit == 0").to_csv(one, index=False)
+    assert main(["fit", str(one), *FIT_ARGS, "--model", "linear", "-o", str(model)]) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
+def test_fit_per_unit_then_compensate_report_export(lot_csv, tmp_path, capsys):
+    from sklearn_ifog import UnitwiseRegressor
+
+    model_path = tmp_path / "lot.joblib"
+    args = ["fit", str(lot_csv), *FIT_ARGS, "--unit", "unit", "--model", "linear"]
+    assert main([*args, "-o", str(model_path)]) == 0
+    captured = capsys.readouterr()
+    assert "warning" not in captured.err
+    assert "per unit" in captured.out
+    table_lines = [line for line in captured.out.splitlines() if "linear (partial)" in line]
+    assert len(table_lines) == 3  # one row per unit
+    model, metadata = load_model(model_path, return_metadata=True)
+    assert isinstance(model, UnitwiseRegressor)
+    assert model.pooling == "partial"
+    assert model.units_.tolist() == [0, 1, 2]
+    assert metadata["extra"]["columns"]["unit"] == "unit"
+    assert sorted(metadata["extra"]["cross_validation"]["units"]) == ["0", "1", "2"]
+
+    frame = _read(lot_csv)
+    out_csv = tmp_path / "out.csv"
+    assert main(["compensate", str(model_path), str(lot_csv), "-o", str(out_csv)]) == 0
+    result = _read(out_csv)
+    expected = model.predict(frame[["unit", "temperature", "time", "run"]])
+    np.testing.assert_allclose(result["drift"], expected, rtol=0, atol=1e-12)
+
+    capsys.readouterr()
+    assert main(["report", str(model_path), str(lot_csv), "--out", str(tmp_path / "r")]) == 0
+    out = capsys.readouterr().out
+    assert "MSD per unit" in out
+    assert "per-unit" in (tmp_path / "r" / "report.md").read_text().lower()
+
+    assert main(["export", str(model_path), "--c", str(tmp_path / "c")]) == 0
+    assert _listing(tmp_path / "c") == [
+        f"ifog_unit_{unit}.{ext}" for unit in range(3) for ext in ("c", "h")
+    ]
+    assert main(["export", str(model_path), "--json", str(tmp_path / "lot.json")]) == 0
+    document = json.loads((tmp_path / "lot.json").read_text())
+    assert [entry["unit"] for entry in document["units"]] == [0, 1, 2]
+
+
+def test_unit_errors_are_one_line(lot_csv, tmp_path, capsys):
+    model_path = tmp_path / "lot.joblib"
+    base = ["fit", str(lot_csv), *FIT_ARGS, "--model", "linear", "-o", str(model_path)]
+    assert main([*base, "--unit", "gyro"]) == 2
+    assert "no column 'gyro' (given by --unit)" in capsys.readouterr().err
+    assert main([*base, "--unit", "unit", "--cv", "run"]) == 2
+    assert "drop --cv" in capsys.readouterr().err
+    assert main([*base, "--pooling", "none"]) == 2
+    assert "give --unit COL" in capsys.readouterr().err
+    assert main([*base, "--unit", "unit", "--pooling", "none"]) == 0
+    capsys.readouterr()
+    other = tmp_path / "other.csv"
+    _read(lot_csv).assign(unit=7).to_csv(other, index=False)
+    out_csv = tmp_path / "out.csv"
+    assert main(["compensate", str(model_path), str(other), "-o", str(out_csv)]) == 2
+    err = capsys.readouterr().err
+    assert "unit 7" in err
+    assert "not seen in fit" in err
+    assert len(err.strip().splitlines()) == 1
+    assert not out_csv.exists()

@@ -7,7 +7,7 @@ adds on top.
 """
 
 import pytest
-from sklearn.linear_model import Ridge
+from sklearn.linear_model import LinearRegression, Ridge
 from sklearn.utils.estimator_checks import (
     check_dataframe_column_names_consistency,
     check_param_validation,
@@ -28,6 +28,14 @@ CHECK_PARAMS = {
     # A meta-estimator needs an estimator; the checks' arrays have no run column, so the
     # calibration folds are given as an int (KFold over rows, each row its own group).
     "ConformalRegressor": {"estimator": Ridge(), "cv": 3},
+    # The unit is a column of X: the first one of the checks' arrays. With pooling="full"
+    # every unit is predicted by the lot's model, and a unit must have been seen in fit.
+    "UnitwiseRegressor": {
+        "estimator": LinearRegression(),
+        "unit": 0,
+        "pooling": "full",
+        "run": None,
+    },
 }
 
 # Checks that fail by design, with the reason (imbalanced-learn's convention).
@@ -39,6 +47,24 @@ EXPECTED_FAILED_CHECKS = {
         ),
         "check_methods_sample_order_invariance": (
             "Row order is the time order within a run: shuffling the rows changes every dT."
+        ),
+    },
+    "UnitwiseRegressor": {
+        "check_fit_idempotent": (
+            "It predicts new rows of the units seen in fit; the check's new rows have new "
+            "values in the unit column (unseen units), which is an error naming the unit."
+        ),
+        "check_estimators_nan_inf": (
+            "A NaN in the unit column is a missing unit id: a ValueError saying so, not the "
+            "check's wording."
+        ),
+        "check_fit2d_1feature": (
+            "A single column is the unit column and leaves the model no input: a ValueError "
+            "saying so, not the check's wording."
+        ),
+        "check_dtype_object": (
+            "Unit ids of mixed types (the check's dicts among strings) cannot be sorted: "
+            "numpy's TypeError, not the check's wording."
         ),
     },
 }
@@ -58,7 +84,7 @@ def _ids(estimator):
 
 def test_every_estimator_is_checked():
     names = {name for name, _ in all_estimators()}
-    assert {"ThermalFeatures", "RBFNetRegressor"} <= names
+    assert {"ThermalFeatures", "RBFNetRegressor", "UnitwiseRegressor"} <= names
 
 
 @parametrize_with_checks(_instances(), expected_failed_checks=expected_failed_checks)

@@ -5,6 +5,7 @@ import pandas as pd
 import pytest
 from pandas.testing import assert_frame_equal
 
+from sklearn_ifog._compat import InvalidParameterError
 from sklearn_ifog.datasets import make_thermal_campaign, noise_floor
 from sklearn_ifog.datasets._layered import (
     LAYERED_COMPONENT_COLUMNS,
@@ -614,3 +615,62 @@ def test_block_average_nests_and_rejects_a_ragged_grid():
 def test_unknown_physics_raises_an_error_naming_the_parameter():
     with pytest.raises(ValueError, match="physics"):
         make_thermal_campaign(physics="distributed")
+
+
+# -- a production lot: lot_spread ------------------------------------------------------------
+
+
+@pytest.mark.parametrize("physics", ["lumped", "layered", "layered_glass"])
+def test_lot_units_scatter_around_the_design(physics):
+    def campaign(spread):
+        return make_thermal_campaign(
+            n_units=6,
+            n_runs=1,
+            azimuths=[0.0],
+            sampling_period=600.0,
+            physics=physics,
+            lot_spread=spread,
+            random_state=5,
+        )
+
+    identical = campaign(0.0)
+    design = identical.design_params
+    for params in identical.unit_params:
+        assert {**params, "unit": None} == design
+    scattered = campaign(0.2)
+    numeric = [
+        key
+        for key, value in scattered.design_params.items()
+        if isinstance(value, float) and key != "reference_temperature"
+    ]
+    for params in scattered.unit_params:
+        for key in numeric:
+            ratio = params[key] / scattered.design_params[key]
+            assert ratio > 0  # the design's sign is kept
+    log_ratios = np.log(
+        [[p[key] / scattered.design_params[key] for key in numeric] for p in scattered.unit_params]
+    )
+    # a lognormal scatter of about the asked spread (6 units x many coefficients)
+    assert 0.1 < log_ratios.std() < 0.3
+    assert (
+        scattered.unit_params[0]["turn_on_bias_repeatability"]
+        == (design["turn_on_bias_repeatability"])
+    )
+
+
+def test_lot_is_closer_than_independent_units():
+    kwargs = {"n_units": 5, "n_runs": 1, "azimuths": [0.0], "sampling_period": 600.0}
+    independent = make_thermal_campaign(**kwargs, random_state=0)
+    lot = make_thermal_campaign(**kwargs, lot_spread=0.05, random_state=0)
+    assert independent.design_params is None
+
+    def spread(params):
+        k0 = np.array([p["k0"] for p in params])
+        return k0.std() / np.abs(k0.mean())
+
+    assert spread(lot.unit_params) < 0.5 * spread(independent.unit_params)
+
+
+def test_lot_spread_must_be_non_negative():
+    with pytest.raises(InvalidParameterError, match="lot_spread"):
+        make_thermal_campaign(n_units=1, n_runs=1, lot_spread=-0.1)

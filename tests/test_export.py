@@ -15,6 +15,7 @@ import shutil
 import subprocess
 
 import numpy as np
+import pandas as pd
 import pytest
 from sklearn.linear_model import LinearRegression, Ridge
 from sklearn.neighbors import KNeighborsRegressor
@@ -27,11 +28,16 @@ from sklearn.preprocessing import (
     StandardScaler,
 )
 
-from sklearn_ifog import RBFNetRegressor, ThermalFeatures
+from sklearn_ifog import RBFNetRegressor, ThermalFeatures, UnitwiseRegressor
 from sklearn_ifog.datasets import make_thermal_campaign
-from sklearn_ifog.export import to_c, to_json
+from sklearn_ifog.export import to_c, to_c_units, to_json
 from sklearn_ifog.export._c import format_c_literal
-from sklearn_ifog.export._spec import LINEAR_REGRESSORS, SCHEMA_NAME, SCHEMA_VERSION
+from sklearn_ifog.export._spec import (
+    LINEAR_REGRESSORS,
+    SCHEMA_NAME,
+    SCHEMA_VERSION,
+    describe_pipeline,
+)
 
 CC = shutil.which("cc")
 needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler ('cc') on this machine")
@@ -670,3 +676,85 @@ def test_c_recalibration_needs_double_and_valid_parameters(campaign, tmp_path):
     with pytest.raises(TypeError, match="KNeighborsRegressor"):
         to_c(knn, tmp_path, adapt="bias")
     assert not list(tmp_path.iterdir()), "a refused export writes nothing"
+
+
+# -- a production lot: one C source per unit -------------------------------------------------
+
+
+def _lot(campaign):
+    """Two units: the campaign's rows, and the same recordings with another drift."""
+    other = campaign.assign(
+        run=campaign["run"] + 100, drift=1.5 * campaign["drift"] + 0.02, unit="gyro-2"
+    )
+    return pd.concat([campaign.assign(unit="gyro-1"), other], ignore_index=True)
+
+
+@needs_cc
+@pytest.mark.parametrize("pooling", ["partial", "none"])
+def test_unitwise_c_matches_each_unit(campaign, tmp_path, pooling):
+    lot = _lot(campaign)
+    columns = ["unit", "temperature", "time", "run"]
+    pipeline = make_pipeline(_features(), StandardScaler(), _rbf(refine=None))
+    model = UnitwiseRegressor(pipeline, pooling=pooling).fit(lot[columns], lot["drift"])
+    written = to_c_units(model, tmp_path, precision="double")
+    assert sorted(written) == ["gyro-1", "gyro-2"]
+    predictions = {}
+    for unit, (header, source) in written.items():
+        name = header.stem
+        assert name == f"ifog_unit_{unit.replace('-', '_')}"
+        directory = tmp_path / name
+        directory.mkdir()
+        for path in (header, source):
+            (directory / path.name).write_text(path.read_text())
+        (directory / "driver.c").write_text(
+            DRIVER.replace("ifog", name).replace("IFOG", name.upper())
+        )
+        result = subprocess.run(
+            [CC, *STRICT_FLAGS, "-O1", "driver.c", f"{name}.c", "-lm", "-o", "driver"],
+            cwd=directory,
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        assert result.returncode == 0, result.stderr
+        rows = lot[lot["unit"] == unit].reset_index(drop=True)
+        spec = describe_pipeline(model.estimators_[unit])
+        streamed, batched, _ = _run(directory / "driver", rows, spec, np.float64)
+        expected = model.predict(rows[columns]).reshape(-1, 1)
+        _assert_close(streamed, expected, 1e-9)
+        np.testing.assert_array_equal(batched, streamed)
+        predictions[unit] = expected
+    # the units' models differ: each source carries its own unit's weights
+    assert not np.allclose(predictions["gyro-1"], predictions["gyro-2"])
+
+
+def test_unitwise_json_holds_every_unit(campaign, tmp_path):
+    lot = _lot(campaign)
+    columns = ["unit", "temperature", "time", "run"]
+    pipeline = make_pipeline(_features(), StandardScaler(), LinearRegression())
+    model = UnitwiseRegressor(pipeline, pooling="partial").fit(lot[columns], lot["drift"])
+    document = json.loads(to_json(model, tmp_path / "lot.json").read_text())
+    assert document["schema"] == "sklearn-ifog-units"
+    assert document["unit_column"] == "unit"
+    assert [entry["unit"] for entry in document["units"]] == ["gyro-1", "gyro-2"]
+    for entry in document["units"]:
+        rows = lot[lot["unit"] == entry["unit"]]
+        np.testing.assert_allclose(
+            evaluate_json(entry["model"], rows),
+            model.predict(rows[columns]),
+            rtol=1e-10,
+            atol=1e-12,
+        )
+
+
+def test_unitwise_export_errors(campaign, tmp_path):
+    lot = _lot(campaign)
+    lot.loc[lot["unit"] == "gyro-2", "unit"] = "gyro_1"  # same identifier as "gyro-1"
+    columns = ["unit", "temperature", "time", "run"]
+    pipeline = make_pipeline(_features(), StandardScaler(), LinearRegression())
+    model = UnitwiseRegressor(pipeline, pooling="none").fit(lot[columns], lot["drift"])
+    with pytest.raises(ValueError, match="same C identifier 'ifog_unit_gyro_1'"):
+        to_c_units(model, tmp_path)
+    assert list(tmp_path.iterdir()) == []
+    with pytest.raises(TypeError, match="UnitwiseRegressor"):
+        to_c_units(pipeline, tmp_path)

@@ -120,6 +120,10 @@ def _cv_splitter(args, frame, columns, path):
 
 def _fit_columns(args):
     """The column roles given to ``fit``, checked for consistency."""
+    if args.pooling is not None and args.unit is None:
+        raise InputError("--pooling says how the units of --unit COL share; give --unit COL")
+    if args.unit is not None and args.pooling is None:
+        args.pooling = "partial"
     if args.latitude is not None and args.reference is not None:
         raise InputError("give either --reference COL or --latitude DEG --azimuth COL, not both")
     if args.latitude is not None and args.azimuth is None:
@@ -134,6 +138,7 @@ def _fit_columns(args):
         reference=None if args.latitude is not None else (args.reference or "reference"),
         latitude=args.latitude,
         azimuth=args.azimuth,
+        unit=args.unit,
     )
     if args.rate is None:
         columns.defaulted.add("--rate")
@@ -153,13 +158,99 @@ def _build_pipeline(columns, args):
     else:
         regressor = RBFNetRegressor(random_state=args.random_state)
     temperature = columns.temperature[0] if len(columns.temperature) == 1 else columns.temperature
-    return make_compensation_pipeline(
+    pipeline = make_compensation_pipeline(
         regressor,
         temperature=temperature,
         time=columns.time,
         run=columns.run,
         terms=None if args.terms is None else tuple(args.terms),
     )
+    if columns.unit is None:
+        return pipeline
+    from sklearn_ifog import UnitwiseRegressor
+
+    return UnitwiseRegressor(pipeline, unit=columns.unit, pooling=args.pooling, run=columns.run)
+
+
+def _warn_several_units(frame, args, path):
+    """One stderr line when a 'unit' column holds several units and --unit is not given."""
+    if args.unit is not None or "unit" not in frame.columns:
+        return
+    n_units = frame["unit"].nunique(dropna=True)
+    if n_units > 1:
+        print(
+            f"{PROGRAM} fit: warning: column 'unit' of {path} holds {n_units} units; one model "
+            "is fitted across all of them (give --unit unit for one model per unit)",
+            file=sys.stderr,
+        )
+
+
+def _unit_cross_validation(args, model, X, target, frame, columns, path):
+    """Per-unit table: leave one run of a unit out at a time (each unit needs two runs)."""
+    from sklearn.dummy import DummyRegressor
+    from sklearn.model_selection import LeaveOneGroupOut
+
+    from sklearn_ifog import UnitwiseRegressor
+    from sklearn_ifog.model_selection import compare_regressors
+
+    units = _labels(frame, columns.unit, "--unit", path)
+    if columns.run is None:
+        print(
+            "No per-unit cross-validation: it leaves out one run of a unit at a time; give "
+            "--run COL."
+        )
+        return None
+    runs = _labels(frame, columns.run, "--run", path)
+    pairs = np.unique(np.column_stack([runs.astype(str), units.astype(str)]), axis=0)
+    if np.unique(pairs[:, 0]).size != pairs.shape[0]:
+        raise InputError(f"{path}: a run straddles several units; each run must be one unit's")
+    per_unit = np.unique(pairs[:, 1], return_counts=True)
+    lonely = per_unit[0][per_unit[1] < 2]
+    if lonely.size:
+        print(
+            f"No per-unit cross-validation: unit(s) {', '.join(lonely[:5])} have a single "
+            "run; it leaves out one run of a unit at a time."
+        )
+        return None
+    candidates = {
+        "raw": DummyRegressor(strategy="constant", constant=0.0),
+        "bias": UnitwiseRegressor(DummyRegressor(), unit=columns.unit, pooling="none"),
+        f"{args.model} ({args.pooling})": model,
+    }
+    try:
+        summary = compare_regressors(
+            X,
+            target,
+            regressors=candidates,
+            cv=LeaveOneGroupOut(),
+            groups=runs,
+            n_jobs=args.n_jobs,
+            by=columns.unit,
+        )
+    except (ValueError, TypeError) as error:
+        raise InputError(f"{path}: cross-validation failed: {one_line(error)}") from None
+    print_table(
+        "Cross-validated MSD ((deg/h)^2) per unit, one fold per run left out (the bias "
+        "baseline is each unit's own mean):",
+        # one line per (unit, model): the unit first, every cell written out
+        summary[["msd_before", "msd_after", "reduction", "n_folds"]]
+        .swaplevel()
+        .sort_index(level=0, sort_remaining=False)
+        .reset_index()
+        .set_index([columns.unit, "model"]),
+    )
+    row = summary.xs(f"{args.model} ({args.pooling})", level="model")
+    return {
+        "kind": "run, per unit",
+        "units": {
+            str(unit): {
+                "msd_before": float(values["msd_before"]),
+                "msd_after": float(values["msd_after"]),
+                "n_folds": int(values["n_folds"]),
+            }
+            for unit, values in row.iterrows()
+        },
+    }
 
 
 def _cross_validate(args, pipeline, X, target, splitter, groups, path):
@@ -204,9 +295,20 @@ def command_fit(args):
     frame = read_csv(path)
     X, _ = model_input(frame, columns, path)
     target = read_rate(frame, columns, path) - read_reference(frame, columns, path)
-    splitter, groups = _cv_splitter(args, frame, columns, path)
+    _warn_several_units(frame, args, path)
     pipeline = _build_pipeline(columns, args)
     metadata = {"columns": columns.as_dict()}
+    if columns.unit is not None:
+        if args.cv is not None or args.groups is not None:
+            raise InputError(
+                "--unit cross-validates per unit, one run left out at a time; drop --cv and "
+                "--groups"
+            )
+        splitter = None
+        cross_validation = _unit_cross_validation(args, pipeline, X, target, frame, columns, path)
+    else:
+        splitter, groups = _cv_splitter(args, frame, columns, path)
+        cross_validation = None
     if splitter is not None:
         cross_validation = _cross_validate(args, pipeline, X, target, splitter, groups, path)
     fit_params = {}
@@ -226,11 +328,14 @@ def command_fit(args):
         "msd_before": msd_before,
         "msd_after": msd_after,
     }
-    if splitter is not None:
+    if cross_validation is not None:
         metadata["cross_validation"] = cross_validation
     save_model(pipeline, args.output, metadata=metadata)
+    what = args.model
+    if columns.unit is not None:
+        what = f"{len(pipeline.units_)} {args.model} models ({args.pooling} pooling)"
     print(
-        f"\nFitted {args.model} on {X.shape[0]} rows of {path}: training MSD "
+        f"\nFitted {what} on {X.shape[0]} rows of {path}: training MSD "
         f"{msd_before:.3g} -> {msd_after:.3g} (deg/h)^2 (reduction {msd_before / msd_after:.3g}x)."
     )
     print(f"Wrote the model to {args.output}")
@@ -342,6 +447,7 @@ def command_report(args):
     if hasattr(model, "predict_interval"):  # fitted with 'fit --interval': show the band
         X, _ = model_input(frame, columns, data_path)
         interval = model.predict_interval(X)
+    units = None if columns.unit is None else frame[columns.unit].to_numpy()
     with staged_directory(args.out) as staging:
         written = compensation_report(
             staging,
@@ -351,11 +457,14 @@ def command_report(args):
             temperature=frame[columns.temperature[0]].to_numpy(float),
             time=time_values,
             run=runs,
+            unit=units,
             title=f"Thermal compensation of {data_path.name}",
             model_metadata=metadata,
             data_name=str(data_path),
             interval=interval,
         )
+    if written.unit_table is not None:
+        print_table("MSD per unit ((deg/h)^2):", written.unit_table)
     print_table("MSD per run ((deg/h)^2):", written.table)
     print(
         f"\nWrote the report to {Path(args.out) / written.paths['html'].name} (HTML) and "
@@ -367,7 +476,8 @@ def command_report(args):
 
 def command_export(args):
     """``export``: the model as C99 source (a .h and a .c, both or neither) or JSON."""
-    from sklearn_ifog.export import to_c, to_json
+    from sklearn_ifog import UnitwiseRegressor
+    from sklearn_ifog.export import to_c, to_c_units, to_json
 
     model_path = Path(args.model)
     model, _ = load_model(model_path)
@@ -376,10 +486,15 @@ def command_export(args):
         if not target.parent.is_dir():
             raise InputError(f"{target}: the directory {target.parent} does not exist")
         try:
-            header, source = to_c(model, target, precision=args.precision, prefix=args.prefix)
+            if isinstance(model, UnitwiseRegressor):
+                written = to_c_units(model, target, precision=args.precision, prefix=args.prefix)
+            else:
+                written = {None: to_c(model, target, precision=args.precision, prefix=args.prefix)}
         except (ValueError, TypeError) as error:
             raise InputError(f"{model_path}: cannot export to C: {one_line(error)}") from None
-        print(f"Wrote {header} and {source}")
+        for unit, (header, source) in written.items():
+            which = "" if unit is None else f" (unit {unit!r})"
+            print(f"Wrote {header} and {source}{which}")
     else:
         check_output_parent(args.json)
         try:

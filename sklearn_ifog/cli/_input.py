@@ -124,8 +124,10 @@ class Columns:
         reference=None,
         latitude=None,
         azimuth=None,
+        unit=None,
     ):
         self.temperature = list(temperature)
+        self.unit = unit
         self.time = time
         self.run = run
         self.rate = rate
@@ -136,7 +138,7 @@ class Columns:
         self.defaulted = set()
 
     def as_dict(self):
-        names = ("temperature", "time", "run", "rate", "reference", "latitude", "azimuth")
+        names = ("temperature", "time", "run", "rate", "reference", "latitude", "azimuth", "unit")
         return {name: getattr(self, name) for name in names}
 
     def role(self, option):
@@ -160,9 +162,10 @@ class Columns:
         return columns
 
     def model_columns(self):
-        """The columns the fitted pipeline reads, in order."""
+        """The columns the fitted model reads, in order (the unit column first, if any)."""
         extra = [name for name in (self.time, self.run) if name is not None]
-        return [*self.temperature, *extra]
+        unit = [] if self.unit is None else [self.unit]
+        return [*unit, *self.temperature, *extra]
 
     def has_reference(self):
         return self.reference is not None or self.latitude is not None
@@ -175,7 +178,11 @@ def model_input(frame, columns, path):
         roles.append((columns.role("--time"), columns.time))
     if columns.run is not None:
         roles.append((columns.role("--run"), columns.run))
+    if columns.unit is not None:
+        roles.append((columns.role("--unit"), columns.unit))
     require_columns(frame, roles, path)
+    if columns.unit is not None:
+        _labels(frame, columns.unit, columns.role("--unit"), path)
     X = frame[columns.model_columns()].copy()
     for name in columns.temperature:
         X[name] = _numeric(frame, name, columns.role("--temperature"), path)

@@ -64,7 +64,8 @@ def _build_parser():
         "model) to the drift, rate - reference (or rate - Earth rate), and save it with the "
         "column roles, so that 'compensate', 'report' and 'export' need only the model file. "
         "With --cv or --groups, first cross-validate it against no compensation and a "
-        "constant bias.",
+        "constant bias. With --unit, one model per unit (gyro) of a lot, cross-validated "
+        "per unit.",
         epilog="example: sklearn-ifog fit campaign.csv --temperature temperature --time time "
         "--run run --cv azimuth -o model.joblib",
     )
@@ -108,6 +109,19 @@ def _build_parser():
         help="thermal terms (default: ThermalFeatures' default: T dT TdT T_lag900s "
         "T_lag3600s, dT smoothed over 120 s, with a time column; T dT TdT without one; "
         "'T dT TdT' is the paper's modified model, 'T dT' its traditional one)",
+    )
+    fit.add_argument(
+        "--unit",
+        metavar="COL",
+        help="unit (gyro) id column: fit one model per unit (UnitwiseRegressor) and show a "
+        "per-unit cross-validation table",
+    )
+    fit.add_argument(
+        "--pooling",
+        choices=("partial", "none", "full"),
+        default=None,
+        help="with --unit: how the units share (default: partial, each unit's output layer "
+        "shrunk towards the lot's)",
     )
     fit.add_argument("--model", choices=("rbf", "linear"), default="rbf", help="regressor")
     fit.add_argument("--random-state", type=int, default=0, help="seed of the RBF network")
@@ -155,7 +169,11 @@ def _build_parser():
     report.add_argument("--out", required=True, metavar="DIR")
     report.set_defaults(handler=command_report)
 
-    export = commands.add_parser("export", help="write a model as C99 source or JSON")
+    export = commands.add_parser(
+        "export",
+        help="write a model as C99 source or JSON (a per-unit model: one C source per unit, "
+        "one JSON file with every unit)",
+    )
     export.add_argument("model", metavar="MODEL")
     target = export.add_mutually_exclusive_group(required=True)
     target.add_argument("--c", metavar="DIR", help="directory for the .h/.c files")

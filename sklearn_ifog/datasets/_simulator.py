@@ -155,6 +155,53 @@ def _draw_unit_params(rng, unit):
     }
 
 
+# Coefficients a lot's units share exactly with the design (not scattered).
+_SHARED_PARAMS = frozenset(
+    {"unit", "n_layers", "reference_temperature", "turn_on_bias_repeatability"}
+)
+
+
+def scatter_unit_params(design, unit, spread, rng):
+    """One unit of a lot: every numeric coefficient of ``design`` times ``exp(spread N(0,1))``.
+
+    Parameters
+    ----------
+    design : dict
+        The design's coefficients (as a unit's, from the physics' draw function).
+    unit : int
+        The unit's id.
+    spread : float
+        Standard deviation of the log of the ratio unit / design (>= 0).
+    rng : numpy.random.RandomState
+        The campaign's generator (one normal draw per scattered coefficient, in key order).
+
+    Returns
+    -------
+    params : dict
+        The unit's coefficients; signs and the shared keys are the design's.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn_ifog.datasets._simulator import scatter_unit_params
+    >>> design = {"unit": None, "k0": 0.2, "bias_coefficients": (0.1, -2e-3, 3e-5)}
+    >>> unit = scatter_unit_params(design, 4, 0.0, np.random.RandomState(0))
+    >>> unit == {**design, "unit": 4}
+    True
+    """
+    params = {}
+    for key, value in design.items():
+        if key in _SHARED_PARAMS:
+            params[key] = value
+        elif isinstance(value, tuple):
+            factors = np.exp(spread * rng.standard_normal(len(value)))
+            params[key] = tuple(float(v * f) for v, f in zip(value, factors, strict=True))
+        else:
+            params[key] = float(value * np.exp(spread * rng.standard_normal()))
+    params["unit"] = unit
+    return params
+
+
 def _draw_ramp_rate(rng, ramp_rate):
     if np.ndim(ramp_rate) == 0:
         return float(ramp_rate)
@@ -296,6 +343,7 @@ def _check_range(value, name, lower=None):
         "temperature_range": [tuple, list],
         "noise": ["boolean"],
         "physics": [StrOptions(set(PHYSICS))],
+        "lot_spread": [Interval(Real, 0.0, None, closed="left"), None],
         "random_state": ["random_state"],
         "as_frame": ["boolean"],
         "return_X_y": ["boolean"],
@@ -314,6 +362,7 @@ def make_thermal_campaign(
     temperature_range=(-10.0, 40.0),
     noise=True,
     physics="lumped",
+    lot_spread=None,
     random_state=None,
     as_frame=True,
     return_X_y=False,
@@ -392,6 +441,14 @@ def make_thermal_campaign(
         "layered" and "layered_glass" share every unit and run. Their coefficients and
         sources are listed under ``sklearn_ifog.datasets._layered`` (see
         :ref:`physics`).
+    lot_spread : float or None, default=None
+        None: every unit is drawn independently (its coefficients anywhere in the ranges of
+        the Notes table). A float: the units form a production *lot* of one design: the
+        design is drawn like one unit, and every numeric coefficient of every unit (time
+        constants, sensor offset, Shupe, stress, glass-transition and static-bias
+        coefficients, noise levels) is the design's times ``exp(lot_spread * N(0, 1))``,
+        an independent lognormal scatter that keeps each coefficient's sign (0: identical
+        units, 0.1: about ±10 %). The design is returned as ``design_params``.
     random_state : int, RandomState instance or None, default=None
         Seed of every random draw (unit coefficients first, then runs); an int gives the same
         campaign bit for bit.
@@ -422,6 +479,9 @@ def make_thermal_campaign(
             ``["drift_measured"]``.
         unit_params : list of dict
             True coefficients of each unit (keys as in the Notes table; times in seconds).
+        design_params : dict or None
+            With ``lot_spread``: the lot's design, the coefficients the units scatter
+            around; None without.
         run_params : DataFrame or list of dict
             Per run: unit, run, azimuth, profile, ramp_rate (degC/min), duration (s),
             min_setpoint and max_setpoint (degC), breakpoint_times (s) and
@@ -527,14 +587,27 @@ def make_thermal_campaign(
 
     rng = check_random_state(random_state)
     if physics == "lumped":
-        unit_params = [_draw_unit_params(rng, unit) for unit in range(n_units)]
+
+        def draw(unit):
+            return _draw_unit_params(rng, unit)
+
         component_columns = COMPONENT_COLUMNS
     else:
-        unit_params = [
-            draw_layered_params(rng, unit, REFERENCE_TEMPERATURE, TURN_ON_BIAS_REPEATABILITY)
-            for unit in range(n_units)
-        ]
+
+        def draw(unit):
+            return draw_layered_params(
+                rng, unit, REFERENCE_TEMPERATURE, TURN_ON_BIAS_REPEATABILITY
+            )
+
         component_columns = LAYERED_COMPONENT_COLUMNS
+    if lot_spread is None:
+        design_params = None
+        unit_params = [draw(unit) for unit in range(n_units)]
+    else:
+        design_params = draw(None)
+        unit_params = [
+            scatter_unit_params(design_params, unit, lot_spread, rng) for unit in range(n_units)
+        ]
 
     blocks, component_blocks, run_params = [], [], []
     run_id = 0
@@ -620,6 +693,7 @@ def make_thermal_campaign(
         feature_names=list(FEATURE_NAMES),
         target_names=[TARGET_NAME],
         unit_params=unit_params,
+        design_params=design_params,
         run_params=run_params,
         components=components,
         DESCR=_DESCR,

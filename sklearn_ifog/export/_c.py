@@ -855,3 +855,101 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
     source = directory / f"{prefix}.c"
     write_text_files({header: header_text, source: source_text})
     return header, source
+
+
+def _unit_identifier(unit):
+    """A unit label as the tail of a C identifier: letters, digits and '_' only."""
+    text = re.sub(r"[^A-Za-z0-9_]", "_", str(unit))
+    return text or "_"
+
+
+def to_c_units(model, directory, precision="double", prefix="ifog"):
+    """Write every unit of a fitted :class:`~sklearn_ifog.UnitwiseRegressor` as C99.
+
+    One header and one source per unit, each exactly what :func:`to_c` writes for that
+    unit's model, with the prefix ``{prefix}_unit_{unit}`` (characters of the unit label
+    that cannot be in a C identifier become ``_``). Firmware flashes one gyro's pair; every
+    unit keeps its own state and functions, so several can be linked together.
+
+    Parameters
+    ----------
+    model : UnitwiseRegressor
+        Fitted; every unit's model must be a Pipeline :func:`to_c` accepts.
+    directory : str or path-like
+        Where to write the files (created if missing).
+    precision : {"double", "float"}, default="double"
+        As for :func:`to_c`.
+    prefix : str, default="ifog"
+        A C identifier: the start of every unit's prefix.
+
+    Returns
+    -------
+    written : dict
+        Unit -> ``(header, source)`` paths, in the order of ``model.units_``.
+
+    Raises
+    ------
+    TypeError
+        If ``model`` is not a fitted UnitwiseRegressor, or a unit's model is not exportable.
+    ValueError
+        As for :func:`to_c`, or when two unit labels give the same identifier.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import numpy as np
+    >>> import pandas as pd
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn.pipeline import make_pipeline
+    >>> from sklearn_ifog import ThermalFeatures, UnitwiseRegressor
+    >>> from sklearn_ifog.export import to_c_units
+    >>> X = pd.DataFrame({"unit": ["A-1"] * 6 + ["B-2"] * 6, "time": np.tile(np.arange(6.0), 2)})
+    >>> X["temperature"] = 20 + X["time"] ** 2 / 10
+    >>> pipe = make_pipeline(ThermalFeatures(time="time"), LinearRegression())
+    >>> model = UnitwiseRegressor(pipe, pooling="none").fit(X, X["temperature"] / 100)
+    >>> with tempfile.TemporaryDirectory() as directory:
+    ...     written = to_c_units(model, directory)
+    ...     print({unit: header.name for unit, (header, _) in written.items()})
+    {'A-1': 'ifog_unit_A_1.h', 'B-2': 'ifog_unit_B_2.h'}
+    """
+    from sklearn.utils.validation import check_is_fitted
+
+    from sklearn_ifog.unitwise import UnitwiseRegressor
+
+    if not isinstance(model, UnitwiseRegressor):
+        raise TypeError(
+            f"to_c_units exports a UnitwiseRegressor, got {type(model).__name__}; use to_c."
+        )
+    check_is_fitted(model)
+    if not isinstance(prefix, str) or not _IDENTIFIER.match(prefix):
+        raise ValueError(
+            f"prefix must be a C identifier (a letter, then letters, digits or '_'), "
+            f"got {prefix!r}."
+        )
+    prefixes = {}
+    for unit in model.estimators_:
+        name = f"{prefix}_unit_{_unit_identifier(unit)}"
+        if name in prefixes.values():
+            other = next(key for key, value in prefixes.items() if value == name)
+            raise ValueError(
+                f"units {other!r} and {unit!r} give the same C identifier {name!r}; rename one."
+            )
+        prefixes[unit] = name
+    if precision not in ("double", "float"):
+        raise ValueError(f"precision must be 'double' or 'float', got {precision!r}.")
+    rendered = {}
+    for unit, name in prefixes.items():
+        try:
+            spec = describe_pipeline(model.estimators_[unit])
+        except (TypeError, ValueError) as error:
+            raise type(error)(f"unit {unit!r}: {error}") from error
+        rendered[unit] = (name, *render_c(spec, prefix=name, precision=precision))
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    files, written = {}, {}
+    for unit, (name, header_text, source_text) in rendered.items():
+        header, source = directory / f"{name}.h", directory / f"{name}.c"
+        files[header], files[source] = header_text, source_text
+        written[unit] = (header, source)
+    write_text_files(files)
+    return written

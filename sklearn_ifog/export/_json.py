@@ -34,8 +34,11 @@ def to_json(pipeline, path):
 
     Parameters
     ----------
-    pipeline : sklearn.pipeline.Pipeline
-        Fitted; the same pipelines as :func:`to_c` accepts.
+    pipeline : sklearn.pipeline.Pipeline or UnitwiseRegressor
+        Fitted; the same pipelines as :func:`to_c` accepts. A
+        :class:`~sklearn_ifog.UnitwiseRegressor` is written as ``{"schema":
+        "sklearn-ifog-units", "schema_version": 1, "unit_column": ..., "pooling": ...,
+        "units": [{"unit": label, "model": <the pipeline's document>}, ...]}``.
     path : str or path-like
         The file to write (atomically: a temporary file, then a rename).
 
@@ -68,8 +71,33 @@ def to_json(pipeline, path):
     >>> spec["schema_version"], [step["op"] for step in spec["steps"]]
     (2, ['linear'])
     """
-    spec = describe_pipeline(pipeline)
+    from sklearn_ifog.unitwise import UnitwiseRegressor
+
+    if isinstance(pipeline, UnitwiseRegressor):
+        spec = _unitwise_spec(pipeline)
+    else:
+        spec = describe_pipeline(pipeline)
     path = Path(path)
     text = json.dumps(spec, indent=2, allow_nan=False) + "\n"
     write_text_files({path: text})
     return path
+
+
+def _unitwise_spec(model):
+    """The JSON document of a fitted UnitwiseRegressor: every unit's pipeline document."""
+    from sklearn.utils.validation import check_is_fitted
+
+    check_is_fitted(model)
+    units = []
+    for unit, estimator in model.estimators_.items():
+        try:
+            units.append({"unit": unit, "model": describe_pipeline(estimator)})
+        except (TypeError, ValueError) as error:
+            raise type(error)(f"unit {unit!r}: {error}") from error
+    return {
+        "schema": "sklearn-ifog-units",
+        "schema_version": 1,
+        "unit_column": model.unit,
+        "pooling": model.pooling,
+        "units": units,
+    }

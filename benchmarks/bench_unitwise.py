@@ -1,0 +1,288 @@
+"""A production lot: one model per gyro, pooling "none", "full" and "partial".
+
+A simulated lot of ``N_UNITS`` gyros (``make_thermal_campaign``), each recorded ``N_RUNS`` times
+at one azimuth; every unit is calibrated on its first 1, 2 or 4 runs and tested on its last
+``N_TEST`` runs (the same test runs for every calibration size, so the columns compare). Two
+kinds of lot: "similar" (units of one design, ``lot_spread=LOT_SPREAD``) and "independent"
+(every unit drawn on its own, ``lot_spread=None``); two physics presets ("lumped" and
+"layered_glass"). The models are the package's pipeline (``make_compensation_pipeline``)
+with a linear regressor and with the RBF network (``refine=None`` for speed, linear tail),
+wrapped in ``UnitwiseRegressor`` with each pooling; scikit-lego's ``GroupedPredictor`` with
+its shrinkage options wraps the same pipeline as a comparison (a test-only dependency). The
+RBF network with its default quadratic tail is run too and reported separately (see the
+notes in the results).
+
+GroupedPredictor runs all three options on the linear model and "relative" on the RBF network
+(time). The score is the MSD of the compensated rate on the test runs of all units (rows pooled),
+averaged over seeds, also shown as a ratio to the simulator's noise floor on those rows.
+
+Targets (the verdict; exit status 1 if one fails):
+
+1. for every physics, lot, calibration size and model of the verdict, "partial" is at most
+   1.05 times the better of "none" and "full" (seed means);
+2. on the similar lot calibrated on one run per unit, "partial" reaches the MSD of "none"
+   calibrated on two runs (chamber time halved): ratio <= 1, or the table says how close it
+   gets (the issue's wording: this one is reported, it does not fail the run).
+
+Run (about 15 minutes on two busy cores)::
+
+    nice -n 10 .venv/bin/python benchmarks/bench_unitwise.py
+
+``--quick``: one seed, the lumped physics, the linear model only (a minute). Writes
+``benchmarks/results/unitwise.md`` and ``unitwise.json`` (``unitwise_quick.*`` with
+``--quick``).
+"""
+
+import argparse
+import json
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+from sklearn.base import clone
+from sklearn.linear_model import LinearRegression
+
+from sklearn_ifog import RBFNetRegressor, UnitwiseRegressor, make_compensation_pipeline
+from sklearn_ifog._io import write_text_files
+from sklearn_ifog.datasets import make_thermal_campaign, noise_floor
+
+RESULTS = Path(__file__).parent / "results"
+N_UNITS = 6
+N_RUNS = 6
+N_TEST = 2
+CALIBRATION_RUNS = (1, 2, 4)
+LOT_SPREAD = 0.15
+SAMPLING_PERIOD = 300.0
+POOLINGS = ("none", "full", "partial")
+SKLEGO_SHRINKAGE = ("relative", "equal", "constant")
+# "constant" shrinkage needs its weight of the unit's own model against the lot's.
+SKLEGO_CONSTANT_ALPHA = 0.5
+TOLERANCE = 1.05
+LOTS = {"similar": LOT_SPREAD, "independent": None}
+
+
+def models(seed, quick):
+    """name -> (pipeline, in the verdict, GroupedPredictor shrinkage options run)."""
+    found = {"linear": (make_compensation_pipeline(LinearRegression()), True, SKLEGO_SHRINKAGE)}
+    if not quick:
+        # GroupedPredictor fits one more model per unit and option: on the RBF network only
+        # the option the issue measured ("relative"), to keep the run short.
+        found["rbf"] = (
+            make_compensation_pipeline(
+                RBFNetRegressor(refine=None, tail="linear", random_state=seed)
+            ),
+            True,
+            ("relative",),
+        )
+        found["rbf_quadratic_tail"] = (
+            make_compensation_pipeline(RBFNetRegressor(refine=None, random_state=seed)),
+            False,
+            (),
+        )
+    return found
+
+
+def _grouped(pipeline, shrinkage):
+    from sklego.meta import GroupedPredictor
+
+    kwargs = {"alpha": SKLEGO_CONSTANT_ALPHA} if shrinkage == "constant" else None
+    return GroupedPredictor(
+        clone(pipeline),
+        groups=["unit"],
+        shrinkage=shrinkage,
+        check_X=False,
+        shrinkage_kwargs=kwargs,
+    )
+
+
+def run_case(physics, lot, seed, quick):
+    campaign = make_thermal_campaign(
+        n_units=N_UNITS,
+        n_runs=N_RUNS,
+        azimuths=[0.0],
+        sampling_period=SAMPLING_PERIOD,
+        physics=physics,
+        lot_spread=LOTS[lot],
+        random_state=seed,
+    )
+    frame, X, y = campaign.frame, campaign.data, campaign.target.to_numpy()
+    runs = {unit: sorted(frame.loc[frame.unit == unit, "run"].unique()) for unit in range(N_UNITS)}
+    test_runs = [run for unit in runs for run in runs[unit][-N_TEST:]]
+    test = frame["run"].isin(test_runs).to_numpy()
+    floor = noise_floor(frame, test)
+    rows = []
+    for n_calibration in CALIBRATION_RUNS:
+        train_runs = [run for unit in runs for run in runs[unit][:n_calibration]]
+        train = frame["run"].isin(train_runs).to_numpy()
+        for name, (pipeline, verdict, options) in models(seed, quick).items():
+            candidates = {
+                pooling: UnitwiseRegressor(pipeline, pooling=pooling) for pooling in POOLINGS
+            }
+            for shrinkage in options:
+                candidates[f"sklego_{shrinkage}"] = _grouped(pipeline, shrinkage)
+            for method, model in candidates.items():
+                start = time.perf_counter()
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", UserWarning)
+                    model.fit(X[train], y[train])
+                    prediction = np.asarray(model.predict(X[test]), dtype=np.float64)
+                msd = float(np.mean(np.square(y[test] - prediction)))
+                rows.append(
+                    {
+                        "physics": physics,
+                        "lot": lot,
+                        "seed": seed,
+                        "n_calibration_runs": n_calibration,
+                        "model": name,
+                        "in_verdict": verdict,
+                        "method": method,
+                        "msd": msd,
+                        "noise_floor": floor,
+                        "fit_time": time.perf_counter() - start,
+                        "shrinkage": (
+                            {
+                                str(k): None if v is None else float(v)
+                                for k, v in model.shrinkage_.items()
+                            }
+                            if method == "partial"
+                            else None
+                        ),
+                    }
+                )
+    return rows
+
+
+def summarise(rows):
+    """(physics, lot, model, k) -> method -> seed-mean MSD, and the floor."""
+    table = {}
+    for row in rows:
+        key = (row["physics"], row["lot"], row["model"], row["n_calibration_runs"])
+        cell = table.setdefault(key, {"in_verdict": row["in_verdict"], "floor": []})
+        cell.setdefault(row["method"], []).append(row["msd"])
+        if row["method"] == "none":
+            cell["floor"].append(row["noise_floor"])
+    return {
+        key: {
+            method: (values if method == "in_verdict" else float(np.mean(values)))
+            for method, values in cell.items()
+        }
+        for key, cell in table.items()
+    }
+
+
+def verdict(summary):
+    checks = []
+    for (physics, lot, model, k), cell in summary.items():
+        if not cell["in_verdict"]:
+            continue
+        best = min(cell["none"], cell["full"])
+        ratio = cell["partial"] / best
+        checks.append(
+            {
+                "target": 1,
+                "case": f"{physics}/{lot}/{model}/{k} run(s)",
+                "value": ratio,
+                "passed": bool(ratio <= TOLERANCE),
+            }
+        )
+    for (physics, lot, model, k), cell in summary.items():
+        if lot != "similar" or k != 1 or not cell["in_verdict"]:
+            continue
+        twice = summary[(physics, lot, model, 2)]["none"]
+        ratio = cell["partial"] / twice
+        # The issue's second target is "reach it, or say how close": a ratio above 1 is
+        # reported (the closing note quotes it), not failed.
+        checks.append(
+            {
+                "target": 2,
+                "case": f"{physics}/{lot}/{model}: partial@1 / none@2",
+                "value": ratio,
+                "passed": True,
+                "reached": bool(ratio <= 1.0),
+            }
+        )
+    return checks
+
+
+def markdown(summary, checks, command, seeds, elapsed):
+    methods = [*POOLINGS, *(f"sklego_{s}" for s in SKLEGO_SHRINKAGE)]
+    lines = [
+        "# Unitwise benchmark: one model per gyro of a lot",
+        "",
+        f"Command: `{command}` ({elapsed / 60:.1f} min). Lot of {N_UNITS} units, {N_RUNS} runs "
+        f"each at one azimuth, sampled every {SAMPLING_PERIOD:g} s; calibrated on the first "
+        f"1, 2 or 4 runs of every unit, tested on its last {N_TEST}; seeds {seeds}. "
+        f"Similar lot: lot_spread={LOT_SPREAD}; independent: every unit drawn on its own.",
+        "",
+        "MSD ((deg/h)^2) on the test runs, mean over seeds; in brackets the ratio to the "
+        "noise floor of those rows. 'partial/best' is partial over the better of none and "
+        "full (target 1: <= 1.05). sklego_*: scikit-lego's GroupedPredictor with that "
+        "shrinkage (comparison only; constant with alpha=0.5).",
+        "",
+        "| physics | lot | model | runs | " + " | ".join(methods) + " | partial/best | verdict |",
+        "|" + "---|" * (len(methods) + 6),
+    ]
+    for (physics, lot, model, k), cell in summary.items():
+        floor = cell["floor"]
+        cells = [f"{cell[m]:.3g} ({cell[m] / floor:.2f})" if m in cell else "-" for m in methods]
+        ratio = cell["partial"] / min(cell["none"], cell["full"])
+        mark = ("PASS" if ratio <= TOLERANCE else "FAIL") if cell["in_verdict"] else "(info)"
+        lines.append(
+            f"| {physics} | {lot} | {model} | {k} | "
+            + " | ".join(cells)
+            + f" | {ratio:.3f} | {mark} |"
+        )
+    lines += ["", "## Targets", ""]
+    for check in checks:
+        if check["target"] == 2:
+            status = "REACHED" if check["reached"] else "not reached (reported)"
+        else:
+            status = "PASS" if check["passed"] else "FAIL"
+        lines.append(f"- target {check['target']}: {check['case']}: {check['value']:.3f} {status}")
+    failed = [check for check in checks if not check["passed"]]
+    lines += ["", f"Verdict: {'FAIL' if failed else 'PASS'} ({len(failed)} failed)."]
+    return "\n".join(lines) + "\n"
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="one seed, lumped, linear model")
+    parser.add_argument("--seeds", type=int, default=3)
+    args = parser.parse_args()
+    seeds = [0] if args.quick else list(range(args.seeds))
+    physics_presets = ("lumped",) if args.quick else ("lumped", "layered_glass")
+    command = "python benchmarks/bench_unitwise.py" + (" --quick" if args.quick else "")
+    start = time.perf_counter()
+    rows = []
+    for physics in physics_presets:
+        for lot in LOTS:
+            for seed in seeds:
+                rows += run_case(physics, lot, seed, args.quick)
+                print(
+                    f"[bench_unitwise] {physics}/{lot}/seed {seed} done "
+                    f"({time.perf_counter() - start:.0f} s)",
+                    file=sys.stderr,
+                    flush=True,
+                )
+    summary = summarise(rows)
+    checks = verdict(summary)
+    elapsed = time.perf_counter() - start
+    text = markdown(summary, checks, command, seeds, elapsed)
+    stem = "unitwise_quick" if args.quick else "unitwise"
+    RESULTS.mkdir(exist_ok=True)
+    write_text_files(
+        {
+            RESULTS / f"{stem}.json": json.dumps(
+                {"command": command, "rows": rows, "checks": checks}, indent=1
+            ),
+            RESULTS / f"{stem}.md": text,
+        }
+    )
+    print(text)
+    return 1 if any(not check["passed"] for check in checks) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,509 @@
+"""UnitwiseRegressor: one drift model per gyro of a production lot, in one estimator.
+
+The unit travels inside X as a column (like the run id), so scorers, ``cross_validate`` and
+``GridSearchCV`` see one ordinary regressor. The numerics of partial pooling live in
+:mod:`sklearn_ifog._shrinkage`; this module holds the scikit-learn surface and the access to
+the output layer of the supported final regressors.
+"""
+
+import copy
+from numbers import Integral
+from typing import ClassVar
+
+import numpy as np
+from sklearn.base import BaseEstimator, MetaEstimatorMixin, RegressorMixin, clone
+from sklearn.linear_model import (
+    ARDRegression,
+    BayesianRidge,
+    ElasticNet,
+    ElasticNetCV,
+    HuberRegressor,
+    Lasso,
+    LassoCV,
+    LinearRegression,
+    Ridge,
+    RidgeCV,
+)
+from sklearn.pipeline import Pipeline
+from sklearn.utils import get_tags
+from sklearn.utils.validation import (
+    check_array,
+    check_consistent_length,
+    check_is_fitted,
+    validate_data,
+)
+
+from sklearn_ifog import _shrinkage, _table
+from sklearn_ifog._compat import HasMethods, StrOptions, _fit_context, _safe_indexing
+from sklearn_ifog.rbf import RBFNetRegressor
+from sklearn_ifog.rbf._basis import gaussian_design, tail_features
+
+__all__ = ["UnitwiseRegressor"]
+
+POOLING = ("none", "partial", "full")
+
+# Final regressors whose output layer is linear in known features: "partial" shrinks it.
+LINEAR_OUTPUT = (
+    LinearRegression,
+    Ridge,
+    RidgeCV,
+    Lasso,
+    LassoCV,
+    ElasticNet,
+    ElasticNetCV,
+    BayesianRidge,
+    ARDRegression,
+    HuberRegressor,
+)
+
+
+# --------------------------------------------------------------------------------------------
+# The output layer of a fitted model: design, weights, and a copy with new weights
+# --------------------------------------------------------------------------------------------
+
+
+def _final_step(estimator):
+    """The last estimator of a Pipeline (the estimator itself otherwise)."""
+    return estimator.steps[-1][1] if isinstance(estimator, Pipeline) else estimator
+
+
+def _check_partial(estimator):
+    final = _final_step(estimator)
+    if not isinstance(final, (RBFNetRegressor, *LINEAR_OUTPUT)):
+        names = ", ".join(cls.__name__ for cls in (RBFNetRegressor, *LINEAR_OUTPUT))
+        raise ValueError(
+            f"pooling='partial' shrinks a linear output layer towards the lot's; the final "
+            f"regressor {type(final).__name__} has none. Use pooling='none' or 'full', or a "
+            f"final regressor among: {names} (alone or as the last step of a Pipeline)."
+        )
+
+
+def _layer_inputs(model, X):
+    """What the final regressor of the fitted ``model`` sees for ``X``, as a float array."""
+    if isinstance(model, Pipeline):
+        X = model[:-1].transform(X)
+    return np.asarray(X, dtype=np.float64)
+
+
+def layer_design(final, X):
+    """The output-layer design of a fitted final regressor, intercept column last.
+
+    Parameters
+    ----------
+    final : RBFNetRegressor or linear regressor
+        Fitted.
+    X : ndarray of shape (n_samples, n_features)
+        Its inputs.
+
+    Returns
+    -------
+    Phi : ndarray of shape (n_samples, n_columns)
+        RBF network: the Gaussian activations, the tail regressors, then ones; linear
+        model: the inputs, then ones.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn_ifog.unitwise import layer_design
+    >>> X = np.arange(6.0).reshape(3, 2)
+    >>> layer_design(LinearRegression().fit(X, X[:, 0]), X)[:, -1]
+    array([1., 1., 1.])
+    """
+    ones = np.ones((X.shape[0], 1))
+    if isinstance(final, RBFNetRegressor):
+        Z = (X - final.x_mean_) / final.x_scale_
+        network = final._network()
+        parts = [gaussian_design(Z, network.centers, network.widths)]
+        if final.tail_degree_ > 0:
+            parts.append(tail_features(Z, final.tail_degree_))
+        return np.hstack([*parts, ones])
+    return np.hstack([X, ones])
+
+
+def layer_weights(final):
+    """The weights of the output layer, shape (n_columns, n_outputs), as :func:`layer_design`."""
+    if isinstance(final, RBFNetRegressor):
+        network = final._network()
+        blocks = [network.coef]
+        if final.tail_degree_ > 0:
+            blocks.append(network.tail_coef)
+        blocks.append(network.intercept[:, None])
+        return np.hstack(blocks).T
+    coef = np.atleast_2d(np.asarray(final.coef_, dtype=np.float64))
+    intercept = np.broadcast_to(np.asarray(final.intercept_, dtype=np.float64), coef.shape[:1])
+    return np.hstack([coef, intercept[:, None]]).T
+
+
+def _with_weights(model, W):
+    """A deep copy of the fitted ``model`` whose output layer has the weights ``W``."""
+    model = copy.deepcopy(model)
+    final = _final_step(model)
+    one_d = np.ndim(final.coef_) == 1
+    W = W.T  # (n_outputs, n_columns)
+    intercept = W[:, -1]
+    if isinstance(final, RBFNetRegressor):
+        n_centers = np.atleast_2d(final.coef_).shape[1]
+        coef = W[:, :n_centers]
+        tail = np.zeros_like(np.atleast_2d(final.tail_coef_))
+        if final.tail_degree_ > 0:
+            tail = W[:, n_centers:-1]
+        final.coef_ = coef[0].copy() if one_d else coef.copy()
+        final.tail_coef_ = tail[0].copy() if one_d else tail.copy()
+    else:
+        coef = W[:, :-1]
+        final.coef_ = coef[0].copy() if one_d else coef.copy()
+    final.intercept_ = float(intercept[0]) if np.ndim(final.intercept_) == 0 else intercept.copy()
+    return model
+
+
+def _label(value):
+    """A unit label as a plain Python value (numpy scalars unwrapped), for dict keys."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
+# --------------------------------------------------------------------------------------------
+# The estimator
+# --------------------------------------------------------------------------------------------
+
+
+class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
+    """One model per gyro of a production lot, dispatched by the unit column of X.
+
+    Fits a clone of ``estimator`` per value of the ``unit`` column (the unit column is
+    removed from X before the estimator sees it) and predicts each row with its unit's
+    model. ``pooling`` says how much the units share:
+
+    - ``"none"``: independent models, each on its unit's rows only;
+    - ``"full"``: one model fitted on the whole lot, used for every unit;
+    - ``"partial"``: one model fitted on the whole lot, then each unit's *output layer*
+      re-solved on its own rows as a ridge regression towards the lot's weights; the
+      strength is chosen per unit by cross-validation over its runs (one run held out at a
+      time), so a unit calibrated on one or two runs borrows what the lot knows and a unit
+      unlike the lot keeps its own weights. Everything before the output layer (feature
+      step, scaler, the network's centres and widths) is the lot model's; the unit's own
+      model (as with ``"none"``, its own centres and widths) is a further candidate of the
+      same cross-validation, kept when it beats every shrinkage.
+
+    Parameters
+    ----------
+    estimator : estimator object
+        The drift model, e.g. :func:`~sklearn_ifog.make_compensation_pipeline` ``()``.
+        For ``pooling="partial"`` its final regressor (the estimator itself or the last step
+        of a Pipeline) must have a linear output layer: :class:`~sklearn_ifog.RBFNetRegressor`
+        or a linear model (LinearRegression, Ridge, RidgeCV, Lasso, LassoCV, ElasticNet,
+        ElasticNetCV, BayesianRidge, ARDRegression, HuberRegressor).
+    unit : str or int, default="unit"
+        The unit column of X: a name (DataFrames) or a position. It is removed from X
+        before the estimator sees it, so integer column positions inside ``estimator``
+        refer to X *without* the unit column.
+    pooling : {"none", "partial", "full"}, default="partial"
+        How the units share: see above.
+    run : str, int or None, default="run"
+        The run column of X (a name or a position in X with the unit column), read by
+        ``"partial"`` only, to hold out one run at a time when choosing a unit's strength.
+        None, or a unit with a single run: its rows are cut into 4 contiguous blocks held out
+        in turn, and one strength is chosen for all such units (see Notes). The column is
+        left in X for the estimator.
+
+    Attributes
+    ----------
+    units_ : ndarray of shape (n_units,)
+        The units seen in fit, sorted.
+    estimators_ : dict
+        Unit -> fitted model. With ``"full"`` every unit maps to ``lot_estimator_``; with
+        ``"partial"`` each is a copy of ``lot_estimator_`` with the unit's output weights,
+        so it is an ordinary fitted model (it can be saved, streamed or exported alone).
+    lot_estimator_ : estimator or None
+        The model fitted on the whole lot (None with ``"none"``).
+    shrinkage_ : dict or None
+        ``"partial"``: unit -> chosen strength ``lam`` (0: own weights on the lot's basis,
+        ``inf``: the lot's weights; the same for every unit with a single run; None where
+        the unit's own model was kept); None otherwise.
+    shrinkage_scores_ : dict or None
+        ``"partial"``: unit -> held-out mean squared error of every strength of
+        ``shrinkage_grid_`` on the unit's own folds; None otherwise.
+    own_scores_ : dict or None
+        ``"partial"``: unit -> held-out mean squared error of the unit's own model on the
+        same held-out runs (None for a unit with a single run: it is not a candidate
+        there); None otherwise.
+    shrinkage_grid_ : ndarray or None
+        ``"partial"``: the strengths tried, increasing; None otherwise.
+    n_folds_ : dict or None
+        ``"partial"``: unit -> number of held-out runs (or blocks of its single run).
+    n_features_in_ : int
+        Number of columns of X seen during fit (the unit column included).
+    feature_names_in_ : ndarray of shape (n_features_in_,)
+        Their names, when X is a DataFrame with string column names.
+
+    See Also
+    --------
+    sklearn_ifog.make_compensation_pipeline : The usual ``estimator``.
+    sklearn_ifog.model_selection.compare_regressors : ``by="unit"`` gives per-unit results.
+
+    Notes
+    -----
+    Partial pooling solves, for unit ``u`` with output-layer design ``Phi_u`` (the lot
+    model's features, scaler, Gaussian activations and tail, plus an intercept column) and
+    drift ``y_u``::
+
+        w_u = argmin_w ||y_u - Phi_u w||² / n_u + lam_u Σ_j s_j² (w_j - w_lot,j)²
+
+    where ``s_j`` is the root mean square of column ``j`` over the lot's rows: the penalty
+    is the mean squared change of the lot's prediction that moving the weights causes, so
+    ``lam_u`` is free of units and of the number of rows. ``lam_u`` is taken from a grid of
+    0, 13 values from 1e-4 to 1e2 (log-spaced) and ``inf`` by the lowest squared error on
+    held-out runs of the unit (the largest on a tie). While choosing, each fold's prior is
+    the lot's output layer re-solved without the fold's rows (the lot model saw them).
+    With a single run, a held-out run does not exist; its rows are then cut into 4
+    contiguous blocks, each held out in turn (a stretch of the thermal test, e.g. a ramp or
+    a soak, that the unit's own weights did not see), and since one unit's blocks give a
+    noisy choice, one strength is chosen for all single-run units from the sum of their
+    held-out errors (a lot-level choice; per unit it was measurably worse on the similar
+    lot of ``benchmarks/bench_unitwise.py``).
+
+    A unit with two runs or more also tries its own model, fitted as with ``"none"`` on
+    its other runs and scored on the same held-out runs: for a model whose basis is learnt
+    (the RBF network's centres and widths), a unit unlike the lot, or with enough runs, is
+    better served by its own basis than by any weights on the lot's. This costs one fit of
+    ``estimator`` per held-out run. With a single run the own model is not tried: held-out
+    blocks of one run favour a unit's own fit, as they did for the strength above.
+    ``benchmarks/bench_unitwise.py`` measures the three poolings on simulated lots.
+
+    Examples
+    --------
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn_ifog import UnitwiseRegressor, make_compensation_pipeline
+    >>> from sklearn_ifog.datasets import make_thermal_campaign
+    >>> X, y = make_thermal_campaign(
+    ...     n_units=3,
+    ...     n_runs=2,
+    ...     azimuths=[0.0],
+    ...     sampling_period=300.0,
+    ...     lot_spread=0.2,
+    ...     random_state=0,
+    ...     return_X_y=True,
+    ... )
+    >>> model = UnitwiseRegressor(make_compensation_pipeline(LinearRegression()))
+    >>> model = model.fit(X, y)
+    >>> model.units_.tolist(), sorted(model.estimators_)
+    ([0, 1, 2], [0, 1, 2])
+    >>> model.predict(X).shape == y.shape
+    True
+    >>> model.predict(X.assign(unit=7))
+    Traceback (most recent call last):
+    ...
+    ValueError: unit 7 (column 'unit' of X) was not seen in fit; the fitted units are [0, 1, 2].
+    """
+
+    _parameter_constraints: ClassVar[dict] = {
+        "estimator": [HasMethods(["fit", "predict"])],
+        "unit": [str, Integral],
+        "pooling": [StrOptions(set(POOLING))],
+        "run": [str, Integral, None],
+    }
+
+    def __init__(self, estimator, *, unit="unit", pooling="partial", run="run"):
+        self.estimator = estimator
+        self.unit = unit
+        self.pooling = pooling
+        self.run = run
+
+    # -- reading X ------------------------------------------------------------------------
+
+    def _split_unit(self, X, *, reset):
+        """(X without the unit column, the unit of every row, X) after the name checks."""
+        X = _table.as_table(X)
+        validate_data(self, X, reset=reset, skip_check_array=True)
+        position = _table.column_position(
+            X,
+            self.unit,
+            param="unit",
+            hint="UnitwiseRegressor needs the unit of every row; name its column with unit=.",
+        )
+        units = _table.label_column(X, self.unit, param="unit")
+        keep = [index for index in range(X.shape[1]) if index != position]
+        if not keep:
+            raise ValueError(
+                f"X has no column besides the unit column {self.unit!r}; the model needs "
+                "its inputs too."
+            )
+        return _safe_indexing(X, keep, axis=1), units, X
+
+    def _runs(self, X, n_samples):
+        if self.run is None:
+            return np.zeros(n_samples, dtype=np.int64)
+        return _table.label_column(
+            X,
+            self.run,
+            param="run",
+            hint="pooling='partial' holds out one run at a time; pass run=None to cut each "
+            "unit's rows into contiguous blocks instead.",
+        )
+
+    # -- scikit-learn surface -------------------------------------------------------------
+
+    @_fit_context(
+        # the wrapped estimator validates its own parameters
+        prefer_skip_nested_validation=False
+    )
+    def fit(self, X, y):
+        """Fit one model per unit (and the lot's model for ``"full"`` and ``"partial"``).
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_columns)
+            The thermal-test table, with the unit column and whatever ``estimator`` reads.
+            Rows of a run contiguous and in time order.
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            The drift target, e.g. ``rate - reference``.
+
+        Returns
+        -------
+        self : UnitwiseRegressor
+            Fitted.
+        """
+        if y is None:
+            raise ValueError(
+                f"{type(self).__name__} requires y to be passed, but the target y is None."
+            )
+        X_inner, units, X = self._split_unit(X, reset=True)
+        y = check_array(y, ensure_2d=False, dtype=np.float64, input_name="y")
+        check_consistent_length(X, y)
+        if self.pooling == "partial":
+            _check_partial(self.estimator)
+            runs = self._runs(X, X.shape[0])
+        self.units_ = np.unique(units)
+        rows = {_label(unit): np.flatnonzero(units == unit) for unit in self.units_}
+        self.lot_estimator_ = None
+        self.shrinkage_ = self.shrinkage_scores_ = self.shrinkage_grid_ = None
+        self.n_folds_ = self.own_scores_ = None
+        if self.pooling == "none":
+            self.estimators_ = {
+                unit: self._fit_unit(unit, X_inner, y, index) for unit, index in rows.items()
+            }
+            return self
+        lot = clone(self.estimator).fit(X_inner, y)
+        self.lot_estimator_ = lot
+        if self.pooling == "full":
+            self.estimators_ = dict.fromkeys(rows, lot)
+            return self
+        self._fit_partial(lot, X_inner, y, runs, rows)
+        return self
+
+    def _fit_unit(self, unit, X_inner, y, index):
+        try:
+            return clone(self.estimator).fit(
+                _safe_indexing(X_inner, index), _safe_indexing(y, index)
+            )
+        except ValueError as error:
+            raise ValueError(f"unit {unit!r} (column {self.unit!r}): {error}") from error
+
+    def _fit_partial(self, lot, X_inner, y, runs, rows):
+        final = _final_step(lot)
+        Phi = layer_design(final, _layer_inputs(lot, X_inner))
+        prior = layer_weights(final)
+        scale = _shrinkage.design_scale(Phi)
+        Y = y.reshape(y.shape[0], -1)
+        lot_sums = _shrinkage.lot_statistics(Phi, Y, prior)
+        grid = _shrinkage.SHRINKAGE_GRID
+        self.shrinkage_grid_ = grid.copy()
+        self.estimators_, self.shrinkage_, self.shrinkage_scores_, self.n_folds_ = {}, {}, {}, {}
+        self.own_scores_ = {}
+        single = {}  # units with one run: their strength is chosen for the lot
+        for unit, index in rows.items():
+            folds = _shrinkage.cv_folds(runs[index])
+            strength, scores = _shrinkage.choose_shrinkage(
+                Phi[index], Y[index], prior, scale, folds, grid, lot=lot_sums
+            )
+            self.shrinkage_[unit] = strength
+            self.shrinkage_scores_[unit] = scores
+            self.n_folds_[unit] = len(folds)
+            if np.unique(runs[index]).size < 2:
+                single[unit] = index.size
+                self.own_scores_[unit] = None
+            else:
+                self.own_scores_[unit] = self._own_score(X_inner, y, index, folds)
+        if single:
+            total = sum(self.shrinkage_scores_[unit] * size for unit, size in single.items())
+            shared = _shrinkage.pick_strength(total, grid)
+            self.shrinkage_.update(dict.fromkeys(single, shared))
+        for unit, index in rows.items():
+            own = self.own_scores_[unit]
+            if own is not None and own < np.nanmin(self.shrinkage_scores_[unit]):
+                # the unit's own model beats every shrinkage of the lot's output layer
+                self.shrinkage_[unit] = None
+                self.estimators_[unit] = self._fit_unit(unit, X_inner, y, index)
+                continue
+            (weights,) = _shrinkage.solve_shrunk(
+                Phi[index], Y[index], prior, scale, [self.shrinkage_[unit]]
+            )
+            self.estimators_[unit] = _with_weights(lot, weights)
+
+    def _own_score(self, X_inner, y, index, folds):
+        """Held-out mean squared error of the unit's own model, fitted fold by fold."""
+        sse, n_held = 0.0, 0
+        for test in folds:
+            try:
+                model = clone(self.estimator).fit(
+                    _safe_indexing(X_inner, index[~test]), y[index[~test]]
+                )
+            except ValueError:  # e.g. too few rows for the model: not a candidate
+                return np.inf
+            prediction = np.asarray(
+                model.predict(_safe_indexing(X_inner, index[test])), dtype=np.float64
+            )
+            sse += float(
+                np.square(y[index[test]] - prediction.reshape(y[index[test]].shape)).sum()
+            )
+            n_held += y[index[test]].size
+        return sse / n_held
+
+    def predict(self, X):
+        """Predict every row with the model of its unit.
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_columns)
+            With the columns seen in fit. Every unit must have been seen in fit.
+
+        Returns
+        -------
+        y : ndarray of shape (n_samples,) or (n_samples, n_outputs)
+            The predictions, row i for input row i.
+
+        Raises
+        ------
+        ValueError
+            If the unit column is missing or holds a unit not seen in fit (named).
+        """
+        check_is_fitted(self)
+        X_inner, units, _ = self._split_unit(X, reset=False)
+        present = np.unique(units)
+        known = set(self.estimators_)
+        for unit in present:
+            if _label(unit) not in known:
+                fitted = [_label(u) for u in self.units_[:10]]
+                more = "" if self.units_.size <= 10 else f" and {self.units_.size - 10} more"
+                raise ValueError(
+                    f"unit {_label(unit)!r} (column {self.unit!r} of X) was not seen in fit; "
+                    f"the fitted units are {fitted}{more}."
+                )
+        output = None
+        for unit in present:
+            index = np.flatnonzero(units == unit)
+            part = np.asarray(
+                self.estimators_[_label(unit)].predict(_safe_indexing(X_inner, index)),
+                dtype=np.float64,
+            )
+            if output is None:
+                output = np.empty((units.shape[0], *part.shape[1:]))
+            output[index] = part
+        return output
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        inner = get_tags(self.estimator)
+        tags.target_tags.multi_output = inner.target_tags.multi_output
+        tags.non_deterministic = inner.non_deterministic
+        return tags

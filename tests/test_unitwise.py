@@ -1,0 +1,353 @@
+"""UnitwiseRegressor and the partial-pooling numerics."""
+
+import numpy as np
+import pandas as pd
+import polars as pl
+import pytest
+from sklearn.base import clone
+from sklearn.linear_model import LinearRegression, Ridge
+from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import StandardScaler
+from sklearn.tree import DecisionTreeRegressor
+
+from sklearn_ifog import (
+    RBFNetRegressor,
+    ThermalFeatures,
+    UnitwiseRegressor,
+    make_compensation_pipeline,
+)
+from sklearn_ifog import _shrinkage as shrinkage
+from sklearn_ifog._compat import InvalidParameterError
+from sklearn_ifog.datasets import make_thermal_campaign
+from sklearn_ifog.unitwise import _layer_inputs, layer_design, layer_weights
+
+
+@pytest.fixture(scope="module")
+def lot():
+    """Four similar units, three runs each, coarse sampling (fast)."""
+    return make_thermal_campaign(
+        n_units=4,
+        n_runs=3,
+        azimuths=[0.0],
+        sampling_period=300.0,
+        lot_spread=0.15,
+        random_state=3,
+    )
+
+
+def _linear():
+    return make_compensation_pipeline(LinearRegression())
+
+
+def _rbf():
+    return make_compensation_pipeline(
+        RBFNetRegressor(refine=None, tail="linear", max_samples=400, random_state=0)
+    )
+
+
+def _unit_rows(lot, unit):
+    return (lot.data["unit"] == unit).to_numpy()
+
+
+# -- pooling "none" and "full" ---------------------------------------------------------------
+
+
+def test_none_fits_each_unit_alone(lot):
+    X, y = lot.data, lot.target.to_numpy()
+    model = UnitwiseRegressor(_linear(), pooling="none").fit(X, y)
+    assert model.lot_estimator_ is None
+    assert model.shrinkage_ is None
+    prediction = model.predict(X)
+    for unit in range(4):
+        rows = _unit_rows(lot, unit)
+        alone = _linear().fit(X[rows].drop(columns="unit"), y[rows])
+        np.testing.assert_array_equal(
+            prediction[rows], alone.predict(X[rows].drop(columns="unit"))
+        )
+
+
+def test_full_is_one_model_for_the_lot(lot):
+    X, y = lot.data, lot.target.to_numpy()
+    model = UnitwiseRegressor(_linear(), pooling="full").fit(X, y)
+    single = _linear().fit(X.drop(columns="unit"), y)
+    np.testing.assert_array_equal(model.predict(X), single.predict(X.drop(columns="unit")))
+    assert all(estimator is model.lot_estimator_ for estimator in model.estimators_.values())
+
+
+def test_unit_column_is_removed_before_the_estimator(lot):
+    X, y = lot.data, lot.target.to_numpy()
+    for pooling in ("none", "full", "partial"):
+        model = UnitwiseRegressor(_linear(), pooling=pooling).fit(X, y)
+        for estimator in model.estimators_.values():
+            assert "unit" not in estimator.feature_names_in_.tolist()
+        assert model.feature_names_in_.tolist() == list(X.columns)
+
+
+def test_rows_of_interleaved_units_keep_their_order(lot):
+    X, y = lot.data, lot.target.to_numpy()
+    model = UnitwiseRegressor(_linear(), pooling="partial").fit(X, y)
+    expected = model.predict(X)
+    # the same rows with the units in reverse order: each row keeps its own prediction
+    order = np.concatenate([np.flatnonzero(_unit_rows(lot, unit)) for unit in (3, 2, 1, 0)])
+    np.testing.assert_array_equal(model.predict(X.iloc[order]), expected[order])
+
+
+# -- pooling "partial" ----------------------------------------------------------------------
+
+
+def _manual_layer(model, unit, X):
+    estimator = model.estimators_[unit]
+    final = estimator.steps[-1][1]
+    return layer_design(final, _layer_inputs(estimator, X)), layer_weights(final)
+
+
+@pytest.mark.parametrize("make", [_linear, _rbf], ids=["linear", "rbf"])
+def test_partial_keeps_the_lot_basis_and_predicts_with_its_own_weights(lot, make):
+    X, y = lot.data, lot.target.to_numpy()
+    model = UnitwiseRegressor(make(), pooling="partial").fit(X, y)
+    lot_final = model.lot_estimator_.steps[-1][1]
+    prediction = model.predict(X)
+    shrunk = [unit for unit in range(4) if model.shrinkage_[unit] is not None]
+    assert shrunk  # a lot of similar units: the lot's layer serves some of them
+    for unit in shrunk:
+        rows = _unit_rows(lot, unit)
+        estimator = model.estimators_[unit]
+        final = estimator.steps[-1][1]
+        if isinstance(final, RBFNetRegressor):
+            np.testing.assert_array_equal(final.centers_, lot_final.centers_)
+            np.testing.assert_array_equal(final.widths_, lot_final.widths_)
+            np.testing.assert_array_equal(final.x_mean_, lot_final.x_mean_)
+        Phi, W = _manual_layer(model, unit, X[rows].drop(columns="unit"))
+        np.testing.assert_allclose(prediction[rows], (Phi @ W)[:, 0], rtol=1e-9, atol=1e-12)
+        assert model.n_folds_[unit] == 3  # one held-out run at a time
+        assert model.shrinkage_[unit] in model.shrinkage_grid_
+        assert model.own_scores_[unit] >= np.nanmin(model.shrinkage_scores_[unit])
+    # the lot model is left untouched by the per-unit copies
+    assert model.lot_estimator_.steps[-1][1] is lot_final
+
+
+def test_partial_with_identical_units_gives_the_lot_model(lot):
+    """Units that are the same recordings: the lot knows them all; partial = full."""
+    rows = _unit_rows(lot, 0)
+    X0, y0 = lot.data[rows], lot.target.to_numpy()[rows]
+    X = pd.concat(
+        [X0.assign(unit=unit, run=X0["run"] + 100 * k) for k, unit in enumerate("abc")],
+        ignore_index=True,
+    )
+    y = np.tile(y0, 3)
+    partial = UnitwiseRegressor(_linear(), pooling="partial").fit(X, y)
+    full = UnitwiseRegressor(_linear(), pooling="full").fit(X, y)
+    np.testing.assert_allclose(partial.predict(X), full.predict(X), rtol=1e-7, atol=1e-9)
+
+
+def test_partial_lets_a_unit_unlike_the_lot_keep_its_own_weights(lot):
+    """One unit's drift reversed: the lot's weights are wrong for it, its own are right."""
+    X, y = lot.data, lot.target.to_numpy().copy()
+    odd = _unit_rows(lot, 2)
+    y[odd] = -3.0 * y[odd]
+    model = UnitwiseRegressor(_linear(), pooling="partial").fit(X, y)
+    none = UnitwiseRegressor(_linear(), pooling="none").fit(X, y)
+    full = UnitwiseRegressor(_linear(), pooling="full").fit(X, y)
+    # its own weights on the lot's basis, or its own model altogether
+    assert model.shrinkage_[2] is None or model.shrinkage_[2] < 1e-2
+    msd = {
+        name: np.mean((y[odd] - m.predict(X[odd])) ** 2)
+        for name, m in (("partial", model), ("none", none), ("full", full))
+    }
+    assert msd["partial"] <= 1.1 * msd["none"] < 0.1 * msd["full"]
+
+
+def test_single_run_units_share_one_strength(lot):
+    first = lot.frame.groupby("unit")["run"].transform("min") == lot.frame["run"]
+    X, y = lot.data[first.to_numpy()], lot.target.to_numpy()[first.to_numpy()]
+    model = UnitwiseRegressor(_linear(), pooling="partial").fit(X, y)
+    assert len(set(model.shrinkage_.values())) == 1
+    assert set(model.n_folds_.values()) == {shrinkage.SINGLE_RUN_BLOCKS}
+    # run=None: every unit is one run too (blocks), whatever the estimator reads
+    no_run = UnitwiseRegressor(_linear(), pooling="partial", run=None).fit(lot.data, lot.target)
+    assert set(no_run.n_folds_.values()) == {shrinkage.SINGLE_RUN_BLOCKS}
+    assert len(set(no_run.shrinkage_.values())) == 1
+
+
+def test_partial_accepts_a_bare_linear_model_and_two_outputs():
+    rng = np.random.default_rng(0)
+    X = pd.DataFrame({"unit": np.repeat([0, 1], 60)}).assign(
+        a=rng.normal(size=120), b=rng.normal(size=120)
+    )
+    Y = np.column_stack([X["a"] * (1 + X["unit"]), X["b"] - X["unit"]])
+    model = UnitwiseRegressor(Ridge(alpha=1e-6), pooling="partial", run=None).fit(X, Y)
+    prediction = model.predict(X)
+    assert prediction.shape == (120, 2)
+    np.testing.assert_allclose(prediction, Y, atol=1e-3)
+
+
+# -- tables ----------------------------------------------------------------------------------
+
+
+def test_arrays_and_polars_give_the_pandas_result(lot):
+    X, y = lot.data, lot.target.to_numpy()
+    expected = UnitwiseRegressor(_linear(), pooling="partial").fit(X, y).predict(X)
+    on_polars = UnitwiseRegressor(_linear(), pooling="partial").fit(pl.from_pandas(X), y)
+    np.testing.assert_allclose(on_polars.predict(pl.from_pandas(X)), expected, rtol=1e-12)
+    # an array: the unit at position 0; the estimator's positions count without it
+    # (data columns: unit, run, azimuth, time, temperature)
+    inner = make_compensation_pipeline(LinearRegression(), temperature=3, time=2, run=0)
+    on_array = UnitwiseRegressor(inner, unit=0, run=1, pooling="partial")
+    on_array.fit(X.to_numpy(), y)
+    np.testing.assert_allclose(on_array.predict(X.to_numpy()), expected, rtol=1e-9)
+
+
+# -- errors ----------------------------------------------------------------------------------
+
+
+def test_missing_unit_column_is_named(lot):
+    X, y = lot.data.drop(columns="unit"), lot.target
+    with pytest.raises(ValueError, match=r"Column 'unit' \(unit\) not found"):
+        UnitwiseRegressor(_linear()).fit(X, y)
+    model = UnitwiseRegressor(_linear(), pooling="none").fit(lot.data, y)
+    with pytest.raises(ValueError, match="unit"):
+        model.predict(X)
+
+
+def test_unknown_unit_at_predict_is_named(lot):
+    model = UnitwiseRegressor(_linear(), pooling="full").fit(lot.data, lot.target)
+    X = lot.data.copy()
+    X.loc[X.index[5:], "unit"] = 42
+    with pytest.raises(ValueError, match=r"unit 42 .*not seen in fit.*\[0, 1, 2, 3\]"):
+        model.predict(X)
+
+
+def test_unknown_pooling_is_rejected(lot):
+    with pytest.raises(InvalidParameterError, match="pooling"):
+        UnitwiseRegressor(_linear(), pooling="some").fit(lot.data, lot.target)
+
+
+def test_partial_needs_a_linear_output_layer(lot):
+    estimator = make_compensation_pipeline(DecisionTreeRegressor())
+    with pytest.raises(ValueError, match="DecisionTreeRegressor has none"):
+        UnitwiseRegressor(estimator, pooling="partial").fit(lot.data, lot.target)
+    # the other poolings take any regressor
+    UnitwiseRegressor(estimator, pooling="none").fit(lot.data, lot.target)
+
+
+def test_partial_names_a_missing_run_column(lot):
+    X = lot.data.rename(columns={"run": "recording"})
+    estimator = make_compensation_pipeline(LinearRegression(), run="recording")
+    with pytest.raises(ValueError, match=r"Column 'run' \(run\) not found.*run=None"):
+        UnitwiseRegressor(estimator, pooling="partial").fit(X, lot.target)
+    model = UnitwiseRegressor(estimator, pooling="partial", run="recording").fit(X, lot.target)
+    assert set(model.n_folds_.values()) == {3}
+
+
+def test_a_failing_unit_is_named(lot):
+    X = lot.data.astype({"unit": str})
+    X.loc[X.index[-1], "unit"] = "lonely"  # one row: too few for the model
+    inner = make_pipeline(ThermalFeatures(time="time", run="run"), StandardScaler(), _rbf()[-1])
+    with pytest.raises(ValueError, match="unit 'lonely'"):
+        UnitwiseRegressor(inner, pooling="none").fit(X, lot.target)
+
+
+def test_clone_and_params():
+    model = UnitwiseRegressor(_linear(), unit="gyro", pooling="none", run=None)
+    copy = clone(model)
+    assert copy.get_params()["unit"] == "gyro"
+    assert copy.pooling == "none"
+    assert copy.run is None
+
+
+# -- numerics ---------------------------------------------------------------------------------
+
+
+def test_solve_shrunk_limits_and_monotone_distance():
+    rng = np.random.default_rng(1)
+    Phi = np.column_stack([rng.normal(size=(50, 3)), np.ones(50)])
+    Y = Phi @ rng.normal(size=(4, 1)) + rng.normal(0, 0.1, (50, 1))
+    prior = rng.normal(size=(4, 1))
+    scale = shrinkage.design_scale(Phi)
+    W = shrinkage.solve_shrunk(Phi, Y, prior, scale, shrinkage.SHRINKAGE_GRID)
+    own = np.linalg.lstsq(Phi, Y, rcond=None)[0]
+    np.testing.assert_allclose(W[0], own, rtol=1e-6)
+    np.testing.assert_array_equal(W[-1], prior)
+    distance = np.abs((W - prior)[:, :, 0] * scale).sum(axis=1)
+    assert np.all(np.diff(distance) <= 1e-12)
+
+
+def test_fold_prior_is_the_prior_when_nothing_is_held_out():
+    rng = np.random.default_rng(2)
+    Phi = np.column_stack([rng.normal(size=(30, 2)), np.ones(30)])
+    Y = rng.normal(size=(30, 1))
+    prior = rng.normal(size=(3, 1))
+    scale = shrinkage.design_scale(Phi)
+    statistics = shrinkage.lot_statistics(Phi, Y, prior)
+    np.testing.assert_allclose(
+        shrinkage.fold_prior(prior, scale, statistics, Phi[:0], Y[:0]), prior, atol=1e-12
+    )
+    # holding rows out moves the prior towards the least-squares fit of the other rows
+    moved = shrinkage.fold_prior(prior, scale, statistics, Phi[:10], Y[:10])
+    rest = np.linalg.lstsq(Phi[10:], Y[10:], rcond=None)[0]
+    full = np.linalg.lstsq(Phi, Y, rcond=None)[0]
+    np.testing.assert_allclose(moved - prior, rest - full, atol=1e-3)
+
+
+def test_cv_folds_cover_every_row_once():
+    for runs in (np.repeat([4, 7, 9], [3, 5, 2]), np.zeros(13, dtype=int)):
+        folds = shrinkage.cv_folds(runs)
+        np.testing.assert_array_equal(np.sum(folds, axis=0), np.ones(runs.size))
+
+
+@pytest.mark.parametrize("suffix", [".joblib", ".skops"])
+def test_save_and_load_give_the_same_predictions(lot, tmp_path, suffix):
+    from sklearn_ifog import load_model, save_model
+
+    model = UnitwiseRegressor(_rbf(), pooling="partial").fit(lot.data, lot.target)
+    path = tmp_path / f"lot{suffix}"
+    save_model(model, path)
+    loaded = load_model(path)
+    np.testing.assert_array_equal(loaded.predict(lot.data), model.predict(lot.data))
+    assert loaded.shrinkage_ == model.shrinkage_
+
+
+def test_partial_keeps_a_units_own_model_when_it_wins_on_held_out_runs(lot):
+    """A unit unlike the lot with its own basis: its own model, chosen on held-out runs."""
+    X, y = lot.data, lot.target.to_numpy().copy()
+    odd = _unit_rows(lot, 1)
+    y[odd] = -5.0 * y[odd] + 0.3
+    model = UnitwiseRegressor(_rbf(), pooling="partial").fit(X, y)
+    for unit in range(4):
+        own, shrunk = model.own_scores_[unit], np.nanmin(model.shrinkage_scores_[unit])
+        final = model.estimators_[unit].steps[-1][1]
+        lot_final = model.lot_estimator_.steps[-1][1]
+        if own < shrunk:
+            assert model.shrinkage_[unit] is None
+            alone = _rbf().fit(
+                X[_unit_rows(lot, unit)].drop(columns="unit"), y[_unit_rows(lot, unit)]
+            )
+            np.testing.assert_array_equal(final.coef_, alone.steps[-1][1].coef_)
+        else:
+            assert model.shrinkage_[unit] is not None
+            np.testing.assert_array_equal(final.centers_, lot_final.centers_)
+
+
+def test_compare_regressors_by_unit_scores_each_unit(lot):
+    from sklearn_ifog.model_selection import LeaveOneRunOut, compare_regressors
+
+    X, y = lot.data, lot.target.to_numpy()
+    model = UnitwiseRegressor(_linear(), pooling="none")
+    summary, folds = compare_regressors(
+        X,
+        y,
+        regressors={"none": model},
+        cv=LeaveOneRunOut(within_unit=True),
+        by="unit",
+        return_folds=True,
+    )
+    assert summary.index.names == ["model", "unit"]
+    assert summary.loc[("none", 2), "n_folds"] == 3
+    # unit 2's mean over its folds, computed by hand
+    errors = []
+    for run in lot.frame.loc[lot.frame.unit == 2, "run"].unique():
+        test = (lot.frame.run == run).to_numpy()
+        fitted = clone(model).fit(X[~test], y[~test])
+        errors.append(np.mean((y[test] - fitted.predict(X[test])) ** 2))
+    np.testing.assert_allclose(summary.loc[("none", 2), "msd_after"], np.mean(errors))
+    assert set(folds["group"]) == {0, 1, 2, 3}
