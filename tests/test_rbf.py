@@ -1,6 +1,7 @@
 """RBFNetRegressor: the network formula, selection choices, weights, robustness, persistence."""
 
 import io
+import itertools
 import warnings
 
 import joblib
@@ -111,6 +112,71 @@ def test_output_weights_equal_lstsq_on_selected_columns():
         assert_allclose(model.intercept_, weights[0], rtol=1e-7)
         assert_allclose(model.tail_coef_, weights[1 : 1 + n_tail], rtol=1e-7, atol=1e-9)
         assert_allclose(model.coef_, weights[1 + n_tail :], rtol=1e-6, atol=1e-8)
+
+
+@pytest.mark.parametrize("tail_alpha", [1e-3, 0.1])
+@pytest.mark.parametrize("alpha", [0.0, 1e-3])
+def test_tail_penalty_is_the_stated_ridge_problem(alpha, tail_alpha):
+    # The fitted output layer minimises, on standardised targets,
+    # mean squared error + alpha ||coef||^2 + tail_alpha ||tail_coef||^2: solved here
+    # independently, as a least-squares problem on the design stacked over penalty rows.
+    X, y, _ = _smooth(400, seed=3)
+    model = RBFNetRegressor(
+        refine=None, alpha=alpha, tail_alpha=tail_alpha, tail="quadratic", random_state=0
+    ).fit(X, y)
+    Z = (X - model.x_mean_) / model.x_scale_
+    y_mean, y_std = y.mean(), y.std()
+    T = tail_features(Z, 2)
+    Phi = gaussian_design(Z, model.centers_, model.widths_)
+    n, n_tail, k = 400, T.shape[1], Phi.shape[1]
+    A = np.vstack(
+        [
+            np.column_stack([np.ones(n), T, Phi]),
+            np.column_stack(
+                [np.zeros(n_tail), np.sqrt(tail_alpha * n) * np.eye(n_tail), np.zeros((n_tail, k))]
+            ),
+            np.column_stack([np.zeros((k, 1 + n_tail)), np.sqrt(alpha * n) * np.eye(k)]),
+        ]
+    )
+    b = np.concatenate([(y - y_mean) / y_std, np.zeros(n_tail + k)])
+    weights = np.linalg.lstsq(A, b, rcond=None)[0] * y_std
+    assert model.selection_path_["tail_alpha"] == tail_alpha
+    assert_allclose(model.tail_coef_, weights[1 : 1 + n_tail], rtol=1e-6, atol=1e-9)
+    assert_allclose(model.coef_, weights[1 + n_tail :], rtol=1e-6, atol=1e-8)
+    assert_allclose(model.intercept_, weights[0] + y_mean, rtol=1e-9)
+
+
+def test_tail_penalty_shrinks_the_tail_and_zero_is_the_free_tail():
+    X, y, _ = _smooth(400, seed=4)
+    params = {"refine": None, "criterion": None, "n_centers": 10, "random_state": 0}
+    free = RBFNetRegressor(**params).fit(X, y)
+    explicit = RBFNetRegressor(tail_alpha=0.0, **params).fit(X, y)
+    assert_array_equal(free.predict(X), explicit.predict(X))
+    norms = [
+        np.linalg.norm(RBFNetRegressor(tail_alpha=ta, **params).fit(X, y).tail_coef_)
+        for ta in (0.0, 1e-3, 1e-1, 10.0, 1e4)
+    ]
+    assert all(a > b for a, b in itertools.pairwise(norms)), norms
+    assert norms[-1] < 1e-3 * norms[0]
+
+
+def test_tail_penalty_auto_is_chosen_from_the_grid_and_recorded():
+    X, y, _ = _smooth(500, seed=5, noise=0.3)
+    model = RBFNetRegressor(refine=None, tail_alpha="auto", random_state=0).fit(X, y)
+    tried = model.selection_path_["tail_alphas_tried"]
+    assert_array_equal(tried, [0.0, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1])
+    assert model.selection_path_["tail_alpha"] in tried
+    assert model.selection_path_["width_scores"].shape == (4,)
+    # without a tail there is nothing to penalise
+    no_tail = RBFNetRegressor(refine=None, tail=False, tail_alpha="auto", random_state=0)
+    assert no_tail.fit(X, y).selection_path_["tail_alpha"] == 0.0
+
+
+@pytest.mark.parametrize("bad", [-1.0, "strong", np.nan])
+def test_tail_penalty_rejects_bad_values(bad):
+    X, y, _ = _smooth(50)
+    with pytest.raises(ValueError, match="tail_alpha"):
+        RBFNetRegressor(tail_alpha=bad).fit(X, y)
 
 
 def test_selection_path_is_recorded():

@@ -449,7 +449,16 @@ def solve_output_weights(Phi, T, Y, *, sample_weight=None, alpha=0.0):
 
 
 def solve_output_weights_chunked(
-    Z, Y, centers, widths, *, tail=1, sample_weight=None, alpha=0.0, chunk_rows=None
+    Z,
+    Y,
+    centers,
+    widths,
+    *,
+    tail=1,
+    sample_weight=None,
+    alpha=0.0,
+    tail_alpha=0.0,
+    chunk_rows=None,
 ):
     """Weighted ridge solve of the output layer over all rows, in row blocks.
 
@@ -481,6 +490,8 @@ def solve_output_weights_chunked(
     alpha : float, default=0.0
         Ridge penalty on the Gaussian weights (absolute, as in
         :func:`solve_output_weights`).
+    tail_alpha : float, default=0.0
+        Ridge penalty on the tail weights (absolute); the intercept is never penalised.
     chunk_rows : int, default=None
         Rows per block; ``None`` uses ``DEFAULT_CHUNK_ROWS``, fewer for a design wider than
         ``MAX_BLOCK_ENTRIES / DEFAULT_CHUNK_ROWS`` columns.
@@ -513,9 +524,12 @@ def solve_output_weights_chunked(
     if sample_weight is not None and np.sum(sample_weight) <= 0:
         raise ValueError("sample_weight must have a positive sum.")
     # The penalty rows start the factor: sqrt(alpha) on each Gaussian weight.
-    R = np.zeros((n_centers, n_params + n_outputs))
+    n_tail_rows = n_tail if tail_alpha > 0 else 0
+    R = np.zeros((n_tail_rows + n_centers, n_params + n_outputs))
+    if n_tail_rows:
+        R[:n_tail, 1 : 1 + n_tail] = np.sqrt(tail_alpha) * np.eye(n_tail)
     if alpha > 0 and n_centers:
-        R[:, 1 + n_tail : n_params] = np.sqrt(alpha) * np.eye(n_centers)
+        R[n_tail_rows:, 1 + n_tail : n_params] = np.sqrt(alpha) * np.eye(n_centers)
     for start in range(0, n_samples, chunk_rows):
         stop = min(start + chunk_rows, n_samples)
         block = np.empty((stop - start, n_params + n_outputs))

@@ -66,6 +66,7 @@ def fit_network(
     tol,
     learning_rate,
     random_state,
+    tail_alpha=0.0,
 ):
     """Fit a Gaussian RBF network: selection, refinement, output weights on all rows.
 
@@ -80,8 +81,8 @@ def fit_network(
         Targets, float64, finite.
     sample_weight : ndarray of shape (n_samples,)
         Non-negative weights with a positive sum.
-    n_centers, width, refine, alpha, criterion, goal, tail, max_candidates, candidates, \
-max_samples, validation_fraction, max_iter, tol, learning_rate, random_state
+    n_centers, width, refine, alpha, tail_alpha, criterion, goal, tail, max_candidates, \
+candidates, max_samples, validation_fraction, max_iter, tol, learning_rate, random_state
         As in :class:`~sklearn_ifog.RBFNetRegressor`.
 
     Returns
@@ -115,6 +116,7 @@ max_samples, validation_fraction, max_iter, tol, learning_rate, random_state
         candidates=candidates,
         max_samples=max_samples,
         validation_fraction=validation_fraction,
+        tail_alpha=tail_alpha,
     )
 
     needs_blocks = criterion in ("holdout", "cv", None) or refine is not None
@@ -167,6 +169,7 @@ max_samples, validation_fraction, max_iter, tol, learning_rate, random_state
             tail=tail_degree,
             sample_weight=sw,
             alpha=alpha * sw.sum(),
+            tail_alpha=path.get("tail_alpha", 0.0) * sw.sum(),
         )
     path["refined"] = refined
     tail_coef = tail_coef * y_scale[:, None]

@@ -54,6 +54,17 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
         output layer minimises ``Σ s_i ||y_i - f(z_i)||² / Σ s_i + alpha Σ ||coef||²`` on
         targets divided by their standard deviation (so ``alpha`` is free of units and of
         the number of rows). The tail and intercept are not penalised.
+    tail_alpha : "auto" or float, default=0.0
+        Ridge penalty on the polynomial tail's weights, relative like ``alpha`` (the
+        intercept is never penalised): ``Σ s_i ||y_i - f(z_i)||² / Σ s_i + alpha Σ ||coef||²
+        + tail_alpha Σ ||tail_coef||²`` on standardised targets. 0 leaves the tail free, as
+        in the reference paper's network plus a polynomial. A penalised tail stops a
+        quadratic tail on many features (``d (d + 3) / 2`` columns) from fitting slowly
+        varying gyro noise through slowly varying features and from bending far outside the
+        calibrated range. ``"auto"`` chooses it with the number of centres and the width,
+        by ``criterion``, from 0 and 1e-5 to 1e-1 by decades (the one-standard-error rule
+        prefers the stronger penalty). Selection and the final solve on all rows use it;
+        the refinement moves centres and widths with the tail's weights unpenalised.
     criterion : {"cv", "holdout", "gcv", "bic", "aicc"} or None, default="cv"
         How the number of centres and the width are chosen along the selection path.
         ``"cv"``: the rows are cut into ``round(1 / validation_fraction)`` contiguous folds,
@@ -149,7 +160,8 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
         ``"n_centers"`` (the chosen prefix, before refinement), ``"widths_tried"``,
         ``"width_scores"`` (best criterion value per width), ``"refined"`` (whether the
         refinement was kept), ``"tail_degree"`` and ``"tail_scores"`` (criterion value of
-        the chosen network for each tail degree tried).
+        the chosen network for each tail degree tried), ``"tail_alpha"`` (the relative tail
+        penalty used) and ``"tail_alphas_tried"``.
     n_features_in_ : int
         Number of features seen during fit.
     feature_names_in_ : ndarray of shape (n_features_in_,)
@@ -231,6 +243,7 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
         "width": [StrOptions({"auto"}), Interval(Real, 0, None, closed="neither")],
         "refine": [StrOptions(set(REFINE_METHODS)), None],
         "alpha": [Interval(Real, 0, None, closed="left")],
+        "tail_alpha": [StrOptions({"auto"}), Interval(Real, 0, None, closed="left")],
         "criterion": [StrOptions(set(SELECTION_CRITERIA)), None],
         "goal": [Interval(Real, 0, None, closed="left"), None],
         "tail": [StrOptions({key for key in TAIL_DEGREES if isinstance(key, str)}), "boolean"],
@@ -251,6 +264,7 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
         width="auto",
         refine="varpro",
         alpha=1e-4,
+        tail_alpha=0.0,
         criterion="cv",
         goal=None,
         tail="quadratic",
@@ -267,6 +281,7 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
         self.width = width
         self.refine = refine
         self.alpha = alpha
+        self.tail_alpha = tail_alpha
         self.criterion = criterion
         self.goal = goal
         self.tail = tail

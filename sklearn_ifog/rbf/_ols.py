@@ -233,6 +233,7 @@ def prefix_fits(
     T=None,
     sample_weight=None,
     alpha=0.0,
+    tail_alpha=0.0,
     Phi_val=None,
     T_val=None,
     Y_val=None,
@@ -257,6 +258,8 @@ def prefix_fits(
         Non-negative weights.
     alpha : float, default=0.0
         Ridge penalty on the weights of ``Phi`` (absolute).
+    tail_alpha : float, default=0.0
+        Ridge penalty on the weights of ``T`` (absolute); the intercept is never penalised.
     Phi_val, T_val, Y_val, sample_weight_val : ndarray, default=None
         Validation rows; when ``Phi_val`` is given the validation error of every prefix is
         returned as well.
@@ -281,11 +284,17 @@ def prefix_fits(
     A = _regressors(T, Phi)
     n_fixed = A.shape[1] - n_selected
     n_params = A.shape[1]
-    augmented = np.zeros((n_samples + n_selected, n_params + n_outputs))
+    n_tail = n_fixed - 1
+    n_tail_rows = n_tail if tail_alpha > 0 else 0
+    augmented = np.zeros((n_samples + n_tail_rows + n_selected, n_params + n_outputs))
     augmented[:n_samples, :n_params] = A * root_w
     augmented[:n_samples, n_params:] = Y * root_w
+    if n_tail_rows:
+        augmented[n_samples : n_samples + n_tail, 1:n_fixed] = np.sqrt(tail_alpha) * np.eye(n_tail)
     if alpha > 0 and n_selected:
-        augmented[n_samples:, n_fixed:n_params] = np.sqrt(alpha) * np.eye(n_selected)
+        augmented[n_samples + n_tail_rows :, n_fixed:n_params] = np.sqrt(alpha) * np.eye(
+            n_selected
+        )
     Q, R = np.linalg.qr(augmented)
     # Hat-matrix trace: squared norms of Q's data rows; a column with a negligible pivot
     # (a constant feature in the tail) spans nothing and adds no degree of freedom.

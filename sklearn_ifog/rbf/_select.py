@@ -62,12 +62,35 @@ class SelectionOptions(NamedTuple):
     candidates: str
     max_samples: int
     validation_fraction: float
+    tail_alpha: object = 0.0
+
+
+# Relative ridge penalties on the tail weights tried when ``tail_alpha="auto"``.
+TAIL_ALPHA_GRID = (0.0, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1)
+
+
+def tail_alphas_tried(tail_alpha, degree):
+    """Relative tail penalties to try: the grid for ``"auto"``, else the one given.
+
+    Examples
+    --------
+    >>> tail_alphas_tried("auto", 2)
+    (0.0, 1e-05, 0.0001, 0.001, 0.01, 0.1)
+    >>> tail_alphas_tried(0.5, 0)
+    (0.0,)
+    """
+    if degree == 0:
+        return (0.0,)
+    if tail_alpha == "auto":
+        return TAIL_ALPHA_GRID
+    return (float(tail_alpha),)
 
 
 class _WidthPath(NamedTuple):
     """The selection path at one width: its OLS path, prefix fits and criterion values."""
 
     width: float
+    tail_alpha: float
     path: object  # _ols.OLSPath
     fits: object  # _ols.PrefixFits
     values: np.ndarray
@@ -293,9 +316,10 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
         D2_val = squared_distances(Z_val, candidates)
         T_val = tail_features(Z_val, degree) if degree else None
     fixed_size = options.criterion is None and options.goal is None
+    tail_alphas = tail_alphas_tried(options.tail_alpha, degree)
     paths = []
     for width in widths_tried:
-        path, fits = _select_and_score(
+        path, fits_list = _select_and_score(
             width,
             D2_sel,
             Y_sel,
@@ -304,13 +328,27 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
             alpha_sel,
             max_centers,
             validation=(D2_val, T_val, Y_val, sw_val) if has_val else None,
+            tail_alphas=[ta * sw_sel.sum() for ta in tail_alphas],
         )
-        values = path_criterion(fits, "holdout" if criterion == "cv" else criterion, sw_sel.sum())
-        paths.append(_WidthPath(width, path, fits, values))
+        for ta, fits in zip(tail_alphas, fits_list, strict=True):
+            values = path_criterion(
+                fits, "holdout" if criterion == "cv" else criterion, sw_sel.sum()
+            )
+            paths.append(_WidthPath(width, ta, path, fits, values))
     losses = None
     if criterion == "cv":
         losses, sw_losses = _cross_validated_losses(
-            Z, Ys, sw, candidates, widths_tried, max_centers, fixed_size, rng, degree, options
+            Z,
+            Ys,
+            sw,
+            candidates,
+            widths_tried,
+            max_centers,
+            fixed_size,
+            rng,
+            degree,
+            options,
+            tail_alphas,
         )
     if losses is not None:
         choice = _choose_by_losses(losses, sw_losses, fixed_size, paths)
@@ -324,14 +362,16 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
         ]
     else:
         choice = _choose(paths, criterion, fixed_size, sw_val if has_val else None)
-    width, path, fits, values = paths[choice[0]]
+    width, tail_alpha, path, fits, values = paths[choice[0]]
     k = choice[1]
     if losses is None:
         if criterion == "holdout":
             score = float(fits.val_sq[k] @ sw_val / sw_val.sum())
         else:
             score = float(values[k])
-    width_scores = [p.values[-1] if fixed_size else p.values.min() for p in paths]
+    config_scores = np.array([p.values[-1] if fixed_size else p.values.min() for p in paths])
+    # Paths are width-major: the score of a width is its best over the tail penalties.
+    width_scores = config_scores.reshape(len(widths_tried), len(tail_alphas)).min(axis=1)
     train_mse = (fits.train_mse * np.square(y_scale)).mean(axis=1)
     if options.goal is not None:
         reached = np.flatnonzero(train_mse <= options.goal)
@@ -361,11 +401,15 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
         "n_centers": k,
         "widths_tried": widths_tried,
         "width_scores": np.asarray(width_scores),
+        "tail_alpha": tail_alpha,
+        "tail_alphas_tried": np.asarray(tail_alphas),
     }
     return network, record, score
 
 
-def _select_and_score(width, D2, Y, T, sample_weight, alpha, max_centers, *, validation=None):
+def _select_and_score(
+    width, D2, Y, T, sample_weight, alpha, max_centers, *, validation=None, tail_alphas=(0.0,)
+):
     """OLS path at one width, and the fit of every prefix (scored on held-out rows if given).
 
     ``D2`` are the squared distances of the selection rows to the candidates; ``validation``
@@ -377,22 +421,37 @@ def _select_and_score(width, D2, Y, T, sample_weight, alpha, max_centers, *, val
     )
     chosen = path.selected
     D2_val, T_val, Y_val, sw_val = validation if validation is not None else (None,) * 4
-    fits = prefix_fits(
-        P[:, chosen],
-        Y,
-        T=T,
-        sample_weight=sample_weight,
-        alpha=alpha,
-        Phi_val=None if D2_val is None else np.exp(D2_val[:, chosen] * (-0.5 / width**2)),
-        T_val=T_val,
-        Y_val=Y_val,
-        sample_weight_val=sw_val,
-    )
+    Phi_val = None if D2_val is None else np.exp(D2_val[:, chosen] * (-0.5 / width**2))
+    fits = [
+        prefix_fits(
+            P[:, chosen],
+            Y,
+            T=T,
+            sample_weight=sample_weight,
+            alpha=alpha,
+            tail_alpha=tail_alpha,
+            Phi_val=Phi_val,
+            T_val=T_val,
+            Y_val=Y_val,
+            sample_weight_val=sw_val,
+        )
+        for tail_alpha in tail_alphas
+    ]
     return path, fits
 
 
 def _cross_validated_losses(
-    Z, Ys, sw, candidates, widths_tried, max_centers, fixed_size, rng, degree, options
+    Z,
+    Ys,
+    sw,
+    candidates,
+    widths_tried,
+    max_centers,
+    fixed_size,
+    rng,
+    degree,
+    options,
+    tail_alphas,
 ):
     """Held-out squared errors of every (width, prefix) over contiguous folds.
 
@@ -407,7 +466,8 @@ def _cross_validated_losses(
     n_samples = Z.shape[0]
     n_folds = int(np.clip(round(1.0 / options.validation_fraction), 2, 10))
     bounds = np.linspace(0, n_samples, n_folds + 1).round().astype(int)
-    losses = [[] for _ in widths_tried]
+    n_ta = len(tail_alphas)
+    losses = [[] for _ in range(len(widths_tried) * n_ta)]
     weights = []
     for start, stop in itertools.pairwise(bounds):
         rows_in = np.concatenate([np.arange(start), np.arange(stop, n_samples)])
@@ -423,7 +483,7 @@ def _cross_validated_losses(
         D2_in = squared_distances(Z_in, candidates)
         D2_out = squared_distances(Z[rows_out], candidates)
         for i, width in enumerate(widths_tried):
-            path, fits = _select_and_score(
+            path, fits_list = _select_and_score(
                 width,
                 D2_in,
                 Y_in,
@@ -432,12 +492,14 @@ def _cross_validated_losses(
                 alpha_in,
                 max_centers,
                 validation=(D2_out, T_out, Ys[rows_out], sw[rows_out]),
+                tail_alphas=[ta * sw_in.sum() for ta in tail_alphas],
             )
             chosen = path.selected
-            padded = np.empty((max_centers + 1, rows_out.shape[0]))
-            padded[: len(chosen) + 1] = fits.val_sq
-            padded[len(chosen) + 1 :] = fits.val_sq[-1]
-            losses[i].append(padded[-1:] if fixed_size else padded)
+            for j, fits in enumerate(fits_list):
+                padded = np.empty((max_centers + 1, rows_out.shape[0]))
+                padded[: len(chosen) + 1] = fits.val_sq
+                padded[len(chosen) + 1 :] = fits.val_sq[-1]
+                losses[i * n_ta + j].append(padded[-1:] if fixed_size else padded)
         weights.append(sw[rows_out])
     if not weights:  # no fold with weight on both sides: score on the one split
         return None, None
@@ -460,7 +522,7 @@ def _smoothest_within_one_standard_error(options, losses, sample_weight):
 
 
 def _choose_by_losses(losses, sw_losses, fixed_size, paths):
-    """(width index, prefix) from cross-validated losses, capped to the final paths."""
+    """(path index, prefix) from cross-validated losses, capped to the final paths."""
     options = [(i, k) for i, loss in enumerate(losses) for k in range(loss.shape[0])]
     i, k = _smoothest_within_one_standard_error(options, np.vstack(losses), sw_losses)
     n_final = len(paths[i].path.selected)
