@@ -22,7 +22,9 @@ Run::
 
     python benchmarks/rbf_variance_check.py --n-jobs 2
 
-``--quick``: one seed, 60 s samples, the lumped and layered presets.
+``--rbf`` adds RBFNetRegressor(refine=None) with a free tail (``tail_alpha=0``, the
+default) and with ``tail_alpha="auto"``, fitted and scored the same way (slow: about 15 min
+on two cores). ``--quick``: one seed, 60 s samples, the lumped and layered presets.
 Writes ``benchmarks/results/rbf_variance[_quick].md`` and ``.json``.
 """
 
@@ -31,6 +33,7 @@ import itertools
 import json
 import sys
 import time
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +42,7 @@ from sklearn.linear_model import Ridge
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
-from sklearn_ifog import ThermalFeatures
+from sklearn_ifog import RBFNetRegressor, ThermalFeatures
 from sklearn_ifog._io import write_text_files
 from sklearn_ifog.datasets import make_thermal_campaign, noise_floor
 from sklearn_ifog.model_selection import LeaveOneAzimuthOut
@@ -61,7 +64,7 @@ def polynomial(degree, alpha):
     )
 
 
-def _campaign_rows(seed, physics, period):
+def _campaign_rows(seed, physics, period, with_rbf=False):
     campaign = make_thermal_campaign(
         **FULL,
         profile="mix",
@@ -93,6 +96,17 @@ def _campaign_rows(seed, physics, period):
             fitted = polynomial(2, alpha).fit(F_train, y[train])
             error = fitted.predict(F_test) - drift[test]
             record["residual"][f"poly2 Ridge({alpha:g})"] = float(np.mean(np.square(error)))
+        if with_rbf:
+            for tail_alpha in (0.0, "auto"):
+                network = RBFNetRegressor(refine=None, tail_alpha=tail_alpha, random_state=seed)
+                fitted = network.fit(F_train, y[train])
+                error = fitted.predict(F_test) - drift[test]
+                name = f"RBF tail_alpha={tail_alpha}"
+                record["residual"][name] = float(np.mean(np.square(error)))
+                record.setdefault("rbf", {})[name] = {
+                    "n_centers": int(fitted.centers_.shape[0]),
+                    "tail_alpha": float(fitted.selection_path_["tail_alpha"]),
+                }
         rows.append(record)
     return rows
 
@@ -111,7 +125,7 @@ def summarize(records):
     return summary
 
 
-def markdown(summary, command, seconds):
+def markdown(summary, command, seconds, networks=None):
     names = list(next(iter(summary.values())))
     lines = [
         "# Held-out excess of the thermal-state features: representation or estimation",
@@ -131,12 +145,31 @@ def markdown(summary, command, seconds):
         lines.append(
             f"| {physics}, {period} s | " + " | ".join(f"{values[n]:.4f}" for n in names) + " |"
         )
+    if networks:
+        lines += [
+            "",
+            "RBF networks: folds with Gaussian units in use, and the tail penalties chosen",
+            "",
+            "| physics, period | network | folds with units | tail_alpha chosen (folds) |",
+            "|---|---|---|---|",
+        ]
+        for (key, name), chosen in networks.items():
+            physics, period = key.split("|")
+            in_use = sum(entry["n_centers"] > 0 for entry in chosen)
+            penalties = Counter(entry["tail_alpha"] for entry in chosen)
+            listing = ", ".join(
+                f"{value:g} ({count})" for value, count in sorted(penalties.items())
+            )
+            lines.append(
+                f"| {physics}, {period} s | {name} | {in_use}/{len(chosen)} | {listing} |"
+            )
     return "\n".join(lines) + "\n"
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="CI mode: small and fast")
+    parser.add_argument("--rbf", action="store_true", help="add the RBF network's rows")
     parser.add_argument("--n-jobs", type=int, default=1)
     parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
     args = parser.parse_args(argv)
@@ -145,13 +178,22 @@ def main(argv=None):
     else:
         tasks = list(itertools.product([0, 1, 2], PHYSICS, [10.0, 60.0]))
     started = time.perf_counter()
-    chunks = Parallel(n_jobs=args.n_jobs)(delayed(_campaign_rows)(*task) for task in tasks)
+    chunks = Parallel(n_jobs=args.n_jobs)(
+        delayed(_campaign_rows)(*task, args.rbf) for task in tasks
+    )
     records = [record for chunk in chunks for record in chunk]
     seconds = time.perf_counter() - started
     summary = summarize(records)
-    command = "python benchmarks/rbf_variance_check.py" + (" --quick" if args.quick else "")
-    text = markdown(summary, command, seconds)
-    stem = "rbf_variance_quick" if args.quick else "rbf_variance"
+    networks = {}
+    for record in records:
+        for name, entry in record.get("rbf", {}).items():
+            key = f"{record['physics']}|{record['period']:g}"
+            networks.setdefault((key, name), []).append(entry)
+    networks = dict(sorted(networks.items()))
+    flags = [flag for flag, on in (("--quick", args.quick), ("--rbf", args.rbf)) if on]
+    command = " ".join(["python benchmarks/rbf_variance_check.py", *flags])
+    text = markdown(summary, command, seconds, networks)
+    stem = "rbf_variance" + ("_quick" if args.quick else "") + ("_rbf" if args.rbf else "")
     args.out.mkdir(parents=True, exist_ok=True)
     write_text_files(
         {
