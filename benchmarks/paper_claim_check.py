@@ -336,15 +336,23 @@ def main(argv=None):
     parser.add_argument("--n-jobs", type=int, default=2)
     parser.add_argument("--quick", action="store_true", help="CI mode: seed 0, two models")
     parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
+    parser.add_argument(
+        "--regressors", nargs="+", choices=list(regressors()), help="subset (default all)"
+    )
+    parser.add_argument(
+        "--noise-only", action="store_true", help="only the campaigns with gyro noise"
+    )
+    parser.add_argument("--tag", default="", help="suffix of the result file names")
     args = parser.parse_args(argv)
     n_seeds = args.seeds or (1 if args.quick else 8)
     seeds = range(n_seeds)
     chosen = {
         name: regressor
         for name, regressor in regressors().items()
-        if not args.quick or name in QUICK_REGRESSORS
+        if (name in args.regressors if args.regressors else not args.quick)
+        or (args.quick and not args.regressors and name in QUICK_REGRESSORS)
     }
-    noises = (True,) if args.quick else (True, False)
+    noises = (True,) if args.quick or args.noise_only else (True, False)
     sizes = QUICK_SIZES if args.quick else None
     start = time.perf_counter()
     jobs = [
@@ -356,6 +364,7 @@ def main(argv=None):
     jobs += [
         delayed(one_campaign)(DEFAULT, chosen[DEFAULT], seed, True, "error_set", sizes)
         for seed in seeds
+        if DEFAULT in chosen
     ]
     records = Parallel(n_jobs=args.n_jobs, verbose=5)(jobs)
     why = why_table(seeds, sizes)
@@ -363,6 +372,12 @@ def main(argv=None):
     command = "python benchmarks/paper_claim_check.py" + (
         " --quick" if args.quick else f" --seeds {n_seeds}"
     )
+    if args.regressors:
+        command += " --regressors " + " ".join(f"'{name}'" for name in args.regressors)
+    if args.noise_only:
+        command += " --noise-only"
+    if args.tag:
+        command += f" --tag {args.tag}"
     summary = summarise(records)
     error_set = error_set_summary(records)
     checks, lines_vs = verdicts(summary, error_set)
@@ -376,7 +391,9 @@ def main(argv=None):
         "records": records,
         "why": why,
     }
-    stem = "paper_claim_quick" if args.quick else "paper_claim"
+    stem = ("paper_claim_quick" if args.quick else "paper_claim") + (
+        f"_{args.tag}" if args.tag else ""
+    )
     write_text_files(
         {
             args.out / f"{stem}.json": json.dumps(payload, indent=1) + "\n",
