@@ -883,6 +883,13 @@ def main(argv=None):
     )
     print(report)
     failed = False
+    for result in results:
+        if "error" in result:
+            # A worker that failed or timed out measured nothing: that fails in any mode.
+            print(
+                target_line(False, f"{result['dataset']} N={result.get('n')}: {result['error']}")
+            )
+            failed = True
     for target in targets:
         if target["ok"] is None:
             # Not measured: only --quick may skip a target's sizes.
