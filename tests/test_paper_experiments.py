@@ -5,21 +5,28 @@ The campaign: the simulator's default (3 units, 5 runs per (unit, azimuth), azim
 tested on five runs at 90° (Table 2), 45° (Table 3) or 135° (Table 4). The layout and
 arithmetic tests use campaign seed 0; every statistical claim is asserted on several campaign
 seeds (``SEEDS`` for the RBF network, ``LINEAR_SEEDS`` for the cheap linear model), with a
-threshold that held on every one of seeds 0-7 as measured by the committed command
-``python benchmarks/paper_claim_check.py --seeds 8`` (results in
-``benchmarks/results/paper_claim.md``; "worst" below is over those eight seeds):
+threshold that held on every one of campaign seeds 0-7 as measured by the committed command
+(the same default network and linear model as here)::
 
-- the modified RBF model cuts the mean MSD 25-74x against the raw output (the paper: > 10x),
-  each table at least 5x; the traditional one cuts it at least 10x too;
+    python benchmarks/paper_claim_check.py --regressors 'RBF default (quadratic tail)' \
+        'linear thermal model' --noise-only --tag default
+
+(results in ``benchmarks/results/paper_claim_default.md``, measured on the network of
+3688b23; "over seeds 0-7" below quotes it):
+
+- the modified RBF model cuts the mean MSD 27-74x against the raw output (the paper: > 10x),
+  the traditional one at least 34x; the worst of the three tables is cut 4.3x (seed 3) to
+  53x, so a table is asserted at least 4x;
 - the traditional (T, ΔT) and modified (T, ΔT, T·ΔT) RBF networks tie or either wins with the
-  seed (traditional/modified mean-MSD ratio 0.50-1.00 with the default network): a flexible
-  network learns the T·ΔT product from (T, ΔT) by itself, so neither "modified beats
-  traditional" nor a parity bound is asserted for it;
+  seed (traditional/modified mean-MSD ratio 0.47-1.00): a flexible network learns the T·ΔT
+  product from (T, ΔT) by itself, so neither "modified beats traditional" nor a parity bound
+  is asserted for it (seed 0's 0.97 said nothing about seed 3's 0.47);
 - for the linear thermal model (the IEEE Std 952 style least-squares model) T·ΔT does carry
   what (T, ΔT) lacks: the modified model wins 11-15 of 15 runs on every seed (ratio
-  1.09-1.71). That is asserted;
+  1.09-1.71, raw cut 33-70x). That is asserted;
 - trained on the error set (each run's mean-removed output) the default network cuts the
-  mean-removed MSD at least 5x on every seed (the script's error-set table).
+  mean-removed MSD 4.96x (seed 6) to 11.1x: asserted at least 4.5x. (The script's own target
+  is the 5x this test once claimed; it fails on seed 6.)
 """
 
 import numpy as np
@@ -129,11 +136,11 @@ def test_models_are_trained_on_the_training_azimuth_only(campaign):
 
 def test_both_models_cut_msd_tenfold_on_every_seed(seeded):
     _, runs, _ = seeded
-    # Worst over seeds 0-7 (paper_claim_check): modified WORST_CUT, traditional WORST_TRAD.
+    # Worst over seeds 0-7 (paper_claim_check): modified 27x, traditional 34x, a table 4.3x.
     assert runs["raw"].mean() / runs["modified"].mean() >= 10.0
     assert runs["raw"].mean() / runs["traditional"].mean() >= 10.0
     per_table = runs.groupby("table")[["raw", "modified"]].mean()
-    assert (per_table["raw"] / per_table["modified"] >= 5.0).all()  # WORST_TABLE at worst
+    assert (per_table["raw"] / per_table["modified"] >= 4.0).all()
 
 
 @pytest.mark.parametrize("seed", LINEAR_SEEDS)
@@ -145,7 +152,7 @@ def test_product_term_beats_traditional_for_the_linear_thermal_model(seed, defau
     wins = int((runs["modified"] < runs["traditional"]).sum())
     assert wins > len(runs) / 2  # 11-15 of 15 over campaign seeds 0-7
     assert runs["traditional"].mean() / runs["modified"].mean() > 1.05  # 1.09-1.71
-    assert runs["raw"].mean() / runs["modified"].mean() >= 10.0  # LINEAR_CUT at worst
+    assert runs["raw"].mean() / runs["modified"].mean() >= 10.0  # 33x at worst
 
 
 def test_error_set_training(campaign, error_set_result):
@@ -161,9 +168,9 @@ def test_error_set_training(campaign, error_set_result):
 
 def test_error_set_cut_on_every_seed(seeded):
     _, _, runs = seeded
-    # The mean-removed raw MSD is smaller, so is the cut: ERROR_SET_RANGE over seeds 0-7
+    # The mean-removed raw MSD is smaller, so is the cut: 4.96-11.1x over seeds 0-7
     # (paper_claim_check's error-set table).
-    assert runs["raw"].mean() / runs["modified"].mean() >= 5.0
+    assert runs["raw"].mean() / runs["modified"].mean() >= 4.5
 
 
 def test_explicit_experiments_and_frame_input(campaign):
