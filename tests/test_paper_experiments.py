@@ -1,4 +1,4 @@
-"""The reference paper's Tables 2-4 on small simulated campaigns.
+r"""The reference paper's Tables 2-4 on small simulated campaigns.
 
 The campaign: the simulator's default (3 units, 5 runs per (unit, azimuth), azimuths
 0/45/90/135, 60 s samples, about 16 000 rows); each unit is trained on its five runs at 0° and
