@@ -189,8 +189,8 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
     held-out error, is the complexity control. The default tail was chosen on
     ``python benchmarks/bench_thermal_accuracy.py --campaign-seed 0``, and ``--campaign-seed
     N --tag campaignN`` for N = 1, 2 (three simulated campaigns, leave-one-azimuth-out; the
-    "excess mean" rows of ``benchmarks/results/thermal_accuracy*.md``) and ``python benchmarks/bench_rbf.py``:
-    the quadratic tail lowered the mean error against
+    "excess mean" rows of ``benchmarks/results/thermal_accuracy*.md``) and
+    ``python benchmarks/bench_rbf.py``: the quadratic tail lowered the mean error against
     the true drift by 11–31% relative to the linear tail on every campaign (the network then
     keeps no Gaussian unit in most folds: the held-out error does not justify any); it
     lowered the test error on the smooth three-input function (3.7e-4 to 3.1e-4 at 1e5 rows)
