@@ -14,8 +14,12 @@ measured in one run, on one core:
 Speeds are samples per second (best of ``--repeats``), reported with their ratio to the batch
 ``predict``. Timings are noisy on a shared machine: read the ratios, not the absolute values.
 
-Run: ``.venv/bin/python benchmarks/bench_export.py`` (``--quick`` for a smoke run). Writes
-``benchmarks/results/bench_export.md`` and ``.json``.
+No target is stated for these speeds, so the script prints no verdict and exits 0 when it
+ran (non-zero only when it could not: no C compiler, a compile or run error).
+
+Run: ``.venv/bin/python benchmarks/bench_export.py`` (``--quick`` for a smoke run, which CI
+runs; ``--output DIR`` to write elsewhere). Writes ``benchmarks/results/bench_export.md`` and
+``.json``.
 """
 
 import argparse

@@ -22,12 +22,18 @@ mean((predicted - true drift)²) / floor. Targets (exit 1 when one fails):
    smaller than the paper features' on "layered", and never larger on "lumped", for every
    seed and sample period.
 
+Verdicts against every baseline of the table: per campaign (physics, period, seed), one
+WIN/TIE/LOSS line of RBFNet on the default feature set against each other model on the same
+features, on the pooled excess MSD over the floor (MSD/floor - 1; a tie is within the
+relative margin of ``benchmarks/_verdict.py``). They are reported, not targets.
+
 Run (about 20-30 min on two cores)::
 
     python benchmarks/bench_thermal_state.py --n-jobs 2
 
-``--quick`` (CI, a minute or two): one seed, 60 s samples, three models, small campaigns.
-Writes ``benchmarks/results/thermal_state[_quick].md`` and ``.json``.
+``--quick`` (CI, well under a minute of CPU): one seed, 60 s samples, three models, one run
+per (unit, azimuth). Writes ``benchmarks/results/thermal_state[_quick].md`` and ``.json``
+(``--out DIR`` elsewhere).
 """
 
 import argparse
@@ -53,12 +59,14 @@ from sklearn_ifog._io import write_text_files
 from sklearn_ifog.datasets import make_thermal_campaign, noise_floor
 from sklearn_ifog.model_selection import LeaveOneAzimuthOut, SubsampledRegressor
 
+from _verdict import comparison_line, exit_code, target_line  # isort: skip
+
 RESULTS = Path(__file__).parent / "results"
 PHYSICS = ("lumped", "layered", "layered_glass")
 TARGET_RATIO = {"layered": 1.25, "layered_glass": 3.0}
 STATE_GAIN = 2.0  # excess(paper) / excess(state) on "layered"
 FULL = {"n_units": 1, "n_runs": 3, "azimuths": (0.0, 90.0, 180.0, 270.0)}
-QUICK = {"n_units": 1, "n_runs": 2, "azimuths": (0.0, 90.0, 180.0)}
+QUICK = {"n_units": 1, "n_runs": 1, "azimuths": (0.0, 90.0, 180.0)}
 
 
 def feature_sets(taus, smoothing):
@@ -270,6 +278,31 @@ def summarize(records, default_features):
     return summary, checks
 
 
+def comparisons(summary, default_features):
+    """RBFNet against every other model on the default feature set, per campaign."""
+    lines = []
+    ours = f"{default_features}|RBFNet"
+    for campaign, cell in summary.items():
+        if ours not in cell:
+            continue
+        physics, period, seed = campaign.split("|")
+        excess = cell[ours]["msd_over_floor"] - 1.0
+        for key, value in cell.items():
+            if key == ours or not key.startswith(f"{default_features}|"):
+                continue
+            lines.append(
+                comparison_line(
+                    "RBFNet",
+                    key.split("|")[1],
+                    excess,
+                    value["msd_over_floor"] - 1.0,
+                    f"excess MSD/floor - 1 on '{default_features}' features, {physics}, "
+                    f"{period} s, seed {seed}",
+                )
+            )
+    return lines
+
+
 def markdown(records, summary, checks, header):
     keys = list(records[0]["results"])
     sets = list(dict.fromkeys(key.split("|")[0] for key in keys))
@@ -308,17 +341,20 @@ def markdown(records, summary, checks, header):
                 lines.append(f"| {model} | " + " | ".join(cells) + " |")
             lines.append("")
     lines += ["## Targets", ""]
-    for check in checks:
-        value = check["value"]
-        shown = (
-            f"{value:.3f}"
-            if isinstance(value, float)
-            else f"state {value[0]:.3f} vs paper {value[1]:.3f}"
-        )
-        lines.append(f"- {'PASS' if check['pass'] else 'FAIL'}: {check['target']} ({shown})")
+    lines += [f"- {_check_line(check)}" for check in checks]
     n_fail = sum(not check["pass"] for check in checks)
     lines += ["", f"{len(checks) - n_fail} of {len(checks)} targets pass."]
     return "\n".join(lines) + "\n"
+
+
+def _check_line(check):
+    value = check["value"]
+    shown = (
+        f"{value:.3f}"
+        if isinstance(value, float)
+        else f"state {value[0]:.3f} vs paper {value[1]:.3f}"
+    )
+    return target_line(check["pass"], f"{check['target']} ({shown})")
 
 
 def main(argv=None):
@@ -350,6 +386,7 @@ def main(argv=None):
     )
     parser.add_argument("--n-jobs", type=int, default=1)
     parser.add_argument("--tag", default="", help="suffix of the result file names")
+    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
     args = parser.parse_args(argv)
 
     quick = args.quick
@@ -398,9 +435,11 @@ def main(argv=None):
         f"Default pipeline in the targets: "
         f"RBFNetRegressor() on '{args.default_features}'.",
     ]
+    lines = comparisons(summary, args.default_features)
     text = markdown(records, summary, checks, header)
+    text += "\n## Against every baseline\n\n" + "".join(f"- {line}\n" for line in lines)
     stem = "thermal_state" + ("_quick" if quick else "") + (f"_{args.tag}" if args.tag else "")
-    RESULTS.mkdir(exist_ok=True)
+    args.out.mkdir(parents=True, exist_ok=True)
     payload = {
         "command": command.strip(),
         "sizes": {
@@ -411,16 +450,21 @@ def main(argv=None):
         "default_features": args.default_features,
         "summary": summary,
         "checks": checks,
+        "comparisons": lines,
         "folds": records,
     }
     write_text_files(
         {
-            RESULTS / f"{stem}.json": json.dumps(payload, indent=1),
-            RESULTS / f"{stem}.md": text,
+            args.out / f"{stem}.json": json.dumps(payload, indent=1),
+            args.out / f"{stem}.md": text,
         }
     )
     print(text)
-    return 0 if all(check["pass"] for check in checks) else 1
+    for check in checks:
+        print(_check_line(check))
+    for line in lines:
+        print(line)
+    return exit_code(check["pass"] for check in checks)
 
 
 if __name__ == "__main__":

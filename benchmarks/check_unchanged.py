@@ -11,8 +11,9 @@ gyro axes as three outputs):
 
 1. ``features.*``: ``ThermalFeatures.fit_transform`` and ``get_feature_names_out`` for the
    default parameters, for ``terms=("T", "dT")``, each term alone, all terms with two sensors
-   (``temperature`` and ``chamber_temperature``, so ``"gradient"`` is defined), smoothing with
-   and without a time column, ``time=None`` (per-sample difference), every ``rate_unit``, numpy
+   (``temperature`` and ``chamber_temperature``, so ``"gradient"`` is defined), smoothing (a
+   time constant in seconds, so only with a time column), ``time=None`` (per-sample
+   difference), every ``rate_unit``, numpy
    input with column positions, polars input, pandas output, rows of all runs interleaved
    (shuffled), and string run ids.
 2. ``model.*``: predictions of the hand-built default Pipeline ``ThermalFeatures(temperature=,
@@ -21,8 +22,8 @@ gyro axes as three outputs):
    with ``n_centers=20, criterion=None`` (the default selection keeps no Gaussian unit on
    these data, where the refiners have nothing to move); with the fitted ``centers_``,
    ``widths_``, ``coef_``, ``tail_coef_``, ``intercept_`` and ``n_iter_``. Plus a Ridge
-   Pipeline on two sensors with smoothing and ``time=None``, for the streaming and C front
-   ends.
+   Pipeline on two sensors with ``time=None`` (so no smoothing), for the streaming and C
+   front ends.
 3. ``stream.*``: ``StreamingCompensator`` drift and compensated rate, sample by sample
    (``step``) and in chunks of 1 to 1000 rows (``update``), and its final ``get_state``.
 4. ``c.*`` / ``json.*``: ``export.to_c`` in ``"double"`` and ``"float"``, compiled with
@@ -50,6 +51,12 @@ From the repository root (``.venv/bin/python`` or any Python with the dependenci
     python benchmarks/check_unchanged.py --baseline REV --out benchmarks/results/check_unchanged.md
     python benchmarks/check_unchanged.py --snapshot before.npz   # one snapshot, current tree
     python benchmarks/check_unchanged.py --compare before.npz after.npz
+    python benchmarks/check_unchanged.py --quick --out /tmp/check.md   # CI smoke run
+
+``--quick`` (CI, seconds): the features part only (no models, streaming, C or demo), the
+working tree against ``HEAD`` (unless ``--baseline`` is given): it checks that the machinery
+(``git archive``, the two snapshot processes, the comparison, the exit code) still works, and
+that the features are reproducible.
 
 ``--baseline REV`` extracts REV with ``git archive`` into a temporary directory (no worktree
 state), runs this script there in ``--snapshot`` mode with ``PYTHONPATH`` set to it (the
@@ -90,6 +97,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from _verdict import target_line  # isort: skip
 
 DEFAULT_BASELINE = "844783f"
 REPOSITORY = Path(__file__).resolve().parents[1]
@@ -353,7 +362,8 @@ def _snapshot_features(frame, real):
         for name, params in {
             "default-columns": {},
             "all-terms-smoothed": {"terms": TERMS[:4], "smoothing": 4.0},
-            "per-sample": {"time": None, "smoothing": 1.5},
+            # Smoothing is a time constant in seconds: without a time column, none.
+            "per-sample": {"time": None, "smoothing": 0.0},
         }.items():
             params = {"temperature": "temperature", "time": "time", "run": "burst", **params}
             record(f"real.{name}", ThermalFeatures(**params), real)
@@ -375,7 +385,7 @@ def _snapshot_features(frame, real):
         },
         "smoothed": {**columns, "smoothing": 3.0},
         "per-sample": {**columns, "time": None},
-        "per-sample-smoothed": {**columns, "time": None, "smoothing": 5.0},
+        "per-sample-smoothed": {**columns, "smoothing": 5.0},
         "rate-unit-s": {**columns, "rate_unit": "s"},
         "rate-unit-h": {**columns, "rate_unit": "h"},
         "rate-unit-30": {**columns, "rate_unit": 30.0},
@@ -454,7 +464,7 @@ def _snapshot_models(sim, real):
             temperature=["temperature", "chamber_temperature"],
             run="run",
             terms=TERMS,
-            smoothing=3.0,
+            smoothing=0.0,  # a time constant in seconds: none without a time column
         ),
         StandardScaler(),
         Ridge(alpha=1e-3),
@@ -634,8 +644,11 @@ def _snapshot_demo():
     return out
 
 
-def snapshot(path, expect_root=None):
-    """Run the workload with the ``sklearn_ifog`` that Python imports; save every result."""
+def snapshot(path, expect_root=None, parts=None):
+    """Run the workload with the ``sklearn_ifog`` that Python imports; save every result.
+
+    ``parts``: None for the whole workload, ``("features",)`` for the features only.
+    """
     import sklearn_ifog
 
     location = Path(sklearn_ifog.__file__).resolve()
@@ -655,6 +668,10 @@ def snapshot(path, expect_root=None):
     arrays = {}
     arrays.update(_snapshot_features(sim[0], real[0]))
     done("features")
+    if parts is not None and tuple(parts) == ("features",):
+        _write_npz(path, arrays)
+        print(f"wrote {len(arrays)} quantities to {path}", file=sys.stderr)
+        return
     model_arrays, models = _snapshot_models(sim, real)
     arrays.update(model_arrays)
     done("models")
@@ -766,7 +783,7 @@ def compare(baseline_path, current_path, *, labels=("baseline", "current")):
 # ---------------------------------------------------------------------------------------------
 
 
-def _start_snapshot(package_root, output):
+def _start_snapshot(package_root, output, parts=None):
     """Start ``--snapshot output`` in a subprocess that imports the package under
     ``package_root``; its stderr goes to ``output.log``."""
     environment = {**os.environ, "PYTHONPATH": str(package_root)}
@@ -779,6 +796,8 @@ def _start_snapshot(package_root, output):
         "--expect-root",
         str(package_root),
     ]
+    if parts:
+        command += ["--parts", *parts]
     process = subprocess.Popen(
         command, env=environment, cwd=output.parent, stdout=log, stderr=subprocess.STDOUT
     )
@@ -802,7 +821,7 @@ def _git(*args):
     ).stdout.strip()
 
 
-def against_baseline(revision):
+def against_baseline(revision, parts=None):
     with tempfile.TemporaryDirectory(prefix="check-unchanged-") as directory:
         directory = Path(directory)
         tree = directory / "baseline"
@@ -819,7 +838,7 @@ def against_baseline(revision):
         before, after = directory / "baseline.npz", directory / "current.npz"
         # Both at once: each is mostly single-threaded.
         running = [
-            (*_start_snapshot(root, path), root)
+            (*_start_snapshot(root, path, parts), root)
             for root, path in [(tree, before), (REPOSITORY, after)]
         ]
         for process, log, root in running:
@@ -829,7 +848,9 @@ def against_baseline(revision):
             f"working tree at {head}" + (" (modified)" if dirty else ""),
         )
         text, ok = compare(before, after, labels=labels)
-    command = f"python benchmarks/check_unchanged.py --baseline {revision}"
+    command = f"python benchmarks/check_unchanged.py --baseline {revision}" + (
+        " --quick" if parts else ""
+    )
     text = f"# check_unchanged: {labels[0]} against {labels[1]}\n\nCommand: `{command}`\n\n" + text
     return text, ok
 
@@ -845,17 +866,24 @@ def main(argv=None):
     mode.add_argument("--snapshot", metavar="PATH", help="write one snapshot (.npz) and stop")
     mode.add_argument("--compare", nargs=2, metavar=("A", "B"), help="compare two snapshots")
     parser.add_argument("--expect-root", help=argparse.SUPPRESS)
+    parser.add_argument("--parts", nargs="+", help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--quick", action="store_true", help="CI: features only, against HEAD by default"
+    )
     parser.add_argument("--out", metavar="PATH", help="also write the Markdown table here")
     args = parser.parse_args(argv)
 
     if args.snapshot:
-        snapshot(Path(args.snapshot).resolve(), expect_root=args.expect_root)
+        snapshot(Path(args.snapshot).resolve(), expect_root=args.expect_root, parts=args.parts)
         return 0
     if args.compare:
         text, ok = compare(*args.compare, labels=tuple(args.compare))
     else:
-        text, ok = against_baseline(args.baseline or DEFAULT_BASELINE)
+        default = "HEAD" if args.quick else DEFAULT_BASELINE
+        parts = ("features",) if args.quick else None
+        text, ok = against_baseline(args.baseline or default, parts)
     print(text, end="")
+    print(target_line(ok, f"every quantity identical or within {RELATIVE_TOLERANCE:g}"))
     if args.out:
         _write_text(args.out, text)
     return 0 if ok else 1

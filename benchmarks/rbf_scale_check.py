@@ -3,13 +3,22 @@
 Each fit runs in its own process, so its peak resident memory is its own. Data: the smooth
 function of issue 3 (y = sin 3x0 + x1 x2 + 0.5 cos 2x2 + noise 0.05, x uniform in [-1, 1]^3).
 
+Targets (the thresholds of ``benchmarks/bench_rbf.py``'s issue-3 targets, measured here on
+their own; PASS/FAIL lines printed last, exit 1 when one fails): RBF fit time at 1e5 rows at
+most MLP(20)'s; RBF test MSE at 1e5 at most half MLP(20)'s; RBF fit time at 1e6 at most 15x
+poly3 Ridge's; log-log slope of the RBF fit time from 1e5 to 1e6 at most 0.6; batch predict
+of 1e6 rows at most 2x the bare-numpy floor.
+
 Run (about two minutes on two cores)::
 
     .venv/bin/python benchmarks/rbf_scale_check.py
 
-Writes ``benchmarks/results/rbf_scale.md`` and ``rbf_scale.json``.
+Writes ``benchmarks/results/rbf_scale.md`` and ``rbf_scale.json``. ``--quick`` (CI): every
+size divided by 100 (1e3 and 1e4 rows, a 1e4-row batch), the same targets (which need not
+hold at those sizes), ``rbf_scale_quick.*``; ``--out DIR`` writes elsewhere.
 """
 
+import argparse
 import json
 import resource
 import subprocess
@@ -21,7 +30,17 @@ from pathlib import Path
 
 import numpy as np
 
+from _verdict import exit_code, target_line  # isort: skip
+
 RESULTS = Path(__file__).parent / "results"
+# (ratio name, threshold, what it is): the targets, all "at most".
+TARGETS = (
+    ("fit_1e5_vs_mlp", 1.0, "RBF fit time / MLP(20) fit time at the middle size"),
+    ("mse_1e5_vs_mlp", 0.5, "RBF test MSE / MLP(20) test MSE at the middle size"),
+    ("fit_1e6_vs_poly3", 15.0, "RBF fit time / poly3 Ridge fit time at the large size"),
+    ("loglog_slope_1e5_1e6", 0.6, "log-log slope of the RBF fit time, middle to large size"),
+    ("batch_vs_floor", 2.0, "RBF batch predict time / bare-numpy floor"),
+)
 
 
 def smooth(n, seed):
@@ -61,7 +80,7 @@ def fit_once(name, n_samples):
     return {"model": name, "n": n_samples, "fit_s": fit_s, "peak_MB": peak_mb, "mse": mse}
 
 
-def predict_timings():
+def predict_timings(batch_rows=1_000_000):
     """Single-row latency against LinearRegression, batch throughput against the floor."""
     from sklearn.linear_model import LinearRegression
 
@@ -80,7 +99,7 @@ def predict_timings():
         best(lambda: rbf.predict(row), 2000),
         best(lambda: linear.predict(row), 2000),
     )
-    batch = np.random.default_rng(2).uniform(-1, 1, size=(1_000_000, 3))
+    batch = np.random.default_rng(2).uniform(-1, 1, size=(batch_rows, 3))
     Z = (batch - rbf.x_mean_) / rbf.x_scale_
     inv_var = 1.0 / np.square(rbf.widths_)
     centers = rbf.centers_
@@ -107,40 +126,53 @@ def predict_timings():
     }
 
 
-def main():
-    if len(sys.argv) == 3:  # child process: one fit
-        print(json.dumps(fit_once(sys.argv[1], int(float(sys.argv[2])))))
-        return
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    if len(argv) == 3 and argv[0] == "--child":  # child process: one fit
+        print(json.dumps(fit_once(argv[1], int(float(argv[2])))))
+        return 0
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="CI mode: sizes / 100")
+    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
+    args = parser.parse_args(argv)
+    middle, large = (1e3, 1e4) if args.quick else (1e5, 1e6)
     fits = []
     for name, n_samples in [
-        ("RBFNet (default)", 1e5),
-        ("MLP (20,)", 1e5),
-        ("poly3 Ridge", 1e5),
-        ("RBFNet (default)", 1e6),
-        ("poly3 Ridge", 1e6),
+        ("RBFNet (default)", middle),
+        ("MLP (20,)", middle),
+        ("poly3 Ridge", middle),
+        ("RBFNet (default)", large),
+        ("poly3 Ridge", large),
     ]:
         out = subprocess.run(
-            [sys.executable, __file__, name, str(n_samples)],
+            [sys.executable, __file__, "--child", name, str(n_samples)],
             capture_output=True,
             text=True,
             check=True,
         )
         fits.append(json.loads(out.stdout.splitlines()[-1]))
         print(fits[-1], flush=True)
-    timings = predict_timings()
+    timings = predict_timings(int(large))
     by = {(f["model"], f["n"]): f for f in fits}
-    rbf5, rbf6 = by["RBFNet (default)", 100000], by["RBFNet (default)", 1000000]
+    middle, large = int(middle), int(large)
+    rbf5, rbf6 = by["RBFNet (default)", middle], by["RBFNet (default)", large]
     ratios = {
-        "fit_1e5_vs_mlp": rbf5["fit_s"] / by["MLP (20,)", 100000]["fit_s"],
-        "fit_1e6_vs_poly3": rbf6["fit_s"] / by["poly3 Ridge", 1000000]["fit_s"],
+        "fit_1e5_vs_mlp": rbf5["fit_s"] / by["MLP (20,)", middle]["fit_s"],
+        "fit_1e6_vs_poly3": rbf6["fit_s"] / by["poly3 Ridge", large]["fit_s"],
         "loglog_slope_1e5_1e6": float(np.log10(rbf6["fit_s"] / rbf5["fit_s"])),
-        "mse_1e5_vs_mlp": rbf5["mse"] / by["MLP (20,)", 100000]["mse"],
+        "mse_1e5_vs_mlp": rbf5["mse"] / by["MLP (20,)", middle]["mse"],
         "batch_vs_floor": timings["batch_1e6_s"] / timings["floor_1e6_s"],
     }
+    checks = [
+        (bool(ratios[key] <= threshold), f"{what}: {ratios[key]:.3g} <= {threshold:g}")
+        for key, threshold, what in TARGETS
+    ]
     lines = [
         "# RBFNetRegressor scale check",
         "",
-        "Command: `.venv/bin/python benchmarks/rbf_scale_check.py`",
+        "Command: `.venv/bin/python benchmarks/rbf_scale_check.py"
+        + (" --quick`" if args.quick else "`")
+        + f" (sizes {middle:.0e} and {large:.0e} rows; ratio names keep the full run's sizes)",
         "",
         "| model | rows | fit s | peak MB | test MSE |",
         "|---|---|---|---|---|",
@@ -151,18 +183,28 @@ def main():
     ]
     lines += ["", "| measure | value |", "|---|---|"]
     lines += [f"| {k} | {v:.3g} |" for k, v in {**timings, **ratios}.items()]
-    RESULTS.mkdir(exist_ok=True)
-    payload = {"fits": fits, "predict": timings, "ratios": ratios}
+    lines += ["", "## Targets", ""] + [f"- {target_line(ok, text)}" for ok, text in checks]
+    args.out.mkdir(parents=True, exist_ok=True)
+    payload = {
+        "fits": fits,
+        "predict": timings,
+        "ratios": ratios,
+        "checks": [{"pass": ok, "target": text} for ok, text in checks],
+    }
     from sklearn_ifog._io import write_text_files
 
+    stem = "rbf_scale_quick" if args.quick else "rbf_scale"
     write_text_files(
         {
-            RESULTS / "rbf_scale.json": json.dumps(payload, indent=1),
-            RESULTS / "rbf_scale.md": "\n".join(lines) + "\n",
+            args.out / f"{stem}.json": json.dumps(payload, indent=1),
+            args.out / f"{stem}.md": "\n".join(lines) + "\n",
         }
     )
     print("\n".join(lines))
+    for ok, text in checks:
+        print(target_line(ok, text))
+    return exit_code(ok for ok, _ in checks)
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

@@ -1,24 +1,32 @@
-"""The reference paper's Tables 2-4 on a small simulated campaign.
+r"""The reference paper's Tables 2-4 on small simulated campaigns.
 
 The campaign: the simulator's default (3 units, 5 runs per (unit, azimuth), azimuths
 0/45/90/135, 60 s samples, about 16 000 rows); each unit is trained on its five runs at 0° and
-tested on five runs at 90° (Table 2), 45° (Table 3) or 135° (Table 4).
+tested on five runs at 90° (Table 2), 45° (Table 3) or 135° (Table 4). The layout and
+arithmetic tests use campaign seed 0; every statistical claim is asserted on several campaign
+seeds (``SEEDS`` for the RBF network, ``LINEAR_SEEDS`` for the cheap linear model), with a
+threshold that held on every one of campaign seeds 0-7 as measured by the committed command
+(the same default network and linear model as here)::
 
-What the simulator shows (campaign seeds 0-7, ``benchmarks/paper_claim_check.py``, results in
-``benchmarks/results/paper_claim.md``):
+    python benchmarks/paper_claim_check.py --regressors 'RBF default (quadratic tail)' \
+        'linear thermal model' --noise-only --tag default
 
-- the modified RBF model cuts the MSD 29-74x against the raw output (the paper: > 10x);
-- the traditional (T, ΔT) and modified (T, ΔT, T·ΔT) RBF networks tie: mean-MSD ratio
-  traditional/modified 0.50-1.00 with the default network, the modified one winning more than
-  half of the 15 test runs for 2 of 8 seeds; a linear tail, the paper's Gaussian-only network
-  or a fixed 8-unit newrb-like one do not change that (3-5 of 8 seeds); without the gyro noise
-  it is 2-6 of 8, and the default network's median ratio falls to 0.63. A flexible network
-  learns the T·ΔT product from (T, ΔT) by itself, so the paper's "modified beats traditional
-  in most experiments" is not asserted for the RBF network: it would hold or fail with the
-  seed. The tests assert parity instead;
+(results in ``benchmarks/results/paper_claim_default.md``, measured on the network of
+3688b23; "over seeds 0-7" below quotes it):
+
+- the modified RBF model cuts the mean MSD 27-74x against the raw output (the paper: > 10x),
+  the traditional one at least 34x; the worst of the three tables is cut 4.3x (seed 3) to
+  53x, so a table is asserted at least 4x;
+- the traditional (T, ΔT) and modified (T, ΔT, T·ΔT) RBF networks tie or either wins with the
+  seed (traditional/modified mean-MSD ratio 0.47-1.00): a flexible network learns the T·ΔT
+  product from (T, ΔT) by itself, so neither "modified beats traditional" nor a parity bound
+  is asserted for it (seed 0's 0.97 said nothing about seed 3's 0.47);
 - for the linear thermal model (the IEEE Std 952 style least-squares model) T·ΔT does carry
   what (T, ΔT) lacks: the modified model wins 11-15 of 15 runs on every seed (ratio
-  1.09-1.71). That is asserted below.
+  1.09-1.71, raw cut 33-70x). That is asserted;
+- trained on the error set (each run's mean-removed output) the default network cuts the
+  mean-removed MSD 4.96x (seed 6) to 11.1x: asserted at least 4.5x. (The script's own target
+  is the 5x this test once claimed; it fails on seed 6.)
 """
 
 import numpy as np
@@ -27,7 +35,12 @@ from sklearn.dummy import DummyRegressor
 from sklearn.linear_model import LinearRegression
 
 from sklearn_ifog import ThermalFeatures
+from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.experiments import run_paper_experiments
+
+# Campaign seeds of the statistical claims (each a few seconds of fitting per seed).
+SEEDS = (0, 1, 2)
+LINEAR_SEEDS = (0, 1, 2, 3, 4)
 
 
 @pytest.fixture(scope="module")
@@ -43,6 +56,28 @@ def result(campaign):
 @pytest.fixture(scope="module")
 def error_set_result(campaign):
     return run_paper_experiments(campaign, target="error_set")
+
+
+def _campaign(seed, default_campaign):
+    return default_campaign if seed == 0 else make_thermal_campaign(random_state=seed)
+
+
+@pytest.fixture(scope="module", params=SEEDS, ids=lambda seed: f"seed{seed}")
+def seeded(request, default_campaign):
+    """(seed, runs of the default network, runs of the default network on the error set)."""
+    seed = request.param
+    campaign = _campaign(seed, default_campaign)
+    if seed == 0:
+        return (
+            seed,
+            request.getfixturevalue("result").runs,
+            (request.getfixturevalue("error_set_result").runs),
+        )
+    return (
+        seed,
+        run_paper_experiments(campaign).runs,
+        run_paper_experiments(campaign, target="error_set").runs,
+    )
 
 
 def _run_msd(frame, run, values=None):
@@ -99,28 +134,25 @@ def test_models_are_trained_on_the_training_azimuth_only(campaign):
         assert result[table][column].iloc[0] == pytest.approx(expected, rel=1e-12)
 
 
-def test_modified_model_cuts_msd_tenfold(result):
-    runs = result.runs
-    assert runs["raw"].mean() / runs["modified"].mean() >= 10.0  # 34.5 measured
+def test_both_models_cut_msd_tenfold_on_every_seed(seeded):
+    _, runs, _ = seeded
+    # Worst over seeds 0-7 (paper_claim_check): modified 27x, traditional 34x, a table 4.3x.
+    assert runs["raw"].mean() / runs["modified"].mean() >= 10.0
+    assert runs["raw"].mean() / runs["traditional"].mean() >= 10.0
     per_table = runs.groupby("table")[["raw", "modified"]].mean()
-    assert (per_table["raw"] / per_table["modified"] >= 5.0).all()  # 14.7 at worst
+    assert (per_table["raw"] / per_table["modified"] >= 4.0).all()
 
 
-def test_modified_model_is_not_worse_than_traditional(result):
-    # A tie on this simulator (traditional/modified 0.97 for this seed, 0.50-1.00 over
-    # seeds 0-7): assert parity, not a win.
-    runs = result.runs
-    assert runs["modified"].mean() <= 1.25 * runs["traditional"].mean()
-
-
-def test_product_term_beats_traditional_for_the_linear_thermal_model(campaign):
+@pytest.mark.parametrize("seed", LINEAR_SEEDS)
+def test_product_term_beats_traditional_for_the_linear_thermal_model(seed, default_campaign):
     # The paper's claim, where it holds on the simulator: a linear model of the drift cannot
     # build T·ΔT from T and ΔT, and the Shupe coefficient varies with T.
+    campaign = _campaign(seed, default_campaign)
     runs = run_paper_experiments(campaign, regressor=LinearRegression()).runs
     wins = int((runs["modified"] < runs["traditional"]).sum())
-    assert wins > len(runs) / 2  # 11 of 15 measured (11-15 over campaign seeds 0-7)
-    assert runs["traditional"].mean() / runs["modified"].mean() > 1.05  # 1.11 measured
-    assert runs["raw"].mean() / runs["modified"].mean() >= 10.0
+    assert wins > len(runs) / 2  # 11-15 of 15 over campaign seeds 0-7
+    assert runs["traditional"].mean() / runs["modified"].mean() > 1.05  # 1.09-1.71
+    assert runs["raw"].mean() / runs["modified"].mean() >= 10.0  # 33x at worst
 
 
 def test_error_set_training(campaign, error_set_result):
@@ -132,9 +164,13 @@ def test_error_set_training(campaign, error_set_result):
     assert first["raw"] == pytest.approx(np.var(error), rel=1e-12)
     drift = error_set_result.models[0]["modified"].predict(rows)
     assert first["modified"] == pytest.approx(np.var(error - drift), rel=1e-9)
-    # The mean-removed raw MSD is smaller, so is the cut: 10.1x here, 5.0-11.1x on seeds 0-7.
-    assert runs["raw"].mean() / runs["modified"].mean() >= 5.0
-    assert runs["modified"].mean() <= 1.25 * runs["traditional"].mean()
+
+
+def test_error_set_cut_on_every_seed(seeded):
+    _, _, runs = seeded
+    # The mean-removed raw MSD is smaller, so is the cut: 4.96-11.1x over seeds 0-7
+    # (paper_claim_check's error-set table).
+    assert runs["raw"].mean() / runs["modified"].mean() >= 4.5
 
 
 def test_explicit_experiments_and_frame_input(campaign):

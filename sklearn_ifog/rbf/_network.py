@@ -199,8 +199,10 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
     stop the network from reproducing a quadratic exactly (its strength would also depend on
     the arbitrary scale of the monomials), and the number of Gaussian units, chosen by
     held-out error, is the complexity control. The default tail was chosen on
-    ``benchmarks/bench_thermal_accuracy.py`` (three simulated campaigns, leave-one-azimuth-
-    out) and ``benchmarks/bench_rbf.py``: the quadratic tail lowered the mean error against
+    ``python benchmarks/bench_thermal_accuracy.py --campaign-seed 0``, and ``--campaign-seed
+    N --tag campaignN`` for N = 1, 2 (three simulated campaigns, leave-one-azimuth-out; the
+    "excess mean" rows of ``benchmarks/results/thermal_accuracy*.md``) and
+    ``python benchmarks/bench_rbf.py``: the quadratic tail lowered the mean error against
     the true drift by 11–31% relative to the linear tail on every campaign (the network then
     keeps no Gaussian unit in most folds: the held-out error does not justify any); it
     lowered the test error on the smooth three-input function (3.7e-4 to 3.1e-4 at 1e5 rows)
@@ -213,9 +215,11 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
 
     The default refinement is variable projection: it moves centres and widths with the
     output weights solved exactly at every step, so it converges in few iterations. In the
-    package's thermal benchmark (``benchmarks/bench_thermal_accuracy.py``) it gave the
-    lowest mean error of the four modes for about 0.2 s more fit time, and on a smooth
-    three-input function it lowers the OLS network's error about tenfold.
+    package's thermal benchmark (``python benchmarks/bench_thermal_accuracy.py
+    --refine-modes``, results in ``benchmarks/results/thermal_accuracy_refine.md``) it gave
+    the lowest mean error of the four modes for about 0.2 s more fit time, and on a smooth
+    three-input function (``python benchmarks/bench_rbf.py``, "Refine modes" table of
+    ``benchmarks/results/bench_rbf.md``) it lowers the OLS network's error about tenfold.
 
     References
     ----------

@@ -1,0 +1,147 @@
+"""Every benchmark's ``--quick`` mode runs to completion, so that none can rot.
+
+Each script in ``benchmarks/`` runs in a subprocess with its results directory set to a
+temporary one (``benchmarks/results/`` must not change). At quick size a target may
+legitimately fail (exit 1), so the tests assert the verdict lines' format and that the exit
+code agrees with them (1 exactly when a ``FAIL:`` line is printed), that every
+WIN/TIE/LOSS line's label agrees with its ratio and the tie margin (a tie is never a win),
+and that the results were written. Marked ``benchmark``: ``-m "not benchmark"`` leaves them
+out of a quick local run; the README's test command runs them.
+"""
+
+import hashlib
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+BENCHMARKS = ROOT / "benchmarks"
+sys.path.insert(0, str(BENCHMARKS))
+from _verdict import LINE, TIE_MARGIN, compare  # noqa: E402
+
+sys.path.remove(str(BENCHMARKS))
+
+TIMEOUT = 1200  # seconds; a quick run takes seconds to a minute on an idle machine
+VERDICT = re.compile(r"^(PASS|FAIL|WIN|TIE|LOSS)\b")
+RATIO = re.compile(r"\(ratio (?P<ratio>[0-9.eE+-]+|inf); tie within (?P<margin>\d+)%\)")
+
+# script, its quick arguments (``{out}``: the temporary directory), the files it must write
+# there, whether it prints targets (PASS/FAIL lines).
+QUICK_RUNS = {
+    "bench_export": (
+        ["--quick", "--output", "{out}"],
+        ["bench_export.md", "bench_export.json"],
+        False,
+    ),
+    "bench_rbf": (
+        ["--quick", "--output-dir", "{out}"],
+        ["bench_rbf_quick.md", "bench_rbf_quick.json"],
+        True,
+    ),
+    "bench_thermal_accuracy": (
+        ["--quick", "--out", "{out}"],
+        ["thermal_accuracy_quick.md", "thermal_accuracy_quick.json"],
+        True,
+    ),
+    "bench_thermal_state": (
+        ["--quick", "--out", "{out}"],
+        ["thermal_state_quick.md", "thermal_state_quick.json"],
+        True,
+    ),
+    "check_unchanged": (
+        ["--quick", "--out", "{out}/check_unchanged.md"],
+        ["check_unchanged.md"],
+        True,
+    ),
+    "paper_claim_check": (
+        ["--quick", "--out", "{out}", "--n-jobs", "1"],
+        ["paper_claim_quick.md", "paper_claim_quick.json"],
+        True,
+    ),
+    "rbf_scale_check": (
+        ["--quick", "--out", "{out}"],
+        ["rbf_scale_quick.md", "rbf_scale_quick.json"],
+        True,
+    ),
+    "simulator_compensation_check": (
+        ["--quick", "--out", "{out}"],
+        ["simulator_compensation_quick.md"],
+        True,
+    ),
+}
+
+
+def test_every_benchmark_script_has_a_quick_run():
+    scripts = {path.stem for path in BENCHMARKS.glob("*.py") if not path.stem.startswith("_")}
+    assert scripts == set(QUICK_RUNS)
+
+
+@pytest.mark.parametrize(
+    ("ours", "theirs", "expected"),
+    [
+        (0.97, 1.0, "WIN"),
+        (0.985, 1.0, "TIE"),
+        (1.0, 1.0, "TIE"),
+        (1.015, 1.0, "TIE"),
+        (1.03, 1.0, "LOSS"),
+    ],
+)
+def test_a_tie_is_within_the_margin_and_never_a_win(ours, theirs, expected):
+    assert TIE_MARGIN == 0.02
+    assert compare(ours, theirs) == expected
+
+
+def _digest(directory):
+    return {
+        path.name: hashlib.sha256(path.read_bytes()).hexdigest()
+        for path in sorted(directory.glob("*"))
+        if path.is_file()
+    }
+
+
+@pytest.mark.benchmark
+@pytest.mark.parametrize("script", sorted(QUICK_RUNS))
+def test_quick_run_completes_with_consistent_verdicts(script, tmp_path):
+    if script == "bench_export" and shutil.which("cc") is None:
+        pytest.skip("bench_export compiles C: no C compiler ('cc') on this machine")
+    arguments, files, has_targets = QUICK_RUNS[script]
+    arguments = [argument.format(out=tmp_path) for argument in arguments]
+    results = BENCHMARKS / "results"
+    before = _digest(results)
+    environment = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
+    done = subprocess.run(
+        [sys.executable, str(BENCHMARKS / f"{script}.py"), *arguments],
+        cwd=ROOT,
+        env=environment,
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT,
+    )
+    tail = (done.stdout[-3000:] + "\n--- stderr ---\n" + done.stderr[-3000:]).strip()
+    assert done.returncode in (0, 1), tail
+    lines = [line for line in done.stdout.splitlines() if VERDICT.match(line)]
+    for line in lines:
+        assert LINE.match(line), line
+    if has_targets:
+        assert any(line.startswith(("PASS:", "FAIL:")) for line in lines), tail
+    failed = any(line.startswith("FAIL:") for line in lines)
+    assert done.returncode == (1 if failed else 0), tail
+    for line in lines:
+        match = RATIO.search(line)
+        if line.startswith(("WIN:", "TIE:", "LOSS:")) and match:
+            margin = int(match["margin"]) / 100
+            ratio = float(match["ratio"])
+            assert compare(ratio, 1.0, margin) == line.split(":")[0], line
+    for name in files:
+        path = tmp_path / name
+        assert path.is_file(), f"{name} not written; {tail}"
+        assert path.stat().st_size > 0, f"{name} is empty"
+        if name.endswith(".json"):
+            assert json.loads(path.read_text()), f"{name} holds no results"
+    assert _digest(results) == before, "a quick run wrote into benchmarks/results/"

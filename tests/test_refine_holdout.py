@@ -1,0 +1,152 @@
+"""Refinement at the estimator level: on held-out runs, never worse than the OLS network.
+
+Each refine mode ("varpro", "lm", "gd") is fitted on small simulated campaigns (one unit,
+azimuths 0°, 90°, 180°, two runs each, 60 s samples; lumped and layered physics, campaign
+seeds 0-4) on the runs at 0° and 180° and scored on the runs at 90°, against the same
+pipeline with ``refine=None`` and the same seed. The network has a fixed number of Gaussian
+units (``n_centers=10, criterion=None``): the default selection often keeps none on these
+data, and then there is nothing to refine.
+
+"Never worse" allows the tie margin the benchmarks use (``TIE_MARGIN``, 2%: the issue's
+"no worse than 1.02x"): the refinement's early stopping guards the error on held-out blocks
+of the *training* runs, the final weights are re-solved on all training rows, and a held-out
+azimuth is a different recording, so an exact "<=" on it is not implied by the algorithm;
+a loss beyond the margin is a refinement that generalises worse than the network it
+started from, which is what these tests catch. The held-out MSD includes the gyro noise,
+which every model pays alike, so the margin is relative to a common floor, as in the
+benchmarks' verdicts.
+
+The refined fits that lost beyond the margin when this test was written are listed in
+``KNOWN_LOSSES`` (measured on the network of commit 3688b23; issue 12): those parametrised
+cases are strict xfails, so that a fix turns them into failures to be removed from the list.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+from sklearn.exceptions import ConvergenceWarning
+
+from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
+from sklearn_ifog.datasets import make_thermal_campaign
+
+TIE_MARGIN = 0.02
+MODES = ("varpro", "lm", "gd")
+CASES = [(physics, seed) for physics in ("lumped", "layered") for seed in range(5)]
+N_CENTERS = 10
+# Held-out MSD refined / OLS measured at 3688b23 (n_centers=10, criterion=None).
+KNOWN_LOSSES = {
+    "varpro": "lumped seed 4: 1.21, layered seed 3: 1.62",
+    "lm": "lumped seed 0: 1.027, lumped seed 4: 1.028",
+}
+
+
+def _split(physics, seed):
+    campaign = make_thermal_campaign(
+        n_units=1,
+        n_runs=2,
+        azimuths=(0.0, 90.0, 180.0),
+        sampling_period=60.0,
+        physics=physics,
+        random_state=seed,
+    )
+    X, y = campaign.data, np.asarray(campaign.target)
+    test = (X["azimuth"] == 90.0).to_numpy()
+    return X[~test], y[~test], X[test], y[test]
+
+
+def _fit(refine, seed, X, y):
+    network = RBFNetRegressor(
+        refine=refine, n_centers=N_CENTERS, criterion=None, random_state=seed
+    )
+    with warnings.catch_warnings():
+        # A refinement stopped by max_iter warns; the held-out error is what is judged.
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        return make_compensation_pipeline(network).fit(X, y)
+
+
+@pytest.fixture(scope="module")
+def fits():
+    """Per case: the data, the OLS pipeline's held-out MSD, its network, and its predictions."""
+    out = {}
+    for physics, seed in CASES:
+        X_train, y_train, X_test, y_test = _split(physics, seed)
+        ols = _fit(None, seed, X_train, y_train)
+        predicted = ols.predict(X_test)
+        out[physics, seed] = {
+            "data": (X_train, y_train, X_test, y_test),
+            "ols": ols[-1],
+            "ols_predicted": predicted,
+            "ols_msd": float(np.mean(np.square(y_test - predicted))),
+        }
+    return out
+
+
+@pytest.fixture(scope="module")
+def refined(fits):
+    """Per (mode, case): held-out MSD ratio to OLS, the fitted network, its predictions."""
+    cache = {}
+
+    def get(mode):
+        if mode not in cache:
+            rows = {}
+            for (physics, seed), base in fits.items():
+                X_train, y_train, X_test, y_test = base["data"]
+                model = _fit(mode, seed, X_train, y_train)
+                predicted = model.predict(X_test)
+                msd = float(np.mean(np.square(y_test - predicted)))
+                rows[physics, seed] = {
+                    "ratio": msd / base["ols_msd"],
+                    "network": model[-1],
+                    "predicted": predicted,
+                }
+            cache[mode] = rows
+        return cache[mode]
+
+    return get
+
+
+def _mode_param(mode):
+    marks = []
+    if mode in KNOWN_LOSSES:
+        marks.append(
+            pytest.mark.xfail(
+                strict=True,
+                reason=f"refine={mode!r} loses to OLS on held-out runs ({KNOWN_LOSSES[mode]}); "
+                "issue 12",
+            )
+        )
+    return pytest.param(mode, marks=marks)
+
+
+@pytest.mark.parametrize("mode", [_mode_param(mode) for mode in MODES])
+def test_refined_network_never_worse_than_ols_on_held_out_runs(refined, mode):
+    ratios = {case: row["ratio"] for case, row in refined(mode).items()}
+    losses = {case: round(r, 4) for case, r in ratios.items() if r > 1.0 + TIE_MARGIN}
+    assert not losses, f"refine={mode!r} worse than OLS by more than {TIE_MARGIN:.0%}: {losses}"
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_refinement_runs_and_is_kept_in_some_cases(fits, refined, mode):
+    rows = refined(mode)
+    kept = [case for case, row in rows.items() if row["network"].selection_path_["refined"]]
+    # A mode that always falls back to the OLS network would be caught here: on these
+    # campaigns every mode kept its refinement in 3 to 8 of the 10 cases (3688b23).
+    assert len(kept) >= 2, f"refine={mode!r} kept its refinement in {len(kept)} of {len(rows)}"
+    for case, row in rows.items():
+        network, ols = row["network"], fits[case]["ols"]
+        assert network.n_iter_ > 0
+        assert ols.n_iter_ == 0
+        moved = not (
+            np.array_equal(network.centers_, ols.centers_)
+            and np.array_equal(network.widths_, ols.widths_)
+        )
+        if case in kept:
+            # Kept: the refined parameters are not the OLS ones.
+            assert moved, f"{case}: refined=True but centres and widths are the OLS ones"
+        else:
+            # Discarded: the model is the OLS network, weights re-solved alike.
+            np.testing.assert_allclose(network.centers_, ols.centers_, rtol=0, atol=0)
+            np.testing.assert_allclose(
+                row["predicted"], fits[case]["ols_predicted"], rtol=1e-9, atol=1e-12
+            )
