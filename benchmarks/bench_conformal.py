@@ -48,6 +48,8 @@ from sklearn_ifog.datasets import load_psim_tvc, make_thermal_campaign
 from sklearn_ifog.metrics import interval_coverage, mean_interval_width
 from sklearn_ifog.model_selection import LeaveOneAzimuthOut
 
+from _verdict import target_line  # isort: skip
+
 NOMINAL = 0.9
 METHODS = ("ours", "ours_flat", "mapie_rows", "mapie_runs")
 RESULTS = Path(__file__).parent / "results"
@@ -249,6 +251,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one preset, one seed")
     parser.add_argument("--no-mapie", action="store_true", help="only ours")
+    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
     parser.add_argument(
         "--rewrite",
         action="store_true",
@@ -257,10 +260,10 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if args.rewrite:
         stem = "conformal_quick" if args.quick else "conformal"
-        payload = json.loads((RESULTS / f"{stem}.json").read_text())
+        payload = json.loads((args.out / f"{stem}.json").read_text())
         elapsed = payload.get("elapsed", float("nan"))
         text = markdown(payload["results"], payload["failures"], payload["command"], elapsed)
-        write_text_files({RESULTS / f"{stem}.md": text})
+        write_text_files({args.out / f"{stem}.md": text})
         print(text)
         return 1 if payload["failures"] else 0
     # 300-s samples leave too few selection rows for a quadratic tail on some folds; the
@@ -295,7 +298,7 @@ def main(argv=None):
     command = "python benchmarks/bench_conformal.py" + (" --quick" if args.quick else "")
     text = markdown(results, failures, command, elapsed)
     stem = "conformal_quick" if args.quick else "conformal"
-    RESULTS.mkdir(exist_ok=True)
+    args.out.mkdir(parents=True, exist_ok=True)
     payload = {
         "command": command,
         "elapsed": elapsed,
@@ -304,11 +307,15 @@ def main(argv=None):
     }
     write_text_files(
         {
-            RESULTS / f"{stem}.md": text,
-            RESULTS / f"{stem}.json": json.dumps(payload, indent=1) + "\n",
+            args.out / f"{stem}.md": text,
+            args.out / f"{stem}.json": json.dumps(payload, indent=1) + "\n",
         }
     )
     print(text)
+    for failure in failures:
+        print(target_line(False, failure))
+    if not failures:
+        print(target_line(True, "every target on every campaign"))
     return 1 if failures else 0
 
 

@@ -58,6 +58,8 @@ from sklearn_ifog.datasets import age_campaign, make_thermal_campaign
 from sklearn_ifog.export import to_c
 from sklearn_ifog.streaming import StreamingCompensator
 
+from _verdict import target_line  # isort: skip
+
 RESULTS = Path(__file__).parent / "results"
 N_CALIBRATION = 6
 N_TEST = 6
@@ -530,6 +532,13 @@ def main(argv=None):
         }
     )
     print(markdown)
+    for target in targets:
+        print(
+            target_line(
+                target["pass"],
+                f"{target['target']}: {target['value']:.4g} (bound {target['bound']:g})",
+            )
+        )
     return 0 if all(target["pass"] for target in targets) else 1
 
 

@@ -48,6 +48,8 @@ from sklearn_ifog import RBFNetRegressor, UnitwiseRegressor, make_compensation_p
 from sklearn_ifog._io import write_text_files
 from sklearn_ifog.datasets import make_thermal_campaign, noise_floor
 
+from _verdict import target_line  # isort: skip
+
 RESULTS = Path(__file__).parent / "results"
 N_UNITS = 6
 N_RUNS = 6
@@ -246,11 +248,12 @@ def markdown(summary, checks, command, seeds, elapsed):
     return "\n".join(lines) + "\n"
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one seed, lumped, linear model")
     parser.add_argument("--seeds", type=int, default=3)
-    args = parser.parse_args()
+    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
+    args = parser.parse_args(argv)
     seeds = [0] if args.quick else list(range(args.seeds))
     physics_presets = ("lumped",) if args.quick else ("lumped", "layered_glass")
     command = "python benchmarks/bench_unitwise.py" + (" --quick" if args.quick else "")
@@ -271,16 +274,26 @@ def main():
     elapsed = time.perf_counter() - start
     text = markdown(summary, checks, command, seeds, elapsed)
     stem = "unitwise_quick" if args.quick else "unitwise"
-    RESULTS.mkdir(exist_ok=True)
+    args.out.mkdir(parents=True, exist_ok=True)
     write_text_files(
         {
-            RESULTS / f"{stem}.json": json.dumps(
+            args.out / f"{stem}.json": json.dumps(
                 {"command": command, "rows": rows, "checks": checks}, indent=1
             ),
-            RESULTS / f"{stem}.md": text,
+            args.out / f"{stem}.md": text,
         }
     )
     print(text)
+    for check in checks:
+        text_line = f"target {check['target']}: {check['case']}: {check['value']:.3f}"
+        if check["target"] == 2:
+            reached = "reached" if check["reached"] else "not reached"
+            print(
+                f"target 2 (reported, not a verdict): {check['case']}: "
+                f"{check['value']:.3f} {reached}"
+            )
+        else:
+            print(target_line(check["passed"], text_line))
     return 1 if any(not check["passed"] for check in checks) else 0
 
 

@@ -54,6 +54,21 @@ QUICK_RUNS = {
         ["thermal_state_quick.md", "thermal_state_quick.json"],
         True,
     ),
+    "bench_conformal": (
+        ["--quick", "--out", "{out}"],
+        ["conformal_quick.md", "conformal_quick.json"],
+        True,
+    ),
+    "bench_streaming": (
+        ["--quick", "--output", "{out}"],
+        ["bench_streaming_quick.md", "bench_streaming_quick.json"],
+        True,
+    ),
+    "bench_unitwise": (
+        ["--quick", "--out", "{out}"],
+        ["unitwise_quick.md", "unitwise_quick.json"],
+        True,
+    ),
     "check_unchanged": (
         ["--quick", "--out", "{out}/check_unchanged.md"],
         ["check_unchanged.md"],
@@ -68,6 +83,11 @@ QUICK_RUNS = {
         ["--quick", "--out", "{out}"],
         ["rbf_scale_quick.md", "rbf_scale_quick.json"],
         True,
+    ),
+    "rbf_variance_check": (
+        ["--quick", "--out", "{out}"],
+        ["rbf_variance_quick.md", "rbf_variance_quick.json"],
+        False,
     ),
     "simulator_compensation_check": (
         ["--quick", "--out", "{out}"],
