@@ -216,8 +216,9 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
     The default refinement is variable projection: it moves centres and widths with the
     output weights solved exactly at every step, so it converges in few iterations. In the
     package's thermal benchmark (``python benchmarks/bench_thermal_accuracy.py
-    --refine-modes``, results in ``benchmarks/results/thermal_accuracy_refine.md``) it gave
-    the lowest mean error of the four modes for about 0.2 s more fit time, and on a smooth
+    --refine-modes``, results in ``benchmarks/results/thermal_accuracy_refine.md``) the four
+    modes tie (mean held-out MSD within 0.3% of one another, varpro the highest: there the
+    selected network leaves refinement little to gain on held-out runs), and on a smooth
     three-input function (``python benchmarks/bench_rbf.py``, "Refine modes" table of
     ``benchmarks/results/bench_rbf.md``) it lowers the OLS network's error about tenfold.
 
