@@ -53,7 +53,8 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
         Ridge penalty on the Gaussian weights relative to the mean squared error: the
         output layer minimises ``Σ s_i ||y_i - f(z_i)||² / Σ s_i + alpha Σ ||coef||²`` on
         targets divided by their standard deviation (so ``alpha`` is free of units and of
-        the number of rows). The tail and intercept are not penalised.
+        the number of rows). The tail is penalised by ``tail_alpha`` only, the intercept
+        never.
     tail_alpha : "auto" or float, default=0.0
         Ridge penalty on the polynomial tail's weights, relative like ``alpha`` (the
         intercept is never penalised): ``Σ s_i ||y_i - f(z_i)||² / Σ s_i + alpha Σ ||coef||²
@@ -62,9 +63,10 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
         quadratic tail on many features (``d (d + 3) / 2`` columns) from fitting slowly
         varying gyro noise through slowly varying features and from bending far outside the
         calibrated range. ``"auto"`` chooses it with the number of centres and the width,
-        by ``criterion``, from 0 and 1e-5 to 1e-1 by decades (the one-standard-error rule
-        prefers the stronger penalty). Selection and the final solve on all rows use it;
-        the refinement moves centres and widths with the tail's weights unpenalised.
+        by ``criterion``, from 0 and 1e-5 to 1e-1 by decades (with ``"cv"`` or
+        ``"holdout"`` the one-standard-error rule prefers the stronger penalty). Selection
+        and the final solve on all rows use it; the refinement moves centres and widths
+        with the tail's weights unpenalised.
     criterion : {"cv", "holdout", "gcv", "bic", "aicc"} or None, default="cv"
         How the number of centres and the width are chosen along the selection path.
         ``"cv"``: the rows are cut into ``round(1 / validation_fraction)`` contiguous folds,
