@@ -413,7 +413,9 @@ def _select_and_score(
     """OLS path at one width, and the fit of every prefix (scored on held-out rows if given).
 
     ``D2`` are the squared distances of the selection rows to the candidates; ``validation``
-    is ``(D2_val, T_val, Y_val, sample_weight_val)`` or None.
+    is ``(D2_val, T_val, Y_val, sample_weight_val)`` or None. The path is ranked once, with
+    the tail free; the prefixes are fitted once per absolute tail penalty of
+    ``tail_alphas``. Returns the path and the list of prefix fits, one per penalty.
     """
     P = np.exp(D2 * (-0.5 / width**2))
     path = ols_forward_select(
