@@ -348,7 +348,6 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
             rng,
             degree,
             options,
-            tail_alphas,
         )
     if losses is not None:
         choice = _choose_by_losses(losses, sw_losses, fixed_size, paths)
@@ -453,21 +452,22 @@ def _cross_validated_losses(
     rng,
     degree,
     options,
-    tail_alphas,
 ):
-    """Held-out squared errors of every (width, prefix) over contiguous folds.
+    """Held-out squared errors of every (width, tail penalty, prefix) over contiguous folds.
 
     The rows are cut into ``round(1 / validation_fraction)`` contiguous folds; each fold
     is held out in turn, the selection paths are run on the other rows and every prefix
     is scored on the fold. The candidate pool is the final one (centre locations only,
     no held-out target is used), so the folds cost no extra seeding. Returns
-    ``losses[i]`` of shape (max_centers + 1, n_scored) for width ``i`` (a path that
-    stopped early repeats its last prefix) and the weights of the scored rows, which
-    are in row order.
+    ``losses[i * n_penalties + j]`` of shape (max_centers + 1, n_scored) for width ``i``
+    and tail penalty ``j`` of :func:`tail_alphas_tried` (the order of the final paths; a
+    path that stopped early repeats its last prefix) and the weights of the scored rows,
+    which are in row order.
     """
     n_samples = Z.shape[0]
     n_folds = int(np.clip(round(1.0 / options.validation_fraction), 2, 10))
     bounds = np.linspace(0, n_samples, n_folds + 1).round().astype(int)
+    tail_alphas = tail_alphas_tried(options.tail_alpha, degree)
     n_ta = len(tail_alphas)
     losses = [[] for _ in range(len(widths_tried) * n_ta)]
     weights = []
