@@ -408,30 +408,40 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         lot_sums = _shrinkage.lot_statistics(Phi, Y, prior)
         grid = _shrinkage.SHRINKAGE_GRID
         self.shrinkage_grid_ = grid.copy()
-        self.estimators_, self.shrinkage_, self.shrinkage_scores_, self.n_folds_ = {}, {}, {}, {}
-        self.own_scores_ = {}
-        single = {}  # units with one run: their strength is chosen for the lot
+        self.estimators_, self.shrinkage_, self.shrinkage_evidence_ = {}, {}, {}
+        self.shrinkage_scores_, self.own_scores_, self.n_folds_ = {}, {}, {}
+        single, several = [], {}  # units with one run; units with more -> their run count
         for unit, index in rows.items():
+            evidence = _shrinkage.log_evidence(Phi[index], Y[index], prior, scale, grid)
+            self.shrinkage_evidence_[unit] = evidence
+            n_runs = np.unique(runs[index]).size
+            if n_runs < 2:
+                single.append(unit)
+                self.shrinkage_scores_[unit] = self.own_scores_[unit] = None
+                self.n_folds_[unit] = 0
+                continue
+            several[unit] = n_runs
+            self.shrinkage_[unit] = _shrinkage.pick_strength(-evidence, grid)
             folds = _shrinkage.cv_folds(runs[index])
-            strength, scores = _shrinkage.choose_shrinkage(
+            _, scores = _shrinkage.choose_shrinkage(
                 Phi[index], Y[index], prior, scale, folds, grid, lot=lot_sums
             )
-            self.shrinkage_[unit] = strength
             self.shrinkage_scores_[unit] = scores
             self.n_folds_[unit] = len(folds)
-            if np.unique(runs[index]).size < 2:
-                single[unit] = index.size
-                self.own_scores_[unit] = None
-            else:
-                self.own_scores_[unit] = self._own_score(X_inner, y, index, folds)
+            # a basis the network learns is a unit's own model apart from the lot's; a
+            # linear model's own fit is (near) strength 0 on the lot's features already
+            learns_basis = isinstance(final, RBFNetRegressor)
+            self.own_scores_[unit] = (
+                self._own_score(X_inner, y, index, folds) if learns_basis else None
+            )
         if single:
-            total = sum(self.shrinkage_scores_[unit] * size for unit, size in single.items())
-            shared = _shrinkage.pick_strength(total, grid)
-            self.shrinkage_.update(dict.fromkeys(single, shared))
+            # one run says little about how far its unit lies from the lot: one strength
+            # for all single-run units, from the sum of their log-evidences
+            total = sum(self.shrinkage_evidence_[unit] for unit in single)
+            self.shrinkage_.update(dict.fromkeys(single, _shrinkage.pick_strength(-total, grid)))
+        own = self._own_wins(several, rows, grid)
         for unit, index in rows.items():
-            own = self.own_scores_[unit]
-            if own is not None and own < np.nanmin(self.shrinkage_scores_[unit]):
-                # the unit's own model beats every shrinkage of the lot's output layer
+            if own and unit in several:
                 self.shrinkage_[unit] = None
                 self.estimators_[unit] = self._fit_unit(unit, X_inner, y, index)
                 continue
@@ -439,6 +449,23 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 Phi[index], Y[index], prior, scale, [self.shrinkage_[unit]]
             )
             self.estimators_[unit] = _with_weights(lot, weights)
+
+    def _own_wins(self, several, rows, grid):
+        """Whether the units with several runs are better served by their own models.
+
+        One choice for all of them: the held-out squared errors of their own models
+        (scaled by ``(r - 1) / r`` for a unit of ``r`` runs, see Notes) summed against
+        those of their chosen strengths.
+        """
+        own_total = shrunk_total = 0.0
+        for unit, n_runs in several.items():
+            if self.own_scores_[unit] is None:
+                return False
+            size = rows[unit].size
+            position = int(np.flatnonzero(grid == self.shrinkage_[unit])[0])
+            own_total += self.own_scores_[unit] * size * (n_runs - 1) / n_runs
+            shrunk_total += self.shrinkage_scores_[unit][position] * size
+        return bool(several) and own_total < shrunk_total
 
     def _own_score(self, X_inner, y, index, folds):
         """Held-out mean squared error of the unit's own model, fitted fold by fold."""
