@@ -181,8 +181,7 @@ def log_evidence(Phi, Y, prior, scale, strengths):
         quadratic = total - (projected * (gain / (1.0 + gain))[:, None]).sum(axis=0)
         quadratic = np.maximum(quadratic, floor)
         result[index] = -0.5 * float(
-            np.sum(n_samples * np.log(quadratic / n_samples))
-            + Y.shape[1] * np.sum(np.log1p(gain))
+            np.sum(n_samples * np.log(quadratic / n_samples)) + Y.shape[1] * np.sum(np.log1p(gain))
         )
     return result
 
