@@ -24,7 +24,7 @@ Targets (the verdict; exit status 1 if one fails):
    calibrated on two runs (chamber time halved): ratio <= 1, or the table says how close it
    gets (the issue's wording: this one is reported, it does not fail the run).
 
-Run (about 30 minutes on one core; ``--jobs 2`` runs the cases in two processes)::
+Run (about 30 minutes on one core, 16 with ``--jobs 2``: the cases in two processes)::
 
     nice -n 10 .venv/bin/python benchmarks/bench_unitwise.py --jobs 2
 
