@@ -6,9 +6,10 @@ A production engineer tests a lot of gyros of one design together and needs one
 compensation model per unit. :class:`~sklearn_ifog.UnitwiseRegressor` fits them in one
 call, dispatched by the ``unit`` column of X. How much the units share is ``pooling``:
 ``"none"`` (independent models), ``"full"`` (one model for the lot) or ``"partial"`` (each
-unit's output layer shrunk towards the lot's, the strength chosen per unit by
-cross-validation over its runs). Partial pooling is what lets a unit calibrated on a single
-run borrow what the lot knows: chamber time is the expensive part of a gyro's calibration.
+unit's output layer shrunk towards the lot's, the strength chosen per unit by empirical
+Bayes, the most likely spread of the unit around the lot). Partial pooling is what lets a
+unit calibrated on a single run borrow what the lot knows: chamber time is the expensive
+part of a gyro's calibration.
 """
 
 # %%
@@ -55,8 +56,8 @@ for n_runs in (1, 2):
         print(f"{n_runs} run(s), {pooling:>7}: MSD {msd:.2e} ({msd / floor:.2f} x noise floor)")
 
 # %%
-# The strength each unit chose, with two calibration runs (0: its own weights, ``inf``: the
-# lot's):
+# The strength each unit chose, with two calibration runs (small: nearly its own weights,
+# ``inf``: the lot's):
 print({unit: f"{value:.3g}" for unit, value in model.shrinkage_.items()})
 
 # %%

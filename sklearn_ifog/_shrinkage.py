@@ -1,8 +1,10 @@
 """Numerics of partial pooling: a unit's output layer shrunk towards the lot's.
 
-Plain numpy functions, no estimator: the design of a linear output layer, the ridge solve
-towards prior weights for a grid of strengths, and the choice of the strength by
-cross-validation over held-out runs (or contiguous blocks of a single run).
+Plain numpy functions, no estimator: the ridge solve towards prior weights for a grid of
+strengths, the choice of the strength by empirical Bayes (the marginal likelihood of the
+unit's rows, :func:`log_evidence`), and held-out errors over a unit's runs (or contiguous
+blocks of a single run), with which the estimator compares the shrunk layers with the
+unit's own model.
 
 The problem, for one unit with output-layer design ``Phi`` (intercept column included) and
 targets ``Y``::
@@ -26,6 +28,7 @@ __all__ = [
     "cv_folds",
     "design_scale",
     "fold_prior",
+    "log_evidence",
     "lot_statistics",
     "pick_strength",
     "solve_shrunk",
@@ -116,6 +119,71 @@ def solve_shrunk(Phi, Y, prior, scale, strengths):
         system = gram + np.diag(lam * penalty + jitter)
         weights[index] = prior + np.linalg.solve(system, rhs)
     return weights
+
+
+def log_evidence(Phi, Y, prior, scale, strengths):
+    """Log marginal likelihood of a unit's targets for every strength (empirical Bayes).
+
+    The ridge problem of :func:`solve_shrunk` is the posterior mode of the Gaussian model::
+
+        Y[:, k] = Phi @ W[:, k] + noise,   noise ~ N(0, sigma_k² I)
+        W[j, k] - prior[j, k] ~ N(0, sigma_k² / (n lam s_j²))
+
+    so ``1 / (n lam s_j²)`` is the between-unit spread of weight ``j`` relative to the noise.
+    Integrating the weights out, the targets' likelihood as a function of ``lam`` (with each
+    ``sigma_k²`` at its maximum) measures how far the unit's rows say the unit lies from
+    the lot; choosing ``lam`` by its maximum (type-II maximum likelihood) needs no
+    held-out rows. ``lam = 0`` (an improper, flat prior) has likelihood ``-inf``.
+
+    Parameters
+    ----------
+    Phi, Y, prior, scale, strengths
+        As for :func:`solve_shrunk`.
+
+    Returns
+    -------
+    log_evidence : ndarray of shape (n_strengths,)
+        Summed over outputs, up to a constant that depends on neither ``lam`` nor ``sigma``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn_ifog._shrinkage import log_evidence
+    >>> rng = np.random.default_rng(0)
+    >>> Phi = np.column_stack([np.ones(50), rng.normal(size=50)])
+    >>> Y = Phi @ [[0.5], [2.0]] + rng.normal(0, 0.1, (50, 1))
+    >>> strengths = [0.0, 1e-4, 1.0, np.inf]
+    >>> same = log_evidence(Phi, Y, [[0.5], [2.0]], np.ones(2), strengths)
+    >>> int(np.argmax(same))  # a unit the lot already knows: the lot's weights
+    3
+    >>> far = log_evidence(Phi, Y, [[-3.0], [0.0]], np.ones(2), strengths)
+    >>> int(np.argmax(far))  # a unit far from the lot: nearly its own weights
+    1
+    """
+    strengths = np.asarray(strengths, dtype=np.float64)
+    prior = np.asarray(prior, dtype=np.float64)
+    n_samples = Phi.shape[0]
+    residual = Y - Phi @ prior
+    if n_samples == 0:
+        return np.zeros(strengths.size)
+    U, singular, _ = np.linalg.svd(Phi / scale, full_matrices=False)
+    projected = np.square(U.T @ residual)  # (rank, n_outputs)
+    total = np.square(residual).sum(axis=0)  # (n_outputs,)
+    # a residual the lot's basis spans exactly (no more rows than columns) would make the
+    # likelihood unbounded at small strengths: floor the quadratic form
+    floor = 1e-12 * np.maximum(total, 1e-300)
+    result = np.empty(strengths.size)
+    for index, lam in enumerate(strengths):
+        if lam <= 0.0:
+            result[index] = -np.inf
+            continue
+        gain = np.zeros_like(singular) if np.isinf(lam) else singular**2 / (n_samples * lam)
+        quadratic = total - (projected * (gain / (1.0 + gain))[:, None]).sum(axis=0)
+        quadratic = np.maximum(quadratic, floor)
+        result[index] = -0.5 * float(
+            np.sum(n_samples * np.log(quadratic / n_samples)) + Y.shape[1] * np.sum(np.log1p(gain))
+        )
+    return result
 
 
 def cv_folds(runs, n_blocks=SINGLE_RUN_BLOCKS):
@@ -274,7 +342,8 @@ def pick_strength(scores, strengths=SHRINKAGE_GRID):
     Parameters
     ----------
     scores : ndarray of shape (n_strengths,)
-        Held-out errors, e.g. summed over several units.
+        Held-out errors, e.g. summed over several units, or negated log-evidences (any
+        sign; ``inf`` never wins unless every score is).
     strengths : array-like of float, default=SHRINKAGE_GRID
         The candidates, increasing.
 
@@ -293,5 +362,6 @@ def pick_strength(scores, strengths=SHRINKAGE_GRID):
     strengths = np.asarray(strengths, dtype=np.float64)
     if not np.isfinite(scores).any():
         return float(strengths[-1])
-    best = np.flatnonzero(scores <= np.nanmin(scores) * (1.0 + 1e-12))[-1]
+    lowest = np.nanmin(scores)
+    best = np.flatnonzero(scores <= lowest + 1e-12 * abs(lowest))[-1]
     return float(strengths[best])

@@ -178,12 +178,12 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     - ``"full"``: one model fitted on the whole lot, used for every unit;
     - ``"partial"``: one model fitted on the whole lot, then each unit's *output layer*
       re-solved on its own rows as a ridge regression towards the lot's weights; the
-      strength is chosen per unit by cross-validation over its runs (one run held out at a
-      time), so a unit calibrated on one or two runs borrows what the lot knows and a unit
-      unlike the lot keeps its own weights. Everything before the output layer (feature
-      step, scaler, the network's centres and widths) is the lot model's; the unit's own
-      model (as with ``"none"``, its own centres and widths) is a further candidate of the
-      same cross-validation, kept when it beats every shrinkage.
+      strength is chosen per unit by empirical Bayes (the marginal likelihood of the
+      unit's rows), so a unit calibrated on one or two runs borrows what the lot knows and
+      a unit unlike the lot keeps (nearly) its own weights. Everything before the output
+      layer (feature step, scaler, the network's centres and widths) is the lot model's.
+      With an RBF network, the units' own models (as with ``"none"``, their own centres
+      and widths) are a further candidate, compared on held-out runs (see Notes).
 
     Parameters
     ----------
@@ -201,10 +201,10 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         How the units share: see above.
     run : str, int or None, default="run"
         The run column of X (a name or a position in X with the unit column), read by
-        ``"partial"`` only, to hold out one run at a time when choosing a unit's strength.
-        None, or a unit with a single run: its rows are cut into 4 contiguous blocks held out
-        in turn, and one strength is chosen for all such units (see Notes). The column is
-        left in X for the estimator.
+        ``"partial"`` only: a unit's runs are held out one at a time to compare its shrunk
+        output layer with its own model, and units with a single run share one strength
+        (see Notes). None: every unit counts as a single run. The column is left in X for
+        the estimator.
 
     Attributes
     ----------
@@ -217,20 +217,24 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     lot_estimator_ : estimator or None
         The model fitted on the whole lot (None with ``"none"``).
     shrinkage_ : dict or None
-        ``"partial"``: unit -> chosen strength ``lam`` (0: own weights on the lot's basis,
-        ``inf``: the lot's weights; the same for every unit with a single run; None where
-        the unit's own model was kept); None otherwise.
+        ``"partial"``: unit -> chosen strength ``lam`` (small: nearly its own weights on
+        the lot's basis, ``inf``: the lot's weights; the same for every unit with a single
+        run; None where the unit's own model was kept); None otherwise.
+    shrinkage_evidence_ : dict or None
+        ``"partial"``: unit -> log marginal likelihood of the unit's rows for every
+        strength of ``shrinkage_grid_`` (up to a constant; ``-inf`` at 0); None otherwise.
     shrinkage_scores_ : dict or None
         ``"partial"``: unit -> held-out mean squared error of every strength of
-        ``shrinkage_grid_`` on the unit's own folds; None otherwise.
+        ``shrinkage_grid_``, one run of the unit held out at a time (None for a unit with
+        a single run); None otherwise.
     own_scores_ : dict or None
         ``"partial"``: unit -> held-out mean squared error of the unit's own model on the
-        same held-out runs (None for a unit with a single run: it is not a candidate
-        there); None otherwise.
+        same held-out runs (None for a unit with a single run, and for a final regressor
+        other than the RBF network: it is not a candidate there); None otherwise.
     shrinkage_grid_ : ndarray or None
         ``"partial"``: the strengths tried, increasing; None otherwise.
     n_folds_ : dict or None
-        ``"partial"``: unit -> number of held-out runs (or blocks of its single run).
+        ``"partial"``: unit -> number of held-out runs (0 for a single run).
     n_features_in_ : int
         Number of columns of X seen during fit (the unit column included).
     feature_names_in_ : ndarray of shape (n_features_in_,)
@@ -251,23 +255,35 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
 
     where ``s_j`` is the root mean square of column ``j`` over the lot's rows: the penalty
     is the mean squared change of the lot's prediction that moving the weights causes, so
-    ``lam_u`` is free of units and of the number of rows. ``lam_u`` is taken from a grid of
-    0, 13 values from 1e-4 to 1e2 (log-spaced) and ``inf`` by the lowest squared error on
-    held-out runs of the unit (the largest on a tie). While choosing, each fold's prior is
-    the lot's output layer re-solved without the fold's rows (the lot model saw them).
-    With a single run, a held-out run does not exist; its rows are then cut into 4
-    contiguous blocks, each held out in turn (a stretch of the thermal test, e.g. a ramp or
-    a soak, that the unit's own weights did not see), and since one unit's blocks give a
-    noisy choice, one strength is chosen for all single-run units from the sum of their
-    held-out errors (a lot-level choice; per unit it was measurably worse on the similar
-    lot of ``benchmarks/bench_unitwise.py``).
+    ``lam_u`` is free of units and of the number of rows. It is the posterior mode of a
+    Gaussian model in which the unit's weights scatter around the lot's with spread
+    ``1 / (n_u lam_u s_j²)`` relative to the noise, and ``lam_u`` is taken from a grid of
+    13 values from 1e-4 to 1e2 (log-spaced) and ``inf`` by the largest marginal
+    likelihood of the unit's rows, the weights integrated out (type-II maximum
+    likelihood, :func:`sklearn_ifog._shrinkage.log_evidence`). The likelihood uses all of
+    a unit's rows and needs no held-out run. One run says little about how far its unit
+    lies from the lot, so one strength is chosen for all single-run units, from the sum of
+    their log-likelihoods.
 
-    A unit with two runs or more also tries its own model, fitted as with ``"none"`` on
-    its other runs and scored on the same held-out runs: for a model whose basis is learnt
-    (the RBF network's centres and widths), a unit unlike the lot, or with enough runs, is
-    better served by its own basis than by any weights on the lot's. This costs one fit of
-    ``estimator`` per held-out run. With a single run the own model is not tried: held-out
-    blocks of one run favour a unit's own fit, as they did for the strength above.
+    With the RBF network, whose basis (centres and widths) is learnt, a unit unlike the
+    lot, or with enough runs, can be better served by its own network than by any weights
+    on the lot's basis. The units with two runs or more are therefore scored, one run held
+    out at a time, both with their own model (fitted as with ``"none"`` on the other runs;
+    one fit of ``estimator`` per held-out run) and with their chosen strength (each fold's
+    prior the lot's output layer re-solved without the held-out rows, since the lot model
+    saw them); when the own models' summed squared error is the lower, every one of these
+    units keeps its own model. The choice is made for the lot, not unit by unit, because
+    one unit's few held-out runs give a noisy comparison; and the own model's error,
+    fitted on ``r - 1`` of a unit's ``r`` runs, is scaled by ``(r - 1) / r`` before the
+    comparison, because a model that learns its basis from the unit's rows alone gains
+    more from the held-out run than a shrunk output layer does. A linear final
+    regressor's own fit is the strength-0 end of the same ridge path, so it is not a
+    separate candidate. Held-out blocks of a single run are not used at all: within one
+    run they favoured the lot (a held-out block is a stretch of the thermal test the rest
+    of the run does not show) where test runs favoured the unit.
+    ``benchmarks/unitwise_selection.py`` compares these choices with the alternatives
+    measured (per-unit cross-validation, with and without the own model, contiguous
+    blocks, other aggregations), results in ``benchmarks/results/unitwise_selection.md``;
     ``benchmarks/bench_unitwise.py`` measures the three poolings on simulated lots.
 
     Examples
@@ -408,30 +424,40 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         lot_sums = _shrinkage.lot_statistics(Phi, Y, prior)
         grid = _shrinkage.SHRINKAGE_GRID
         self.shrinkage_grid_ = grid.copy()
-        self.estimators_, self.shrinkage_, self.shrinkage_scores_, self.n_folds_ = {}, {}, {}, {}
-        self.own_scores_ = {}
-        single = {}  # units with one run: their strength is chosen for the lot
+        self.estimators_, self.shrinkage_, self.shrinkage_evidence_ = {}, {}, {}
+        self.shrinkage_scores_, self.own_scores_, self.n_folds_ = {}, {}, {}
+        single, several = [], {}  # units with one run; units with more -> their run count
         for unit, index in rows.items():
+            evidence = _shrinkage.log_evidence(Phi[index], Y[index], prior, scale, grid)
+            self.shrinkage_evidence_[unit] = evidence
+            n_runs = np.unique(runs[index]).size
+            if n_runs < 2:
+                single.append(unit)
+                self.shrinkage_scores_[unit] = self.own_scores_[unit] = None
+                self.n_folds_[unit] = 0
+                continue
+            several[unit] = n_runs
+            self.shrinkage_[unit] = _shrinkage.pick_strength(-evidence, grid)
             folds = _shrinkage.cv_folds(runs[index])
-            strength, scores = _shrinkage.choose_shrinkage(
+            _, scores = _shrinkage.choose_shrinkage(
                 Phi[index], Y[index], prior, scale, folds, grid, lot=lot_sums
             )
-            self.shrinkage_[unit] = strength
             self.shrinkage_scores_[unit] = scores
             self.n_folds_[unit] = len(folds)
-            if np.unique(runs[index]).size < 2:
-                single[unit] = index.size
-                self.own_scores_[unit] = None
-            else:
-                self.own_scores_[unit] = self._own_score(X_inner, y, index, folds)
+            # a basis the network learns is a unit's own model apart from the lot's; a
+            # linear model's own fit is (near) strength 0 on the lot's features already
+            learns_basis = isinstance(final, RBFNetRegressor)
+            self.own_scores_[unit] = (
+                self._own_score(X_inner, y, index, folds) if learns_basis else None
+            )
         if single:
-            total = sum(self.shrinkage_scores_[unit] * size for unit, size in single.items())
-            shared = _shrinkage.pick_strength(total, grid)
-            self.shrinkage_.update(dict.fromkeys(single, shared))
+            # one run says little about how far its unit lies from the lot: one strength
+            # for all single-run units, from the sum of their log-evidences
+            total = sum(self.shrinkage_evidence_[unit] for unit in single)
+            self.shrinkage_.update(dict.fromkeys(single, _shrinkage.pick_strength(-total, grid)))
+        own = self._own_wins(several, rows, grid)
         for unit, index in rows.items():
-            own = self.own_scores_[unit]
-            if own is not None and own < np.nanmin(self.shrinkage_scores_[unit]):
-                # the unit's own model beats every shrinkage of the lot's output layer
+            if own and unit in several:
                 self.shrinkage_[unit] = None
                 self.estimators_[unit] = self._fit_unit(unit, X_inner, y, index)
                 continue
@@ -439,6 +465,23 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 Phi[index], Y[index], prior, scale, [self.shrinkage_[unit]]
             )
             self.estimators_[unit] = _with_weights(lot, weights)
+
+    def _own_wins(self, several, rows, grid):
+        """Whether the units with several runs are better served by their own models.
+
+        One choice for all of them: the held-out squared errors of their own models
+        (scaled by ``(r - 1) / r`` for a unit of ``r`` runs, see Notes) summed against
+        those of their chosen strengths.
+        """
+        own_total = shrunk_total = 0.0
+        for unit, n_runs in several.items():
+            if self.own_scores_[unit] is None:
+                return False
+            size = rows[unit].size
+            position = int(np.flatnonzero(grid == self.shrinkage_[unit])[0])
+            own_total += self.own_scores_[unit] * size * (n_runs - 1) / n_runs
+            shrunk_total += self.shrinkage_scores_[unit][position] * size
+        return bool(several) and own_total < shrunk_total
 
     def _own_score(self, X_inner, y, index, folds):
         """Held-out mean squared error of the unit's own model, fitted fold by fold."""

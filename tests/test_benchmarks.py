@@ -89,6 +89,11 @@ QUICK_RUNS = {
         ["rbf_variance_quick.md", "rbf_variance_quick.json"],
         False,
     ),
+    "unitwise_selection": (
+        ["--quick", "--out", "{out}"],
+        ["unitwise_selection_quick.md", "unitwise_selection_quick.json"],
+        False,
+    ),
     "simulator_compensation_check": (
         ["--quick", "--out", "{out}"],
         ["simulator_compensation_quick.md"],

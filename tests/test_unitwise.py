@@ -95,35 +95,156 @@ def test_rows_of_interleaved_units_keep_their_order(lot):
 # -- pooling "partial" ----------------------------------------------------------------------
 
 
-def _manual_layer(model, unit, X):
-    estimator = model.estimators_[unit]
-    final = estimator.steps[-1][1]
-    return layer_design(final, _layer_inputs(estimator, X)), layer_weights(final)
+def _first_runs(lot):
+    """Every unit's first run only: single-run units."""
+    first = (lot.frame.groupby("unit")["run"].transform("min") == lot.frame["run"]).to_numpy()
+    return lot.data[first], lot.target.to_numpy()[first]
+
+
+def _lot_layer(model, X):
+    """The lot model's output-layer design on X (with the unit column), weights, scales."""
+    lot_final = model.lot_estimator_.steps[-1][1]
+    Phi = layer_design(lot_final, _layer_inputs(model.lot_estimator_, X.drop(columns="unit")))
+    return Phi, layer_weights(lot_final), shrinkage.design_scale(Phi)
 
 
 @pytest.mark.parametrize("make", [_linear, _rbf], ids=["linear", "rbf"])
-def test_partial_keeps_the_lot_basis_and_predicts_with_its_own_weights(lot, make):
-    X, y = lot.data, lot.target.to_numpy()
+def test_partial_keeps_the_lot_basis_and_solves_the_shrunk_weights(lot, make):
+    X, y = _first_runs(lot)  # single-run units: never their own model
     model = UnitwiseRegressor(make(), pooling="partial").fit(X, y)
     lot_final = model.lot_estimator_.steps[-1][1]
+    Phi, prior, scale = _lot_layer(model, X)
     prediction = model.predict(X)
-    shrunk = [unit for unit in range(4) if model.shrinkage_[unit] is not None]
-    assert shrunk  # a lot of similar units: the lot's layer serves some of them
-    for unit in shrunk:
-        rows = _unit_rows(lot, unit)
-        estimator = model.estimators_[unit]
-        final = estimator.steps[-1][1]
+    for unit in range(4):
+        rows = (X["unit"] == unit).to_numpy()
+        final = model.estimators_[unit].steps[-1][1]
         if isinstance(final, RBFNetRegressor):
             np.testing.assert_array_equal(final.centers_, lot_final.centers_)
             np.testing.assert_array_equal(final.widths_, lot_final.widths_)
             np.testing.assert_array_equal(final.x_mean_, lot_final.x_mean_)
-        Phi, W = _manual_layer(model, unit, X[rows].drop(columns="unit"))
-        np.testing.assert_allclose(prediction[rows], (Phi @ W)[:, 0], rtol=1e-9, atol=1e-12)
-        assert model.n_folds_[unit] == 3  # one held-out run at a time
-        assert model.shrinkage_[unit] in model.shrinkage_grid_
-        assert model.own_scores_[unit] >= np.nanmin(model.shrinkage_scores_[unit])
+        lam = model.shrinkage_[unit]
+        assert lam in model.shrinkage_grid_
+        (expected,) = shrinkage.solve_shrunk(Phi[rows], y[rows, None], prior, scale, [lam])
+        np.testing.assert_allclose(layer_weights(final), expected, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(prediction[rows], Phi[rows] @ expected[:, 0], atol=1e-9)
     # the lot model is left untouched by the per-unit copies
     assert model.lot_estimator_.steps[-1][1] is lot_final
+
+
+def test_strength_maximises_each_units_evidence(lot):
+    X, y = lot.data, lot.target.to_numpy()
+    model = UnitwiseRegressor(_linear(), pooling="partial").fit(X, y)
+    Phi, prior, scale = _lot_layer(model, X)
+    grid = model.shrinkage_grid_
+    for unit in range(4):
+        rows = _unit_rows(lot, unit)
+        evidence = shrinkage.log_evidence(Phi[rows], y[rows, None], prior, scale, grid)
+        np.testing.assert_allclose(model.shrinkage_evidence_[unit], evidence, rtol=1e-9)
+        assert evidence[0] == -np.inf  # strength 0: a flat prior, never chosen
+        best = np.flatnonzero(evidence >= evidence.max() - 1e-12 * abs(evidence.max()))[-1]
+        assert model.shrinkage_[unit] == grid[best]
+        assert model.n_folds_[unit] == 3  # one held-out run at a time
+        assert model.shrinkage_scores_[unit].shape == grid.shape
+        assert model.own_scores_[unit] is None  # a linear model's own fit is strength 0
+
+
+def test_strength_zero_is_the_units_own_linear_fit_and_inf_the_lots(lot):
+    """On a linear pipeline the lot's basis spans the unit's own model's."""
+    from sklearn_ifog.unitwise import _with_weights
+
+    X, y = lot.data, lot.target.to_numpy()
+    model = UnitwiseRegressor(_linear(), pooling="partial").fit(X, y)
+    none = UnitwiseRegressor(_linear(), pooling="none").fit(X, y)
+    Phi, prior, scale = _lot_layer(model, X)
+    for unit in range(4):
+        rows = _unit_rows(lot, unit)
+        own, pooled = shrinkage.solve_shrunk(Phi[rows], y[rows, None], prior, scale, [0.0, np.inf])
+        inner = X[rows].drop(columns="unit")
+        np.testing.assert_allclose(
+            _with_weights(model.lot_estimator_, own).predict(inner),
+            none.estimators_[unit].predict(inner),
+            rtol=1e-6,
+            atol=1e-9,
+        )
+        np.testing.assert_array_equal(
+            _with_weights(model.lot_estimator_, pooled).predict(inner),
+            model.lot_estimator_.predict(inner),
+        )
+
+
+def test_log_evidence_is_the_gaussian_marginal_likelihood():
+    """Against the dense covariance of the targets, the noise variance at its maximum."""
+    rng = np.random.default_rng(4)
+    n_samples = 40
+    Phi = np.column_stack([rng.normal(size=(n_samples, 3)), np.ones(n_samples)])
+    prior = rng.normal(size=(4, 1))
+    Y = Phi @ (prior + rng.normal(0, 0.3, (4, 1))) + rng.normal(0, 0.2, (n_samples, 1))
+    scale = np.array([0.5, 1.0, 2.0, 1.0])
+    strengths = np.array([1e-3, 1e-1, 10.0, np.inf])
+    residual = (Y - Phi @ prior)[:, 0]
+    dense = []
+    for lam in strengths:
+        spread = 0.0 if np.isinf(lam) else 1.0 / (n_samples * lam)
+        C = np.eye(n_samples) + spread * (Phi / scale**2) @ Phi.T
+        sigma2 = residual @ np.linalg.solve(C, residual) / n_samples
+        dense.append(-0.5 * (n_samples * np.log(sigma2) + np.linalg.slogdet(C)[1]))
+    found = shrinkage.log_evidence(Phi, Y, prior, scale, strengths)
+    # equal up to one constant
+    np.testing.assert_allclose(found - found[0], np.array(dense) - dense[0], atol=1e-8)
+    assert shrinkage.log_evidence(Phi, Y, prior, scale, [0.0])[0] == -np.inf
+
+
+def test_own_models_are_chosen_for_the_lot_on_scaled_held_out_errors(lot):
+    """RBF network: every multi-run unit keeps its own model, or none does, as the
+    held-out errors say (the own model's scaled by (r - 1) / r)."""
+    X, y = lot.data, lot.target.to_numpy().copy()
+    odd = _unit_rows(lot, 1)
+    y[odd] = -5.0 * y[odd] + 0.3
+    model = UnitwiseRegressor(_rbf(), pooling="partial").fit(X, y)
+    grid = model.shrinkage_grid_
+    own_total = shrunk_total = 0.0
+    for unit in range(4):
+        size = _unit_rows(lot, unit).sum()
+        own_total += model.own_scores_[unit] * size * 2 / 3  # three runs a unit
+        lam = model.shrinkage_[unit]
+        if lam is None:  # the chosen strength is still the evidence's
+            evidence = model.shrinkage_evidence_[unit]
+            lam = grid[
+                np.flatnonzero(evidence >= evidence.max() - 1e-12 * abs(evidence.max()))[-1]
+            ]
+        shrunk_total += model.shrinkage_scores_[unit][grid == lam][0] * size
+    owners = [unit for unit in range(4) if model.shrinkage_[unit] is None]
+    assert owners == ([0, 1, 2, 3] if own_total < shrunk_total else [])
+    lot_final = model.lot_estimator_.steps[-1][1]
+    for unit in range(4):
+        final = model.estimators_[unit].steps[-1][1]
+        rows = _unit_rows(lot, unit)
+        if owners:
+            alone = _rbf().fit(X[rows].drop(columns="unit"), y[rows])
+            np.testing.assert_array_equal(final.coef_, alone.steps[-1][1].coef_)
+        else:
+            np.testing.assert_array_equal(final.centers_, lot_final.centers_)
+
+
+def test_own_wins_follows_the_scaled_sums():
+    """The lot-level choice itself, on given scores: the scaling decides a close call."""
+    model = UnitwiseRegressor(_rbf())
+    grid = shrinkage.SHRINKAGE_GRID
+    rows = {"a": np.arange(10), "b": np.arange(10)}
+    model.shrinkage_ = {"a": grid[3], "b": grid[5]}
+    model.shrinkage_scores_ = {"a": np.full(grid.size, 1.0), "b": np.full(grid.size, 1.0)}
+    # unscaled, own 1.2 > shrunk 1.0; scaled by (2 - 1) / 2 it is 0.6 < 1.0
+    model.own_scores_ = {"a": 1.2, "b": 1.2}
+    assert model._own_wins({"a": 2, "b": 2}, rows, grid)
+    # with many runs the scaling fades: (10 - 1) / 10 * 1.2 > 1.0
+    assert not model._own_wins({"a": 10, "b": 10}, rows, grid)
+    # the sum decides, not each unit: one unit far better alone carries the other
+    model.own_scores_ = {"a": 0.1, "b": 1.5}
+    assert model._own_wins({"a": 3, "b": 3}, rows, grid)
+    # no unit with several runs, or a model without an own score: never
+    assert not model._own_wins({}, rows, grid)
+    model.own_scores_ = {"a": None, "b": 0.1}
+    assert not model._own_wins({"a": 3, "b": 3}, rows, grid)
 
 
 def test_partial_with_identical_units_gives_the_lot_model(lot):
@@ -158,14 +279,16 @@ def test_partial_lets_a_unit_unlike_the_lot_keep_its_own_weights(lot):
 
 
 def test_single_run_units_share_one_strength(lot):
-    first = lot.frame.groupby("unit")["run"].transform("min") == lot.frame["run"]
-    X, y = lot.data[first.to_numpy()], lot.target.to_numpy()[first.to_numpy()]
+    X, y = _first_runs(lot)
     model = UnitwiseRegressor(_linear(), pooling="partial").fit(X, y)
     assert len(set(model.shrinkage_.values())) == 1
-    assert set(model.n_folds_.values()) == {shrinkage.SINGLE_RUN_BLOCKS}
-    # run=None: every unit is one run too (blocks), whatever the estimator reads
+    assert set(model.n_folds_.values()) == {0}
+    assert all(model.shrinkage_scores_[unit] is None for unit in range(4))
+    total = sum(model.shrinkage_evidence_[unit] for unit in range(4))
+    assert model.shrinkage_[0] == shrinkage.pick_strength(-total, model.shrinkage_grid_)
+    # run=None: every unit is one run too, whatever the estimator reads
     no_run = UnitwiseRegressor(_linear(), pooling="partial", run=None).fit(lot.data, lot.target)
-    assert set(no_run.n_folds_.values()) == {shrinkage.SINGLE_RUN_BLOCKS}
+    assert set(no_run.n_folds_.values()) == {0}
     assert len(set(no_run.shrinkage_.values())) == 1
 
 
@@ -305,27 +428,6 @@ def test_save_and_load_give_the_same_predictions(lot, tmp_path, suffix):
     loaded = load_model(path)
     np.testing.assert_array_equal(loaded.predict(lot.data), model.predict(lot.data))
     assert loaded.shrinkage_ == model.shrinkage_
-
-
-def test_partial_keeps_a_units_own_model_when_it_wins_on_held_out_runs(lot):
-    """A unit unlike the lot with its own basis: its own model, chosen on held-out runs."""
-    X, y = lot.data, lot.target.to_numpy().copy()
-    odd = _unit_rows(lot, 1)
-    y[odd] = -5.0 * y[odd] + 0.3
-    model = UnitwiseRegressor(_rbf(), pooling="partial").fit(X, y)
-    for unit in range(4):
-        own, shrunk = model.own_scores_[unit], np.nanmin(model.shrinkage_scores_[unit])
-        final = model.estimators_[unit].steps[-1][1]
-        lot_final = model.lot_estimator_.steps[-1][1]
-        if own < shrunk:
-            assert model.shrinkage_[unit] is None
-            alone = _rbf().fit(
-                X[_unit_rows(lot, unit)].drop(columns="unit"), y[_unit_rows(lot, unit)]
-            )
-            np.testing.assert_array_equal(final.coef_, alone.steps[-1][1].coef_)
-        else:
-            assert model.shrinkage_[unit] is not None
-            np.testing.assert_array_equal(final.centers_, lot_final.centers_)
 
 
 def test_compare_regressors_by_unit_scores_each_unit(lot):

@@ -1,0 +1,362 @@
+"""How UnitwiseRegressor(pooling="partial") chooses: the selection rules measured.
+
+On the lots of ``bench_unitwise.py`` (same simulator settings, same calibration and test
+runs, the linear pipeline and the RBF network with a linear tail), every unit's candidates
+are fitted once and scored on its test runs: the lot's output layer shrunk with every
+strength of the grid, the unit's own model (``pooling="none"``) and the lot's
+(``"full"``). What a rule would have chosen is computed from the statistics a fit sees
+(held-out errors over the unit's runs or over contiguous blocks of a single run, the
+log-evidence of every strength, the own model's held-out error), so the rules compare on
+the same fits. Rules:
+
+- ``cv_per_unit`` (the previous rule): strength by held-out runs per unit (single-run
+  units: 4 contiguous blocks, one strength for all of them); own model per unit (units
+  with two runs or more, both models) when it beats every strength on the unit's held-out
+  runs;
+- ``cv_lot_own``: the same strengths; own model chosen for the lot (summed held-out
+  errors), the own model's error scaled by ``(r - 1) / r`` (both models);
+- ``chosen``: what ``UnitwiseRegressor`` does: strengths by log-evidence, per unit with two
+  runs or more, one from the summed log-evidence for the single-run units; own model
+  chosen for the lot, scaled, RBF network only;
+- ``evidence_unit_own``: as ``chosen``, but the own model chosen unit by unit;
+- ``evidence_lot_own_unscaled``: as ``chosen``, without the ``(r - 1) / r`` scaling;
+- ``evidence_lot_own_linear_too``: as ``chosen``, the own model tried for the linear model
+  too;
+- ``evidence_shared``: as ``chosen``, with one strength for the lot at every calibration
+  size;
+- ``evidence_blocks8``: as ``chosen``, but the single-run units' shared strength by 8
+  contiguous blocks held out in turn (the previous rule used 4).
+
+The table gives, per rule and cell (physics, lot, model, calibration runs), the seed-mean
+test MSD over the better of "none" and "full" (bench_unitwise's target 1: <= 1.05), for the
+benchmark's seeds (0-2) and for held-out seeds (3-4) separately. A diagnostic: no target,
+exit 0 when it ran.
+
+Run (about 10 minutes on two cores)::
+
+    nice -n 10 python benchmarks/unitwise_selection.py --jobs 2
+
+``--quick``: one seed, the lumped physics, the linear model. Writes
+``benchmarks/results/unitwise_selection[_quick].md`` and ``.json``.
+"""
+
+import argparse
+import json
+import sys
+import time
+import warnings
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+from joblib import Parallel, delayed
+from sklearn.base import clone
+
+from sklearn_ifog import _shrinkage
+from sklearn_ifog._io import write_text_files
+from sklearn_ifog.datasets import make_thermal_campaign
+from sklearn_ifog.unitwise import _final_step, _layer_inputs, layer_design, layer_weights
+
+from bench_unitwise import (  # isort: skip
+    CALIBRATION_RUNS,
+    LOTS,
+    N_RUNS,
+    N_TEST,
+    N_UNITS,
+    SAMPLING_PERIOD,
+    TOLERANCE,
+    models,
+)
+
+RESULTS = Path(__file__).parent / "results"
+BENCH_SEEDS = (0, 1, 2)
+HELD_OUT_SEEDS = (3, 4)
+GRID = _shrinkage.SHRINKAGE_GRID
+RULES = (
+    "cv_per_unit",
+    "cv_lot_own",
+    "chosen",
+    "evidence_unit_own",
+    "evidence_lot_own_unscaled",
+    "evidence_lot_own_linear_too",
+    "evidence_shared",
+    "evidence_blocks8",
+)
+
+
+def _sse(truth, prediction):
+    return float(np.sum(np.square(truth - prediction)))
+
+
+def unit_statistics(pipeline, Xi, y, runs, units, train, test):
+    """Per unit: the statistics a rule reads and the test SSE of every candidate."""
+    lot = clone(pipeline).fit(Xi[train], y[train])
+    final = _final_step(lot)
+    Phi = layer_design(final, _layer_inputs(lot, Xi))
+    prior = layer_weights(final)
+    Y = y[:, None]
+    scale = _shrinkage.design_scale(Phi[train])
+    lot_sums = _shrinkage.lot_statistics(Phi[train], Y[train], prior)
+    found = []
+    for unit in np.unique(units):
+        index = np.flatnonzero(train & (units == unit))
+        held = np.flatnonzero(test & (units == unit))
+        folds = _shrinkage.cv_folds(runs[index])
+        blocks = {
+            n: _shrinkage.cv_folds(np.zeros(index.size), n_blocks=n) for n in (4, 8)
+        }  # contiguous blocks of the unit's rows (meaningful for a single run)
+        scores = {
+            name: _shrinkage.choose_shrinkage(
+                Phi[index], Y[index], prior, scale, cut, GRID, lot=lot_sums
+            )[1]
+            for name, cut in (("runs", folds), ("blocks4", blocks[4]), ("blocks8", blocks[8]))
+        }
+        own_sse = 0.0
+        if len(folds) >= 2 and np.unique(runs[index]).size >= 2:
+            for fold in folds:
+                model = clone(pipeline).fit(Xi.iloc[index[~fold]], y[index[~fold]])
+                own_sse += _sse(y[index[fold]], model.predict(Xi.iloc[index[fold]]))
+        weights = _shrinkage.solve_shrunk(Phi[index], Y[index], prior, scale, GRID)
+        own = clone(pipeline).fit(Xi.iloc[index], y[index])
+        found.append(
+            {
+                "unit": int(unit),
+                "n_runs": int(np.unique(runs[index]).size),
+                "n_train": int(index.size),
+                "n_test": int(held.size),
+                "cv_runs": scores["runs"].tolist(),
+                "cv_blocks4": scores["blocks4"].tolist(),
+                "cv_blocks8": scores["blocks8"].tolist(),
+                "evidence": _shrinkage.log_evidence(
+                    Phi[index], Y[index], prior, scale, GRID
+                ).tolist(),
+                "cv_own": own_sse / index.size,
+                "test_grid": [_sse(y[held], Phi[held] @ w[:, 0]) for w in weights],
+                "test_own": _sse(y[held], own.predict(Xi.iloc[held])),
+                "test_full": _sse(y[held], lot.predict(Xi.iloc[held])),
+            }
+        )
+    return found
+
+
+def run_case(physics, lot, seed, model_names):
+    warnings.simplefilter("ignore", UserWarning)
+    campaign = make_thermal_campaign(
+        n_units=N_UNITS,
+        n_runs=N_RUNS,
+        azimuths=[0.0],
+        sampling_period=SAMPLING_PERIOD,
+        physics=physics,
+        lot_spread=LOTS[lot],
+        random_state=seed,
+    )
+    frame, X, y = campaign.frame, campaign.data, campaign.target.to_numpy()
+    units, runs = X["unit"].to_numpy(), X["run"].to_numpy()
+    Xi = X.drop(columns="unit")
+    per_unit = {u: sorted(frame.loc[frame.unit == u, "run"].unique()) for u in range(N_UNITS)}
+    test = frame["run"].isin([r for u in per_unit for r in per_unit[u][-N_TEST:]]).to_numpy()
+    cells = []
+    for k in CALIBRATION_RUNS:
+        chosen = [r for u in per_unit for r in per_unit[u][:k]]
+        train = frame["run"].isin(chosen).to_numpy()
+        for name in model_names:
+            pipeline = models(seed, False)[name][0]
+            cells.append(
+                {
+                    "physics": physics,
+                    "lot": lot,
+                    "seed": seed,
+                    "k": k,
+                    "model": name,
+                    "units": unit_statistics(pipeline, Xi, y, runs, units, train, test),
+                }
+            )
+    return cells
+
+
+# -- the rules: each returns the test SSE of what it would have chosen, summed over units ----
+
+
+def _lowest(scores):
+    """Index of the lowest score, the largest strength on a tie."""
+    return int(np.flatnonzero(np.asarray(GRID) == _shrinkage.pick_strength(scores, GRID))[0])
+
+
+def _strengths(units, how):
+    """Grid index per unit: by held-out runs ("cv") or log-evidence, single-run units shared."""
+    single = [u for u in units if u["n_runs"] < 2]
+    chosen = {}
+    if single:
+        if how == "cv":
+            total = sum(np.asarray(u["cv_blocks4"]) * u["n_train"] for u in single)
+            shared = _lowest(total)
+        elif how == "evidence_blocks8":
+            total = sum(np.asarray(u["cv_blocks8"]) * u["n_train"] for u in single)
+            shared = _lowest(total)
+        else:
+            shared = _lowest(-sum(np.asarray(u["evidence"]) for u in single))
+        chosen.update({u["unit"]: shared for u in single})
+    for u in units:
+        if u["n_runs"] >= 2:
+            scores = u["cv_runs"] if how == "cv" else -np.asarray(u["evidence"])
+            chosen[u["unit"]] = _lowest(scores)
+    if how == "shared":
+        shared = _lowest(-sum(np.asarray(u["evidence"]) for u in units))
+        chosen = dict.fromkeys(chosen, shared)
+    return chosen
+
+
+def _with_own(units, chosen, *, lot_level, scaled):
+    several = [u for u in units if u["n_runs"] >= 2]
+
+    def own_error(u):
+        factor = (u["n_runs"] - 1) / u["n_runs"] if scaled else 1.0
+        return u["cv_own"] * u["n_train"] * factor
+
+    def shrunk_error(u):
+        return u["cv_runs"][chosen[u["unit"]]] * u["n_train"]
+
+    if lot_level:
+        own = bool(several) and sum(map(own_error, several)) < sum(map(shrunk_error, several))
+        owners = {u["unit"] for u in several} if own else set()
+    else:
+        owners = {u["unit"] for u in several if own_error(u) < shrunk_error(u)}
+    return sum(
+        u["test_own"] if u["unit"] in owners else u["test_grid"][chosen[u["unit"]]] for u in units
+    )
+
+
+def rule_sse(cell, rule):
+    units, rbf = cell["units"], cell["model"] != "linear"
+    if rule == "cv_per_unit":
+        chosen = _strengths(units, "cv")
+        several = [u for u in units if u["n_runs"] >= 2]
+        owners = {
+            u["unit"]
+            for u in several
+            if u["cv_own"] < np.nanmin(u["cv_runs"])  # beats every strength
+        }
+        return sum(
+            u["test_own"] if u["unit"] in owners else u["test_grid"][chosen[u["unit"]]]
+            for u in units
+        )
+    if rule == "cv_lot_own":
+        return _with_own(units, _strengths(units, "cv"), lot_level=True, scaled=True)
+    if rule == "evidence_unit_own" and rbf:
+        return _with_own(units, _strengths(units, "evidence"), lot_level=False, scaled=True)
+    if rule == "evidence_lot_own_unscaled" and rbf:
+        return _with_own(units, _strengths(units, "evidence"), lot_level=True, scaled=False)
+    if rule == "evidence_lot_own_linear_too":
+        return _with_own(units, _strengths(units, "evidence"), lot_level=True, scaled=True)
+    if rule == "evidence_blocks8":
+        chosen = _strengths(units, "evidence_blocks8")
+        if not rbf:
+            return sum(u["test_grid"][chosen[u["unit"]]] for u in units)
+        return _with_own(units, chosen, lot_level=True, scaled=True)
+    how = "shared" if rule == "evidence_shared" else "evidence"
+    chosen = _strengths(units, how)
+    if not rbf:
+        return sum(u["test_grid"][chosen[u["unit"]]] for u in units)
+    return _with_own(units, chosen, lot_level=True, scaled=True)
+
+
+def summarise(cells, seeds):
+    """(physics, lot, model, k) -> name -> seed-mean MSD, for the given seeds."""
+    table = defaultdict(lambda: defaultdict(list))
+    for cell in cells:
+        if cell["seed"] not in seeds:
+            continue
+        key = (cell["physics"], cell["lot"], cell["model"], cell["k"])
+        n_test = sum(u["n_test"] for u in cell["units"])
+        table[key]["none"].append(sum(u["test_own"] for u in cell["units"]) / n_test)
+        table[key]["full"].append(sum(u["test_full"] for u in cell["units"]) / n_test)
+        for rule in RULES:
+            table[key][rule].append(rule_sse(cell, rule) / n_test)
+    return {
+        key: {name: float(np.mean(values)) for name, values in row.items()}
+        for key, row in sorted(table.items())
+    }
+
+
+def markdown(cells, command, elapsed, seed_sets):
+    lines = [
+        "# How partial pooling chooses: the selection rules measured",
+        "",
+        f"Command: `{command}` ({elapsed / 60:.1f} min). Lots, runs and models of "
+        "bench_unitwise.py; each number is a rule's seed-mean test MSD over the better of "
+        "'none' and 'full' (bench_unitwise's target 1: <= 1.05). Rules: see the script's "
+        "docstring; `chosen` is what UnitwiseRegressor does.",
+    ]
+    verdicts = {}
+    for title, seeds in seed_sets:
+        summary = summarise(cells, seeds)
+        if not summary:
+            continue
+        lines += [
+            "",
+            f"## {title}: seeds {list(seeds)}",
+            "",
+            "| physics | lot | model | runs | " + " | ".join(RULES) + " |",
+            "|" + "---|" * (len(RULES) + 4),
+        ]
+        worst, failed = defaultdict(float), defaultdict(int)
+        for (physics, lot, model, k), row in summary.items():
+            best = min(row["none"], row["full"])
+            ratios = [row[rule] / best for rule in RULES]
+            for rule, ratio in zip(RULES, ratios, strict=True):
+                worst[rule] = max(worst[rule], ratio)
+                failed[rule] += ratio > TOLERANCE
+            lines.append(
+                f"| {physics} | {lot} | {model} | {k} | "
+                + " | ".join(f"{ratio:.2f}" for ratio in ratios)
+                + " |"
+            )
+        lines.append(
+            "| **worst** | | | | " + " | ".join(f"**{worst[r]:.2f}**" for r in RULES) + " |"
+        )
+        lines.append(
+            f"| **cells > {TOLERANCE}** | | | | "
+            + " | ".join(f"**{failed[r]}**" for r in RULES)
+            + " |"
+        )
+        verdicts[title] = {rule: {"worst": worst[rule], "failed": failed[rule]} for rule in RULES}
+    return "\n".join(lines) + "\n", verdicts
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="one seed, lumped, linear model")
+    parser.add_argument("--jobs", type=int, default=1, help="parallel processes (default 1)")
+    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
+    args = parser.parse_args(argv)
+    if args.quick:
+        seed_sets, physics_presets, model_names = [("quick", (0,))], ("lumped",), ("linear",)
+    else:
+        seed_sets = [("benchmark seeds", BENCH_SEEDS), ("held-out seeds", HELD_OUT_SEEDS)]
+        physics_presets, model_names = ("lumped", "layered_glass"), ("linear", "rbf")
+    seeds = sorted({seed for _, group in seed_sets for seed in group})
+    command = "python benchmarks/unitwise_selection.py" + (" --quick" if args.quick else "")
+    start = time.perf_counter()
+    cases = [(p, lot, seed) for p in physics_presets for lot in LOTS for seed in seeds]
+    found = Parallel(n_jobs=args.jobs)(
+        delayed(run_case)(physics, lot, seed, model_names) for physics, lot, seed in cases
+    )
+    cells = [cell for group in found for cell in group]
+    text, verdicts = markdown(cells, command, time.perf_counter() - start, seed_sets)
+    stem = "unitwise_selection_quick" if args.quick else "unitwise_selection"
+    args.out.mkdir(parents=True, exist_ok=True)
+    write_text_files(
+        {
+            args.out / f"{stem}.json": json.dumps(
+                {"command": command, "grid": GRID.tolist(), "cells": cells, "summary": verdicts},
+                indent=None,
+            ),
+            args.out / f"{stem}.md": text,
+        }
+    )
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
