@@ -37,6 +37,7 @@ import scipy.sparse as sp
 from sklearn.base import BaseEstimator, MetaEstimatorMixin, RegressorMixin, clone
 from sklearn.linear_model import Ridge
 from sklearn.model_selection import GroupKFold, KFold, LeaveOneGroupOut, check_cv
+from sklearn.neighbors import NearestNeighbors
 from sklearn.pipeline import Pipeline
 from sklearn.utils import check_array
 from sklearn.utils.validation import (
@@ -52,19 +53,27 @@ from sklearn_ifog._compat import HasMethods, Interval, StrOptions, _fit_context,
 __all__ = [
     "ConformalRegressor",
     "conformal_quantile",
+    "knn_distance",
     "plus_interval",
     "run_quantile_scores",
 ]
 
-# Floor of the difficulty estimate, as a fraction of the mean absolute residual: a linear
-# model of |r| can reach zero or below; a zero difficulty would give a zero-width band.
+# The difficulty model, and why (measured with the scratch harness behind
+# ``nice -n 10 python benchmarks/bench_conformal.py``, 9 campaigns = 3 presets x seeds 0-2, and
+# checked on seeds 3-4 it was not tuned on; see the module notes): sigma(x)^2 is a linear model
+# of the squared out-of-fold residual on one input, the mean distance from x to its
+# _DIFFICULTY_NEIGHBORS nearest rows of the data the predicting model was fitted on (in the
+# standardised features). Floor of sigma^2, as a fraction of the mean squared residual: a
+# linear model can reach zero or below; a zero difficulty would give a zero-width band.
 _DIFFICULTY_FLOOR = 0.5
 # The difficulty enters the score as (sigma / mean sigma) ** _DIFFICULTY_POWER: the square root
-# keeps the band adaptive while damping the linear model's extrapolation (with power 1 the mean
-# band was wider for the same coverage on the campaigns of benchmarks/bench_conformal.py).
+# keeps the band adaptive while damping the extrapolation of a model fitted on a few runs
+# (power 1 gave wider bands for the same worst-fold coverage on the benchmark's campaigns).
 _DIFFICULTY_POWER = 0.5
-# Ridge penalty of the difficulty model (features are standardised, targets in deg/h).
+# Ridge penalty of the difficulty model (its input is standardised).
 _DIFFICULTY_ALPHA = 1.0
+# Neighbours averaged in the distance from the calibrated conditions.
+_DIFFICULTY_NEIGHBORS = 10
 
 
 # --------------------------------------------------------------------------------------------
@@ -181,20 +190,51 @@ def plus_interval(predictions, scale, group_scores, group_fold, level):
     return np.column_stack([lower, upper])
 
 
-def _difficulty_design(features):
-    """The difficulty model's inputs: the standardised features and their magnitudes."""
-    return np.hstack([features, np.abs(features)])
+def knn_distance(reference, query, n_neighbors=_DIFFICULTY_NEIGHBORS):
+    """Mean Euclidean distance from each query row to its nearest reference rows.
+
+    The difficulty model's input: how far a row lies from the conditions a model was fitted
+    on (a colder temperature, a faster ramp, a thermal history no calibration run had).
+
+    Parameters
+    ----------
+    reference : ndarray of shape (n_reference, n_features)
+        Rows the model was fitted on.
+    query : ndarray of shape (n_queries, n_features)
+        Rows to measure.
+    n_neighbors : int, default=10
+        Number of nearest reference rows averaged (at most ``n_reference``).
+
+    Returns
+    -------
+    distance : ndarray of shape (n_queries,)
+        Mean distance to the ``n_neighbors`` nearest reference rows.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn_ifog.conformal import knn_distance
+    >>> reference = np.array([[0.0], [1.0], [2.0]])
+    >>> knn_distance(reference, np.array([[0.0], [5.0]]), n_neighbors=2).tolist()
+    [0.5, 3.5]
+    """
+    reference = np.asarray(reference, dtype=float)
+    query = np.asarray(query, dtype=float)
+    n_neighbors = max(1, min(int(n_neighbors), reference.shape[0]))
+    tree = NearestNeighbors(n_neighbors=n_neighbors).fit(reference)
+    return tree.kneighbors(query, return_distance=True)[0].mean(axis=1)
 
 
-def _fit_difficulty(features, abs_residual):
-    """A linear model of the absolute residual; returns (model, floor)."""
-    model = Ridge(alpha=_DIFFICULTY_ALPHA).fit(_difficulty_design(features), abs_residual)
-    floor = _DIFFICULTY_FLOOR * float(np.mean(abs_residual))
+def _fit_difficulty(distance, sq_residual):
+    """A linear model of the squared residual on the distance; returns (model, floor)."""
+    model = Ridge(alpha=_DIFFICULTY_ALPHA).fit(distance[:, None], sq_residual)
+    floor = _DIFFICULTY_FLOOR * float(np.mean(sq_residual))
     return model, max(floor, np.finfo(float).tiny)
 
 
-def _predict_difficulty(model, floor, features):
-    return np.maximum(model.predict(_difficulty_design(features)), floor)
+def _predict_difficulty(model, floor, distance):
+    """sigma(x): the square root of the floored variance model."""
+    return np.sqrt(np.maximum(model.predict(distance[:, None]), floor))
 
 
 def _soften(sigma, mean):
@@ -449,12 +489,22 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             scale = raw.std(axis=0)
             self.feature_scale_ = np.where(scale > 0, scale, 1.0)
             features = (raw - self.feature_mean_) / self.feature_scale_
+            # Cross-fitted: a calibration row's distance is to the rows of the fold model
+            # that predicted it, and its difficulty comes from a model of the other folds.
+            distance = np.empty(n_samples)
+            for k, (_, test) in enumerate(splits):
+                distance[test] = knn_distance(features[fold_of != k], features[test])
+            spread = float(np.std(distance))
+            self.distance_scale_ = spread if spread > 0 else 1.0
+            distance = distance / self.distance_scale_
+            squared = residual**2
             sigma = np.empty(n_samples)
             for k, (_, test) in enumerate(splits):
                 inside = fold_of != k
-                model, floor = _fit_difficulty(features[inside], residual[inside])
-                sigma[test] = _predict_difficulty(model, floor, features[test])
-            self.difficulty_, self.difficulty_floor_ = _fit_difficulty(features, residual)
+                model, floor = _fit_difficulty(distance[inside], squared[inside])
+                sigma[test] = _predict_difficulty(model, floor, distance[test])
+            self.difficulty_, self.difficulty_floor_ = _fit_difficulty(distance, squared)
+            self.calibration_features_ = features
             self.difficulty_mean_ = float(np.mean(sigma))
             sigma = _soften(sigma, self.difficulty_mean_)
         else:
@@ -484,7 +534,8 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         if not self.adaptive:
             return None
         features = (raw - self.feature_mean_) / self.feature_scale_
-        sigma = _predict_difficulty(self.difficulty_, self.difficulty_floor_, features)
+        distance = knn_distance(self.calibration_features_, features) / self.distance_scale_
+        sigma = _predict_difficulty(self.difficulty_, self.difficulty_floor_, distance)
         return _soften(sigma, self.difficulty_mean_)
 
     def predict(self, X):
