@@ -12,13 +12,27 @@ only on average over all rows. Two things differ from row-wise conformal predict
    ``confidence``) is then taken over runs: a new run like the calibration runs holds its
    drift at least ``coverage`` of its time with probability at least ``confidence``.
 2. **The band is adaptive.** The score of a row is its absolute out-of-fold residual divided
-   by a difficulty estimate ``sigma(x)``: a linear model of the absolute residual on the
-   model's own (causal) features and their magnitudes (for the compensation pipeline: T,
-   dT, T·dT and the temperature lags, standardised), fitted on the out-of-fold residuals and
-   cross-fitted over the same folds so that a calibration row is never normalised by a model
-   of its own residual. Linear in ``|z|``, it grows outside the calibrated conditions (colder,
-   faster ramps): a run unlike the calibration runs gets a wider band, not a silently wrong
-   one.
+   by a difficulty estimate ``sigma(x)``, computed causally from the model's own features
+   (for the compensation pipeline: T, dT, T·dT and the temperature lags, standardised):
+   ``sigma(x)^2`` is a linear model of the squared residual on the mean distance from ``x``
+   to its 10 nearest rows of the data the predicting model was fitted on
+   (:func:`knn_distance`), cross-fitted over the same folds so that a calibration row is
+   never measured against its own run nor normalised by a model of its own residual. A run
+   unlike the calibration runs (colder, faster ramps, a thermal history none of them had)
+   lies far from them and gets a wider band, not a silently wrong one.
+
+Why this difficulty. On the nine campaigns of ``benchmarks/bench_conformal.py`` (three
+physics presets x seeds 0-2, 36 held-out folds) and on seeds 3-4 that were not looked at
+while choosing, ``nice -n 10 python benchmarks/conformal_difficulty_check.py``
+(``benchmarks/results/conformal_difficulty.md``) compares it, on the same out-of-fold
+residuals, with a constant band and with the first build's ridge model of ``|r|`` on the
+features and their magnitudes: the distance model has the fewest held-out folds below 0.85
+and the narrowest bands (see the user guide for the table). The misses that remain are
+whole runs whose residual is offset (a turn-on bias, a thermal history the model fits
+badly): nothing visible at prediction time ranks them (the same script's fold-level
+correlations), so no difficulty model can widen the band for them alone; only a wider band
+everywhere (a higher ``confidence``) covers them, at a cost in width that the script also
+measures.
 
 Why not MAPIE: MAPIE 1.x takes the conformal quantile over rows (there is no per-group
 aggregation of scores before the quantile), and its adaptive score
@@ -58,10 +72,9 @@ __all__ = [
     "run_quantile_scores",
 ]
 
-# The difficulty model, and why (measured with the scratch harness behind
-# ``nice -n 10 python benchmarks/bench_conformal.py``, 9 campaigns = 3 presets x seeds 0-2, and
-# checked on seeds 3-4 it was not tuned on; see the module notes): sigma(x)^2 is a linear model
-# of the squared out-of-fold residual on one input, the mean distance from x to its
+# The difficulty model (why this one: the module notes and
+# ``python benchmarks/conformal_difficulty_check.py``): sigma(x)^2 is a linear model of the
+# squared out-of-fold residual on one input, the mean distance from x to its
 # _DIFFICULTY_NEIGHBORS nearest rows of the data the predicting model was fitted on (in the
 # standardised features). Floor of sigma^2, as a fraction of the mean squared residual: a
 # linear model can reach zero or below; a zero difficulty would give a zero-width band.
@@ -267,12 +280,12 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
 
     ``fit`` cross-validates ``estimator`` with the run (or the given group) as the unit:
     each fold's model predicts the runs it did not see, giving out-of-fold residuals. A
-    difficulty model ``sigma(x)`` (a ridge model of the absolute residual on the estimator's
-    features and their magnitudes, cross-fitted) normalises them; each run keeps the
-    ``coverage`` quantile of its normalised scores, and the bands are the conformal quantile
-    of those per-run scores (``method="plus"``: the CV+ construction, each fold's model
-    carrying the scores of the runs it did not see). ``predict`` is the prediction of
-    ``estimator`` refitted on all rows.
+    difficulty model ``sigma(x)`` (a linear model of the squared residual on the distance
+    from ``x`` to the rows the predicting model was fitted on, cross-fitted) normalises
+    them; each run keeps the ``coverage`` quantile of its normalised scores, and the bands
+    are the conformal quantile of those per-run scores (``method="plus"``: the CV+
+    construction, each fold's model carrying the scores of the runs it did not see).
+    ``predict`` is the prediction of ``estimator`` refitted on all rows.
 
     See the module notes (:mod:`sklearn_ifog.conformal`) for why the run and not the row,
     and why this is not MAPIE.
@@ -328,6 +341,17 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         Normalised out-of-fold score of every training row (``|y - oof| / sigma``).
     score_groups_ : ndarray of shape (n_samples,)
         Group of every training row (the row number when there are no groups).
+    feature_mean_, feature_scale_ : ndarray of shape (n_difficulty_features,)
+        Mean and standard deviation (1 where zero) of the difficulty model's inputs over the
+        training rows (only when ``adaptive``).
+    calibration_features_ : ndarray of shape (n_samples, n_difficulty_features)
+        The difficulty model's inputs of the training rows, standardised (only when
+        ``adaptive``): the distance from the calibrated conditions is measured to these.
+    distance_scale_ : float
+        Standard deviation of the calibration rows' cross-fitted distances (only when
+        ``adaptive``); distances are divided by it.
+    difficulty_ : Ridge
+        The variance model ``sigma(x)^2`` on the scaled distance (only when ``adaptive``).
     n_features_in_ : int
         Number of columns of X seen during fit.
     feature_names_in_ : ndarray of shape (n_features_in_,)
