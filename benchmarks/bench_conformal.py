@@ -14,7 +14,8 @@ choice of centres and width: about five times cheaper to fit, for speed), at 90 
 coverage, on campaigns of one unit, four azimuths, three runs each, 300 s samples:
 
 - ``ours``: :class:`~sklearn_ifog.ConformalRegressor` (run-wise, adaptive, CV+),
-  ``cv=GroupKFold(5)`` over the training runs (the same folds as MAPIE by run);
+  ``cv=GroupKFold(5)`` over the training runs (the same folds as MAPIE by run; with
+  ``--ours-cv runs``, the estimator's default ``cv=None``, one fold per run);
 - ``ours_flat``: the same with ``adaptive=False`` (run-wise, absolute scores);
 - ``mapie_rows``: MAPIE ``CrossConformalRegressor(cv=KFold(5, shuffle))``, CV+;
 - ``mapie_runs``: MAPIE ``CrossConformalRegressor(cv=GroupKFold(5))`` with the runs as groups.
@@ -28,8 +29,8 @@ into 5 blocks of 5 bursts, each held out in turn, the bursts being the calibrati
 
 Targets (on ``ours``, every preset, every seed): mean coverage in [0.87, 0.95], every held-out
 fold >= 0.85, mean width <= 1.2 x oracle, out-of-range coverage >= 0.85 (every run group).
-Results go to ``benchmarks/results/conformal[_quick].md`` and ``.json``; exit 1 if a target
-fails.
+Results go to ``benchmarks/results/conformal[_quick][_cvruns].md`` and ``.json``; exit 1 if
+a target fails.
 """
 
 import argparse
@@ -53,6 +54,10 @@ from _verdict import target_line  # isort: skip
 NOMINAL = 0.9
 METHODS = ("ours", "ours_flat", "mapie_rows", "mapie_runs")
 RESULTS = Path(__file__).parent / "results"
+# How ``ours`` splits its calibration runs: GroupKFold(5) (the folds of MAPIE by run, the
+# default here) or, with ``--ours-cv runs``, the estimator's own default (one fold per run).
+OURS_CV = {"groupkfold5": lambda: GroupKFold(5), "runs": lambda: None}
+SETTINGS = {"ours_cv": "groupkfold5"}
 
 
 def pipeline(**kwargs):
@@ -64,7 +69,10 @@ def fit_predict(method, X_train, y_train, groups, X_test, base):
     """(point prediction, bounds) of one method on the test rows."""
     if method in ("ours", "ours_flat"):
         model = ConformalRegressor(
-            base, coverage=NOMINAL, cv=GroupKFold(5), adaptive=method == "ours"
+            base,
+            coverage=NOMINAL,
+            cv=OURS_CV[SETTINGS["ours_cv"]](),
+            adaptive=method == "ours",
         )
         model.fit(X_train, y_train, groups=groups)
         return model.predict(X_test), model.predict_interval(X_test)
@@ -257,7 +265,15 @@ def main(argv=None):
         action="store_true",
         help="re-render results/conformal[_quick].md from its .json (no new measurement)",
     )
+    parser.add_argument(
+        "--ours-cv",
+        choices=tuple(OURS_CV),
+        default="groupkfold5",
+        help="how ours splits its calibration runs: GroupKFold(5), as MAPIE by run "
+        "(default), or one fold per run (the estimator's default cv=None)",
+    )
     args = parser.parse_args(argv)
+    SETTINGS["ours_cv"] = args.ours_cv
     if args.rewrite:
         stem = "conformal_quick" if args.quick else "conformal"
         payload = json.loads((args.out / f"{stem}.json").read_text())
@@ -295,9 +311,16 @@ def main(argv=None):
         results["real psim_tvc gyro_x"] = run_real(methods)
     elapsed = time.perf_counter() - start
     failures = check_targets(results)
-    command = "python benchmarks/bench_conformal.py" + (" --quick" if args.quick else "")
+    command = (
+        "python benchmarks/bench_conformal.py"
+        + (" --quick" if args.quick else "")
+        + (" --no-mapie" if args.no_mapie else "")
+        + (f" --ours-cv {args.ours_cv}" if args.ours_cv != "groupkfold5" else "")
+    )
     text = markdown(results, failures, command, elapsed)
-    stem = "conformal_quick" if args.quick else "conformal"
+    stem = ("conformal_quick" if args.quick else "conformal") + (
+        "_cvruns" if args.ours_cv == "runs" else ""
+    )
     args.out.mkdir(parents=True, exist_ok=True)
     payload = {
         "command": command,

@@ -6,9 +6,9 @@ After compensation a navigation engineer must budget what is left: "the thermal 
 within ± x deg/h, 90 % of the time, on runs like these". :class:`~sklearn_ifog.ConformalRegressor`
 wraps the drift model and calibrates such a band on the model's out-of-fold errors, with the
 *run* as the unit (rows of one run are correlated, runs are not) and a width that follows a
-difficulty estimate (faster ramps and temperatures away from the calibrated ones get a wider
-band). Here one gyro is calibrated at three headings and its band is checked at the fourth,
-a heading it never saw.
+difficulty estimate (rows far from the calibrated conditions, such as faster ramps or colder
+temperatures than any calibration run, get a wider band). Here one gyro is calibrated at
+three headings and its band is checked at the fourth, a heading it never saw.
 """
 
 # %%
@@ -18,6 +18,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from sklearn_ifog import ConformalRegressor, RBFNetRegressor, make_compensation_pipeline
+from sklearn_ifog.conformal import knn_distance
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.metrics import interval_coverage, mean_interval_width
 from sklearn_ifog.plotting import plot_compensation
@@ -49,12 +50,17 @@ for run in np.unique(X["run"][test]):
     )
 
 # %%
-# The band widens where the model is less sure: its width against the temperature rate.
-rate_of_change = np.abs(np.gradient(X["temperature"][test], X["time"][test])) * 60
+# The band widens where the held-out heading leaves the calibrated conditions: its width
+# against the distance from each row to its nearest calibration rows, in the drift model's
+# standardised features (the difficulty model's input, see :ref:`conformal`).
+features = model.estimator_[:-1].transform(X[test])
+distance = knn_distance(
+    model.calibration_features_, (features - model.feature_mean_) / model.feature_scale_
+)
 width = bounds[:, 1] - bounds[:, 0]
 fig, ax = plt.subplots(figsize=(6, 3.5))
-ax.scatter(rate_of_change, width, s=6)
-ax.set_xlabel("|dT/dt| (°C/min)")
+ax.scatter(distance, width, s=6)
+ax.set_xlabel("distance to the calibration rows (standardised features)")
 ax.set_ylabel("band width (°/h)")
 fig.tight_layout()
 

@@ -12,13 +12,27 @@ only on average over all rows. Two things differ from row-wise conformal predict
    ``confidence``) is then taken over runs: a new run like the calibration runs holds its
    drift at least ``coverage`` of its time with probability at least ``confidence``.
 2. **The band is adaptive.** The score of a row is its absolute out-of-fold residual divided
-   by a difficulty estimate ``sigma(x)``: a linear model of the absolute residual on the
-   model's own (causal) features and their magnitudes (for the compensation pipeline: T,
-   dT, T·dT and the temperature lags, standardised), fitted on the out-of-fold residuals and
-   cross-fitted over the same folds so that a calibration row is never normalised by a model
-   of its own residual. Linear in ``|z|``, it grows outside the calibrated conditions (colder,
-   faster ramps): a run unlike the calibration runs gets a wider band, not a silently wrong
-   one.
+   by a difficulty estimate ``sigma(x)``, computed causally from the model's own features
+   (for the compensation pipeline: T, dT, T·dT and the temperature lags, standardised):
+   ``sigma(x)^2`` is a linear model of the squared residual on the mean distance from ``x``
+   to its 10 nearest rows of the data the predicting model was fitted on
+   (:func:`knn_distance`), cross-fitted over the same folds so that a calibration row is
+   never measured against its own run nor normalised by a model of its own residual. A run
+   unlike the calibration runs (colder, faster ramps, a thermal history none of them had)
+   lies far from them and gets a wider band, not a silently wrong one.
+
+Why this difficulty. On the nine campaigns of ``benchmarks/bench_conformal.py`` (three
+physics presets x seeds 0-2, 36 held-out folds) and on seeds 3-4 that were not looked at
+while choosing, ``nice -n 10 python benchmarks/conformal_difficulty_check.py``
+(``benchmarks/results/conformal_difficulty.md``) compares it, on the same out-of-fold
+residuals, with a constant band and with the first build's ridge model of ``|r|`` on the
+features and their magnitudes: the distance model has the fewest held-out folds below 0.85
+and the narrowest bands (see the user guide for the table). The misses that remain are
+whole runs whose residual is offset (a turn-on bias, a thermal history the model fits
+badly): nothing visible at prediction time ranks them (the same script's fold-level
+correlations), so no difficulty model can widen the band for them alone; only a wider band
+everywhere (a higher ``confidence``) covers them, at a cost in width that the script also
+measures.
 
 Why not MAPIE: MAPIE 1.x takes the conformal quantile over rows (there is no per-group
 aggregation of scores before the quantile), and its adaptive score
@@ -37,6 +51,7 @@ import scipy.sparse as sp
 from sklearn.base import BaseEstimator, MetaEstimatorMixin, RegressorMixin, clone
 from sklearn.linear_model import Ridge
 from sklearn.model_selection import GroupKFold, KFold, LeaveOneGroupOut, check_cv
+from sklearn.neighbors import NearestNeighbors
 from sklearn.pipeline import Pipeline
 from sklearn.utils import check_array
 from sklearn.utils.validation import (
@@ -52,19 +67,26 @@ from sklearn_ifog._compat import HasMethods, Interval, StrOptions, _fit_context,
 __all__ = [
     "ConformalRegressor",
     "conformal_quantile",
+    "knn_distance",
     "plus_interval",
     "run_quantile_scores",
 ]
 
-# Floor of the difficulty estimate, as a fraction of the mean absolute residual: a linear
-# model of |r| can reach zero or below; a zero difficulty would give a zero-width band.
+# The difficulty model (why this one: the module notes and
+# ``python benchmarks/conformal_difficulty_check.py``): sigma(x)^2 is a linear model of the
+# squared out-of-fold residual on one input, the mean distance from x to its
+# _DIFFICULTY_NEIGHBORS nearest rows of the data the predicting model was fitted on (in the
+# standardised features). Floor of sigma^2, as a fraction of the mean squared residual: a
+# linear model can reach zero or below; a zero difficulty would give a zero-width band.
 _DIFFICULTY_FLOOR = 0.5
 # The difficulty enters the score as (sigma / mean sigma) ** _DIFFICULTY_POWER: the square root
-# keeps the band adaptive while damping the linear model's extrapolation (with power 1 the mean
-# band was wider for the same coverage on the campaigns of benchmarks/bench_conformal.py).
+# keeps the band adaptive while damping the extrapolation of a model fitted on a few runs
+# (power 1 gave wider bands for the same worst-fold coverage on the benchmark's campaigns).
 _DIFFICULTY_POWER = 0.5
-# Ridge penalty of the difficulty model (features are standardised, targets in deg/h).
+# Ridge penalty of the difficulty model (its input is standardised).
 _DIFFICULTY_ALPHA = 1.0
+# Neighbours averaged in the distance from the calibrated conditions.
+_DIFFICULTY_NEIGHBORS = 10
 
 
 # --------------------------------------------------------------------------------------------
@@ -181,20 +203,51 @@ def plus_interval(predictions, scale, group_scores, group_fold, level):
     return np.column_stack([lower, upper])
 
 
-def _difficulty_design(features):
-    """The difficulty model's inputs: the standardised features and their magnitudes."""
-    return np.hstack([features, np.abs(features)])
+def knn_distance(reference, query, n_neighbors=_DIFFICULTY_NEIGHBORS):
+    """Mean Euclidean distance from each query row to its nearest reference rows.
+
+    The difficulty model's input: how far a row lies from the conditions a model was fitted
+    on (a colder temperature, a faster ramp, a thermal history no calibration run had).
+
+    Parameters
+    ----------
+    reference : ndarray of shape (n_reference, n_features)
+        Rows the model was fitted on.
+    query : ndarray of shape (n_queries, n_features)
+        Rows to measure.
+    n_neighbors : int, default=10
+        Number of nearest reference rows averaged (at most ``n_reference``).
+
+    Returns
+    -------
+    distance : ndarray of shape (n_queries,)
+        Mean distance to the ``n_neighbors`` nearest reference rows.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn_ifog.conformal import knn_distance
+    >>> reference = np.array([[0.0], [1.0], [2.0]])
+    >>> knn_distance(reference, np.array([[0.0], [5.0]]), n_neighbors=2).tolist()
+    [0.5, 3.5]
+    """
+    reference = np.asarray(reference, dtype=float)
+    query = np.asarray(query, dtype=float)
+    n_neighbors = max(1, min(int(n_neighbors), reference.shape[0]))
+    tree = NearestNeighbors(n_neighbors=n_neighbors).fit(reference)
+    return tree.kneighbors(query, return_distance=True)[0].mean(axis=1)
 
 
-def _fit_difficulty(features, abs_residual):
-    """A linear model of the absolute residual; returns (model, floor)."""
-    model = Ridge(alpha=_DIFFICULTY_ALPHA).fit(_difficulty_design(features), abs_residual)
-    floor = _DIFFICULTY_FLOOR * float(np.mean(abs_residual))
+def _fit_difficulty(distance, sq_residual):
+    """A linear model of the squared residual on the distance; returns (model, floor)."""
+    model = Ridge(alpha=_DIFFICULTY_ALPHA).fit(distance[:, None], sq_residual)
+    floor = _DIFFICULTY_FLOOR * float(np.mean(sq_residual))
     return model, max(floor, np.finfo(float).tiny)
 
 
-def _predict_difficulty(model, floor, features):
-    return np.maximum(model.predict(_difficulty_design(features)), floor)
+def _predict_difficulty(model, floor, distance):
+    """sigma(x): the square root of the floored variance model."""
+    return np.sqrt(np.maximum(model.predict(distance[:, None]), floor))
 
 
 def _soften(sigma, mean):
@@ -227,12 +280,12 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
 
     ``fit`` cross-validates ``estimator`` with the run (or the given group) as the unit:
     each fold's model predicts the runs it did not see, giving out-of-fold residuals. A
-    difficulty model ``sigma(x)`` (a ridge model of the absolute residual on the estimator's
-    features and their magnitudes, cross-fitted) normalises them; each run keeps the
-    ``coverage`` quantile of its normalised scores, and the bands are the conformal quantile
-    of those per-run scores (``method="plus"``: the CV+ construction, each fold's model
-    carrying the scores of the runs it did not see). ``predict`` is the prediction of
-    ``estimator`` refitted on all rows.
+    difficulty model ``sigma(x)`` (a linear model of the squared residual on the distance
+    from ``x`` to the rows the predicting model was fitted on, cross-fitted) normalises
+    them; each run keeps the ``coverage`` quantile of its normalised scores, and the bands
+    are the conformal quantile of those per-run scores (``method="plus"``: the CV+
+    construction, each fold's model carrying the scores of the runs it did not see).
+    ``predict`` is the prediction of ``estimator`` refitted on all rows.
 
     See the module notes (:mod:`sklearn_ifog.conformal`) for why the run and not the row,
     and why this is not MAPIE.
@@ -288,6 +341,17 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         Normalised out-of-fold score of every training row (``|y - oof| / sigma``).
     score_groups_ : ndarray of shape (n_samples,)
         Group of every training row (the row number when there are no groups).
+    feature_mean_, feature_scale_ : ndarray of shape (n_difficulty_features,)
+        Mean and standard deviation (1 where zero) of the difficulty model's inputs over the
+        training rows (only when ``adaptive``).
+    calibration_features_ : ndarray of shape (n_samples, n_difficulty_features)
+        The difficulty model's inputs of the training rows, standardised (only when
+        ``adaptive``): the distance from the calibrated conditions is measured to these.
+    distance_scale_ : float
+        Standard deviation of the calibration rows' cross-fitted distances (only when
+        ``adaptive``); distances are divided by it.
+    difficulty_ : Ridge
+        The variance model ``sigma(x)^2`` on the scaled distance (only when ``adaptive``).
     n_features_in_ : int
         Number of columns of X seen during fit.
     feature_names_in_ : ndarray of shape (n_features_in_,)
@@ -449,12 +513,22 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             scale = raw.std(axis=0)
             self.feature_scale_ = np.where(scale > 0, scale, 1.0)
             features = (raw - self.feature_mean_) / self.feature_scale_
+            # Cross-fitted: a calibration row's distance is to the rows of the fold model
+            # that predicted it, and its difficulty comes from a model of the other folds.
+            distance = np.empty(n_samples)
+            for k, (_, test) in enumerate(splits):
+                distance[test] = knn_distance(features[fold_of != k], features[test])
+            spread = float(np.std(distance))
+            self.distance_scale_ = spread if spread > 0 else 1.0
+            distance = distance / self.distance_scale_
+            squared = residual**2
             sigma = np.empty(n_samples)
             for k, (_, test) in enumerate(splits):
                 inside = fold_of != k
-                model, floor = _fit_difficulty(features[inside], residual[inside])
-                sigma[test] = _predict_difficulty(model, floor, features[test])
-            self.difficulty_, self.difficulty_floor_ = _fit_difficulty(features, residual)
+                model, floor = _fit_difficulty(distance[inside], squared[inside])
+                sigma[test] = _predict_difficulty(model, floor, distance[test])
+            self.difficulty_, self.difficulty_floor_ = _fit_difficulty(distance, squared)
+            self.calibration_features_ = features
             self.difficulty_mean_ = float(np.mean(sigma))
             sigma = _soften(sigma, self.difficulty_mean_)
         else:
@@ -484,7 +558,8 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         if not self.adaptive:
             return None
         features = (raw - self.feature_mean_) / self.feature_scale_
-        sigma = _predict_difficulty(self.difficulty_, self.difficulty_floor_, features)
+        distance = knn_distance(self.calibration_features_, features) / self.distance_scale_
+        sigma = _predict_difficulty(self.difficulty_, self.difficulty_floor_, distance)
         return _soften(sigma, self.difficulty_mean_)
 
     def predict(self, X):

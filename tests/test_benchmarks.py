@@ -79,6 +79,11 @@ QUICK_RUNS = {
         ["paper_claim_quick.md", "paper_claim_quick.json"],
         True,
     ),
+    "conformal_difficulty_check": (
+        ["--quick", "--out", "{out}"],
+        ["conformal_difficulty_quick.md", "conformal_difficulty_quick.json"],
+        False,
+    ),
     "rbf_scale_check": (
         ["--quick", "--out", "{out}"],
         ["rbf_scale_quick.md", "rbf_scale_quick.json"],
