@@ -38,6 +38,8 @@ Run (about four minutes on two cores)::
 Writes ``benchmarks/results/paper_claim.md`` and ``paper_claim.json``. ``--quick`` (CI):
 campaign seed 0 only, two runs per (unit, azimuth) instead of five, the default network and
 the linear model, with gyro noise; writes ``paper_claim_quick.*``. ``--out DIR`` writes elsewhere.
+``--physics NAME`` simulates that preset instead of the simulator's default (``"layered"``);
+``tests/test_paper_experiments.py`` cites ``--physics lumped --tag lumped``.
 """
 
 import argparse
@@ -54,6 +56,7 @@ from sklearn.linear_model import LinearRegression
 from sklearn_ifog import RBFNetRegressor, ThermalFeatures
 from sklearn_ifog._io import write_text_files
 from sklearn_ifog.datasets import make_thermal_campaign
+from sklearn_ifog.datasets._simulator import PHYSICS
 from sklearn_ifog.experiments import run_paper_experiments
 
 from _verdict import compare, comparison_line, exit_code, target_line  # isort: skip
@@ -345,6 +348,11 @@ def main(argv=None):
         "--noise-only", action="store_true", help="only the campaigns with gyro noise"
     )
     parser.add_argument("--tag", default="", help="suffix of the result file names")
+    parser.add_argument(
+        "--physics",
+        choices=PHYSICS,
+        help="simulator physics (default: make_thermal_campaign's default)",
+    )
     args = parser.parse_args(argv)
     n_seeds = args.seeds or (1 if args.quick else 8)
     seeds = range(n_seeds)
@@ -355,7 +363,9 @@ def main(argv=None):
         or (args.quick and not args.regressors and name in QUICK_REGRESSORS)
     }
     noises = (True,) if args.quick or args.noise_only else (True, False)
-    sizes = QUICK_SIZES if args.quick else None
+    sizes = dict(QUICK_SIZES if args.quick else {})
+    if args.physics:
+        sizes["physics"] = args.physics
     start = time.perf_counter()
     jobs = [
         delayed(one_campaign)(name, regressor, seed, noise, sizes=sizes)
@@ -378,6 +388,8 @@ def main(argv=None):
         command += " --regressors " + " ".join(f"'{name}'" for name in args.regressors)
     if args.noise_only:
         command += " --noise-only"
+    if args.physics:
+        command += f" --physics {args.physics}"
     if args.tag:
         command += f" --tag {args.tag}"
     summary = summarise(records)

@@ -40,7 +40,9 @@ FRAME_COLUMNS = [
     "chamber_temperature",
 ]
 DATA_COLUMNS = ["unit", "run", "azimuth", "time", "temperature"]
-SMALL = {"n_units": 2, "n_runs": 2, "azimuths": [0.0, 90.0]}
+# The tests of the lumped model's own equations (k0, tau_outer, the two-lag steady state) name
+# physics="lumped"; the layered presets, the default, have tests of their own below.
+SMALL = {"n_units": 2, "n_runs": 2, "azimuths": [0.0, 90.0], "physics": "lumped"}
 
 
 @pytest.fixture(scope="module")
@@ -181,6 +183,7 @@ def test_drift_at_a_steady_ramp_is_k_of_t_times_the_ramp_rate():
         profile="cycle",
         ramp_rate=0.1,
         noise=False,
+        physics="lumped",
         random_state=5,
     )
     frame = bunch.frame
@@ -241,7 +244,7 @@ def test_without_noise_the_output_is_reference_plus_drift():
 
 
 def test_magnitudes_are_those_of_a_navigation_grade_gyro():
-    bunch = make_thermal_campaign(random_state=0)
+    bunch = make_thermal_campaign(physics="lumped", random_state=0)
     frame, parts = bunch.frame, bunch.components
     assert 10_000 <= len(frame) <= 30_000
     peak_shupe = parts["shupe"].abs().groupby(frame["run"]).max()
@@ -330,12 +333,14 @@ def _unit_network(params):
     return A, b, capacity
 
 
-def test_lumped_is_the_default_physics_and_unchanged_by_naming_it():
-    default = make_thermal_campaign(**SMALL, profile="mix", random_state=7)
-    named = make_thermal_campaign(**SMALL, profile="mix", physics="lumped", random_state=7)
+def test_layered_is_the_default_physics_and_lumped_keeps_its_columns():
+    settings = {key: value for key, value in SMALL.items() if key != "physics"}
+    default = make_thermal_campaign(**settings, profile="mix", random_state=7)
+    named = make_thermal_campaign(**settings, profile="mix", physics="layered", random_state=7)
     assert_frame_equal(default.frame, named.frame, check_exact=True)
     assert_frame_equal(default.components, named.components, check_exact=True)
-    assert list(default.components.columns) == list(COMPONENT_COLUMNS)
+    lumped = make_thermal_campaign(**SMALL, profile="mix", random_state=7)
+    assert list(lumped.components.columns) == list(COMPONENT_COLUMNS)
 
 
 @pytest.mark.parametrize("physics", ["layered", "layered_glass"])
@@ -659,7 +664,13 @@ def test_lot_units_scatter_around_the_design(physics):
 
 
 def test_lot_is_closer_than_independent_units():
-    kwargs = {"n_units": 5, "n_runs": 1, "azimuths": [0.0], "sampling_period": 600.0}
+    kwargs = {
+        "n_units": 5,
+        "n_runs": 1,
+        "azimuths": [0.0],
+        "sampling_period": 600.0,
+        "physics": "lumped",
+    }
     independent = make_thermal_campaign(**kwargs, random_state=0)
     lot = make_thermal_campaign(**kwargs, lot_spread=0.05, random_state=0)
     assert independent.design_params is None

@@ -331,11 +331,12 @@ def test_default_comparison_on_a_small_campaign(small_campaign):
         before = folds.loc[folds["fold"] == fold, "msd_before"]
         np.testing.assert_allclose(before, np.mean(y.to_numpy()[test] ** 2), rtol=1e-12)
     assert summary.loc["raw", "reduction"] == 1.0
-    # Measured on this campaign (reduction factors): linear 18.5, kernel ridge 17.9,
-    # Gaussian process 18.5, RBF modified 18.3, RBF traditional 16.1, bias 2.8.
+    # Measured on this campaign (reduction factors; layered physics, whose turn-on bias the
+    # constant model removes): linear 34.6, kernel ridge 34.5, Gaussian process 29.9, RBF
+    # modified 30.7, RBF traditional 28.5, bias 12.2.
     for name in ("linear", "kernel_ridge", "gaussian_process", "rbf_modified"):
-        assert summary.loc[name, "reduction"] >= 10.0, name
-    assert summary.loc["rbf_modified", "msd_after"] < summary.loc["bias", "msd_after"] / 4
+        assert summary.loc[name, "reduction"] >= 15.0, name
+    assert summary.loc["rbf_modified", "msd_after"] < summary.loc["bias", "msd_after"] / 2
     assert (summary.drop(index="raw")["reduction"] > 1.0).all()
     assert (summary["fit_time"] > 0).all()
 

@@ -51,7 +51,7 @@ k1                         0.01-0.025 /degC            temperature dependence of
                                                        the potting (hence T·dT, paper Eq. 13)
 T0                         15 degC                     middle of the -10..40 degC range
 s0 (stress_coefficient)    ±0.005-0.02 deg/h per degC  elasto-optic bias of a radial thermal
-                                                       gradient (Mohr & Schadt 1996); gives
+                                                       gradient (Mohr & Schadt 2004); gives
                                                        0.005-0.1 deg/h for 1-5 degC gradients
 s1 (stress_k1)             0.01-0.03 /degC             typical: potting modulus vs temperature
 b0, b1, b2                 ±0.05-0.15 deg/h,           typical bias temperature sensitivity
@@ -69,8 +69,9 @@ turn-on, quantum
 
 References: D. M. Shupe, Applied Optics 19(5), 654-655, 1980; F. Mohr and F. Schadt, "Bias
 error in fiber optic gyroscopes due to elasto-optic interactions in the sensor fiber", Proc.
-SPIE 5502, 2004 (and F. Mohr, J. Lightwave Technol. 14(1), 1996, on thermo-optically induced
-bias drift); H. C. Lefèvre, *The Fiber-Optic Gyroscope*, 2nd ed., Artech House, 2014.
+SPIE 5502, 410-413, 2004, doi:10.1117/12.566654 (and F. Mohr, J. Lightwave Technol. 14(1),
+1996, on thermo-optically induced bias drift); H. C. Lefèvre, *The Fiber-Optic Gyroscope*,
+2nd ed., Artech House, 2014.
 """
 
 import numpy as np

@@ -361,7 +361,7 @@ def make_thermal_campaign(
     ramp_rate=(0.1, 2.0),
     temperature_range=(-10.0, 40.0),
     noise=True,
-    physics="lumped",
+    physics="layered",
     lot_spread=None,
     random_state=None,
     as_frame=True,
@@ -372,7 +372,9 @@ def make_thermal_campaign(
     Every unit (gyro) has its own coefficients, drawn from ``random_state``, and is recorded
     ``n_runs`` times at each azimuth while the thermal chamber follows a temperature profile.
     Runs differ in ramp rate, soak lengths and temperature levels, so some runs reach
-    temperatures that others do not (as held-out runs do in practice). The physics, per run:
+    temperatures that others do not (as held-out runs do in practice). The ``"lumped"``
+    physics, per run (the default ``"layered"`` physics replaces steps 2 to 5 by a coil of
+    several layers read by a sensor on its housing: see ``physics``):
 
     1. chamber set-point, piecewise linear (profile below), plus a controller fluctuation
        (first-order Gauss–Markov);
@@ -424,9 +426,11 @@ def make_thermal_campaign(
         Whether to add the chamber fluctuation, turn-on bias, bias instability, angle random
         walk and output quantisation. With ``noise=False`` the output is exactly
         ``reference + drift`` (the temperature reading stays quantised).
-    physics : {"lumped", "layered", "layered_glass"}, default="lumped"
+    physics : {"lumped", "layered", "layered_glass"}, default="layered"
         Thermal model. ``"lumped"``: the two-lag model described above (unchanged, bit for
-        bit). ``"layered"``: chamber air -> housing (first-order lag) -> a coil of 5 radial
+        bit; the coil the reference paper's features describe). ``"layered"``, the default
+        because a navigation-grade coil is wound in many layers, potted, and read by a
+        sensor outside it: chamber air -> housing (first-order lag) -> a coil of 5 radial
         layers with heat diffusion between neighbours (a linear network solved exactly by
         modal decomposition); Shupe drift from each layer's own rate with quadrupole
         weights (signed by distance from the mid-radius, plus a per-unit residual
