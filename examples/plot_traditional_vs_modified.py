@@ -15,14 +15,15 @@ cross-validated on a simulated campaign whose physics has exactly that dependenc
 # The simulator's hidden components show the Shupe drift against the coil's temperature
 # rate, coloured by the coil temperature: the slope of the cloud (the Shupe coefficient)
 # changes with the temperature. That temperature dependence is what T·ΔT lets a model
-# express directly.
+# express directly. The simulator's ``"lumped"`` physics is the coil the paper's features
+# describe (one temperature and its rate), so this example names it.
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
 from sklearn_ifog.datasets import make_thermal_campaign
 
-campaign = make_thermal_campaign(n_units=2, n_runs=3, random_state=1)
+campaign = make_thermal_campaign(n_units=2, n_runs=3, physics="lumped", random_state=1)
 components = campaign.components
 unit0 = (campaign.frame["unit"] == 0).to_numpy()
 
