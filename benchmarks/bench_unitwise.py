@@ -100,8 +100,9 @@ def _grouped(pipeline, shrinkage):
     )
 
 
-def run_case(physics, lot, seed, quick):
-    campaign = make_thermal_campaign(
+def lot_campaign(physics, lot, seed):
+    """The benchmark's lot: N_UNITS units, N_RUNS runs each at one azimuth."""
+    return make_thermal_campaign(
         n_units=N_UNITS,
         n_runs=N_RUNS,
         azimuths=[0.0],
@@ -110,6 +111,10 @@ def run_case(physics, lot, seed, quick):
         lot_spread=LOTS[lot],
         random_state=seed,
     )
+
+
+def run_case(physics, lot, seed, quick):
+    campaign = lot_campaign(physics, lot, seed)
     frame, X, y = campaign.frame, campaign.data, campaign.target.to_numpy()
     runs = {unit: sorted(frame.loc[frame.unit == unit, "run"].unique()) for unit in range(N_UNITS)}
     test_runs = [run for unit in runs for run in runs[unit][-N_TEST:]]

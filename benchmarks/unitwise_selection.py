@@ -54,17 +54,15 @@ from sklearn.base import clone
 
 from sklearn_ifog import _shrinkage
 from sklearn_ifog._io import write_text_files
-from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.unitwise import _final_step, _layer_inputs, layer_design, layer_weights
 
 from bench_unitwise import (  # isort: skip
     CALIBRATION_RUNS,
     LOTS,
-    N_RUNS,
     N_TEST,
     N_UNITS,
-    SAMPLING_PERIOD,
     TOLERANCE,
+    lot_campaign,
     models,
 )
 
@@ -141,15 +139,7 @@ def unit_statistics(pipeline, Xi, y, runs, units, train, test):
 
 def run_case(physics, lot, seed, model_names):
     warnings.simplefilter("ignore", UserWarning)
-    campaign = make_thermal_campaign(
-        n_units=N_UNITS,
-        n_runs=N_RUNS,
-        azimuths=[0.0],
-        sampling_period=SAMPLING_PERIOD,
-        physics=physics,
-        lot_spread=LOTS[lot],
-        random_state=seed,
-    )
+    campaign = lot_campaign(physics, lot, seed)
     frame, X, y = campaign.frame, campaign.data, campaign.target.to_numpy()
     units, runs = X["unit"].to_numpy(), X["run"].to_numpy()
     Xi = X.drop(columns="unit")
