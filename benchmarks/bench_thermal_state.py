@@ -22,10 +22,22 @@ mean((predicted - true drift)²) / floor. Targets (exit 1 when one fails):
    smaller than the paper features' on "layered", and never larger on "lumped", for every
    seed and sample period.
 
+3. the default network against the baselines on the default features (issue 12): the
+   pooled excess MSD/floor - 1 of RBFNet at most 0.8 x the best of poly2 Ridge, poly3
+   Ridge, MLP(20), MLP(50,50), HistGB and KernelRidge on "layered" and "layered_glass",
+   and at most 1.02 x the best of them and the linear Ridge on "lumped", for every seed and
+   sample period (only when every one of those models is in the run);
+4. Gaussian units in use (``centers_`` not empty) in most folds of the default network on
+   "layered" and "layered_glass", per sample period (counted over seeds; only when RBFNet
+   is in the run).
+
 Verdicts against every baseline of the table: per campaign (physics, period, seed), one
 WIN/TIE/LOSS line of RBFNet on the default feature set against each other model on the same
 features, on the pooled excess MSD over the floor (MSD/floor - 1; a tie is within the
-relative margin of ``benchmarks/_verdict.py``). They are reported, not targets.
+relative margin of ``benchmarks/_verdict.py``). They are reported, not targets. The table
+also holds a linear ``Ridge`` on the same features (with the default features, whose
+squares and products are the physics', the plain linear model is the peer to beat) and
+``RBFNet (quadratic tail)``, the network with the tail it had by default before.
 
 Run (about 20-30 min on two cores)::
 
@@ -114,6 +126,8 @@ def regressors(seed, max_kernel_samples=600, max_mlp_samples=3000):
 
     return {
         "RBFNet": lambda: RBFNetRegressor(random_state=seed),
+        "RBFNet (quadratic tail)": lambda: RBFNetRegressor(tail="quadratic", random_state=seed),
+        "Ridge": lambda: Ridge(1e-3),
         "poly2 Ridge": lambda: poly(2),
         "poly3 Ridge": lambda: poly(3),
         "MLP(20)": lambda: mlp((20,)),
@@ -127,7 +141,11 @@ def regressors(seed, max_kernel_samples=600, max_mlp_samples=3000):
     }
 
 
-QUICK_MODELS = ("RBFNet", "poly2 Ridge", "HistGB")
+QUICK_MODELS = ("RBFNet", "Ridge", "poly2 Ridge", "HistGB")
+# The baselines of target 3 (issue 12), on the default features.
+BASELINES = ("poly2 Ridge", "poly3 Ridge", "MLP(20)", "MLP(50,50)", "HistGB", "KernelRidge")
+BASELINE_RATIO = 0.8  # RBFNet's excess over the best baseline's, layered presets
+LUMPED_RATIO = 1.02  # the same on "lumped", against the baselines and the linear Ridge
 
 
 def _campaign(seed, physics, period, sizes):
@@ -177,11 +195,11 @@ def _evaluate_fold(seed, physics, period, sizes, fold, models, sets_spec):
             predicted = pipeline.predict(X.iloc[test])
             msd = float(np.mean(np.square(y[test] - predicted)))
             residual = float(np.mean(np.square(predicted - drift[test])))
-            record["results"][f"{set_name}|{model_name}"] = {
-                "msd": msd,
-                "residual": residual,
-                "fit_s": time.perf_counter() - start,
-            }
+            result = {"msd": msd, "residual": residual, "fit_s": time.perf_counter() - start}
+            network = pipeline[-1]
+            if isinstance(network, RBFNetRegressor):
+                result["n_centers"] = int(network.centers_.shape[0])
+            record["results"][f"{set_name}|{model_name}"] = result
     return record
 
 
@@ -275,7 +293,55 @@ def summarize(records, default_features):
                         "pass": bool(state <= paper),
                     }
                 )
+    checks += _baseline_checks(records, summary, campaigns, default_features)
     return summary, checks
+
+
+def _baseline_checks(records, summary, campaigns, default_features):
+    """Targets 3 and 4: the default network against the baselines, and its Gaussian units."""
+    checks = []
+    ours = f"{default_features}|RBFNet"
+    peers = [f"{default_features}|{name}" for name in BASELINES]
+    for physics, period, seed in campaigns:
+        cell = summary[f"{physics}|{period:g}|{seed}"]
+        lumped = physics == "lumped"
+        compared = [*peers, f"{default_features}|Ridge"] if lumped else peers
+        if ours not in cell or not all(key in cell for key in compared):
+            continue
+        bound = LUMPED_RATIO if lumped else BASELINE_RATIO
+        best_key = min(compared, key=lambda key: cell[key]["msd_over_floor"])
+        best = cell[best_key]["msd_over_floor"] - 1.0
+        excess = cell[ours]["msd_over_floor"] - 1.0
+        ratio = excess / best if best > 0 else np.inf
+        checks.append(
+            {
+                "target": f"RBFNet excess <= {bound:g} x the best baseline's "
+                f"({best_key.split('|')[1]}): {physics}, {period:g} s, seed {seed}",
+                "value": float(ratio),
+                "pass": bool(ratio <= bound),
+            }
+        )
+    for physics in dict.fromkeys(r["physics"] for r in records):
+        if physics == "lumped":
+            continue
+        for period in dict.fromkeys(r["period"] for r in records):
+            counts = [
+                r["results"][ours]["n_centers"]
+                for r in records
+                if (r["physics"], r["period"]) == (physics, period) and ours in r["results"]
+            ]
+            if not counts:
+                continue
+            in_use = sum(count > 0 for count in counts)
+            checks.append(
+                {
+                    "target": f"RBFNet uses Gaussian units in most folds: {physics}, "
+                    f"{period:g} s ({in_use} of {len(counts)} folds)",
+                    "value": in_use / len(counts),
+                    "pass": bool(in_use > len(counts) / 2),
+                }
+            )
+    return checks
 
 
 def comparisons(summary, default_features):
@@ -339,6 +405,17 @@ def markdown(records, summary, checks, header):
                         f"{_pooled(subset, key, 'residual'):.3f}",
                     ]
                 lines.append(f"| {model} | " + " | ".join(cells) + " |")
+            units = []
+            for key in keys:
+                if "n_centers" not in subset[0]["results"][key]:
+                    continue
+                counts = [r["results"][key]["n_centers"] for r in subset]
+                units.append(
+                    f"{key}: {sum(count > 0 for count in counts)} of {len(counts)} folds "
+                    f"(median {np.median(counts):g} units)"
+                )
+            if units:
+                lines += ["", "Folds with Gaussian units in use: " + "; ".join(units) + "."]
             lines.append("")
     lines += ["## Targets", ""]
     lines += [f"- {_check_line(check)}" for check in checks]

@@ -13,9 +13,9 @@ term or a unit is added in one place:
 - :data:`SECONDS_PER_UNIT` and :func:`seconds_per_unit`: the time units of ``rate_unit`` (and
   of the plots' time axis);
 - :func:`sensor_keys`: the temperature column(s) of a ``temperature`` parameter, as a list;
-- :data:`DEFAULT_TERMS`, :data:`DEFAULT_STATE_TERMS`, :data:`DEFAULT_SMOOTHING` and
-  :func:`resolve_defaults`: what ThermalFeatures' ``terms="auto"`` and ``smoothing="auto"``
-  mean, with and without a time column.
+- :data:`DEFAULT_TERMS` (the paper's), :data:`DEFAULT_ROW_TERMS`, :data:`DEFAULT_STATE_TERMS`,
+  :data:`DEFAULT_SMOOTHING` and :func:`resolve_defaults`: what ThermalFeatures'
+  ``terms="auto"`` and ``smoothing="auto"`` mean, with and without a time column.
 """
 
 import re
@@ -25,6 +25,7 @@ from typing import NamedTuple
 import numpy as np
 
 __all__ = [
+    "DEFAULT_ROW_TERMS",
     "DEFAULT_SMOOTHING",
     "DEFAULT_STATE_TERMS",
     "DEFAULT_TERMS",
@@ -47,15 +48,31 @@ __all__ = [
     "valid_terms_text",
 ]
 
-#: The reference paper's feature set (T, dT, T·dT): ``terms="auto"`` without a time column,
-#: and the paper's modified model (without ``"TdT"``: its traditional model).
+#: The reference paper's feature set (T, dT, T·dT): its modified model (without ``"TdT"``:
+#: its traditional model).
 DEFAULT_TERMS = ("T", "dT", "TdT")
 
-#: The thermal-state feature set, ``terms="auto"`` with a time column: the paper's terms and
-#: the excess of T over its first-order lags at 900 s and 3600 s. Measured against
-#: :data:`DEFAULT_TERMS` over physics presets, seeds and sample periods by
-#: ``python benchmarks/bench_thermal_state.py``.
-DEFAULT_STATE_TERMS = ("T", "dT", "TdT", "T_lag900s", "T_lag3600s")
+#: ``terms="auto"`` without a time column: the paper's terms and T², the static bias being
+#: quadratic in T (the default network's tail is linear, so the square is a feature).
+DEFAULT_ROW_TERMS = ("T", "dT", "TdT", "T2")
+
+#: The thermal-state feature set, ``terms="auto"`` with a time column: the paper's terms, T²,
+#: and the excess of T over its first-order lags at 900 s and 3600 s with their products
+#: with T (the coil's Shupe and stress coefficients vary with T, as the paper's T·dT says
+#: for dT). These are the physics' terms, so a linear model on them extrapolates; a model
+#: with every square and cross product of them fits slowly varying gyro noise instead.
+#: Measured against :data:`DEFAULT_TERMS` and the same set without the products over
+#: physics presets, seeds and sample periods by ``python benchmarks/bench_thermal_state.py``.
+DEFAULT_STATE_TERMS = (
+    "T",
+    "dT",
+    "TdT",
+    "T2",
+    "T_lag900s",
+    "TT_lag900s",
+    "T_lag3600s",
+    "TT_lag3600s",
+)
 
 #: Smoothing time constant of dT, s, of ``smoothing="auto"`` with a time column and thermal-state
 #: (lag) terms, measured with :data:`DEFAULT_STATE_TERMS` by the same benchmark.
@@ -159,12 +176,17 @@ class TermFamily(NamedTuple):
     """The :class:`Term` of a matching name; raises ValueError on a bad parameter."""
 
 
-def _lag_term(match):
+def _time_constant(match):
     tau = float(match.group(1))
     if not (np.isfinite(tau) and tau > 0):
         raise ValueError(
             f"Term {match.group(0)!r}: the time constant must be > 0 seconds, got {tau!r}."
         )
+    return tau
+
+
+def _lag_term(match):
+    tau = _time_constant(match)
     return Term(
         name=match.group(0),
         output=f"T_lag{format_seconds(tau)}s",
@@ -175,16 +197,36 @@ def _lag_term(match):
     )
 
 
+def _lag_product_term(match):
+    tau = _time_constant(match)
+    return Term(
+        name=match.group(0),
+        output=f"T_T_lag{format_seconds(tau)}s",
+        compute=lambda s: s.T * s.lag[tau],
+        c_expression="raw * deficit[{lag}]",
+        uses_rate=False,
+        time_constant=tau,
+    )
+
+
 #: Parametrised terms: ``T_lag<tau>s`` is the excess ``T - lag_tau(T)`` of the temperature
 #: over its causal first-order lag at time constant ``tau`` seconds (an integer or decimal
 #: number), exact between samples for a temperature linear between them, 0 at a run's first
-#: row (see :mod:`sklearn_ifog._lags`).
+#: row (see :mod:`sklearn_ifog._lags`). ``TT_lag<tau>s`` is ``T * (T - lag_tau(T))``: what
+#: ``TdT`` is to ``dT``, since the coil's Shupe and stress coefficients vary with T, so each
+#: thermal-state term acts with a temperature-dependent gain (output name ``T_T_lag<tau>s``).
 TERM_FAMILIES = (
     TermFamily(
         pattern=re.compile(r"T_lag([0-9]+(?:\.[0-9]+)?)s"),
         form="T_lag<tau>s",
         examples=("T_lag600s", "T_lag90.5s"),
         make=_lag_term,
+    ),
+    TermFamily(
+        pattern=re.compile(r"TT_lag([0-9]+(?:\.[0-9]+)?)s"),
+        form="TT_lag<tau>s",
+        examples=("TT_lag600s",),
+        make=_lag_product_term,
     ),
 )
 
@@ -202,7 +244,8 @@ def valid_terms_text():
     >>> from sklearn_ifog._contract import valid_terms_text
     >>> print(valid_terms_text())  # doctest: +NORMALIZE_WHITESPACE
     ['T', 'dT', 'TdT', 'T2', 'gradient'], or 'T_lag<tau>s' with tau in seconds, an integer or
-    decimal number > 0 (e.g. 'T_lag600s', 'T_lag90.5s')
+    decimal number > 0 (e.g. 'T_lag600s', 'T_lag90.5s'); 'TT_lag<tau>s' with tau in
+    seconds, an integer or decimal number > 0 (e.g. 'TT_lag600s')
     """
     forms = "; ".join(
         f"{family.form!r} with tau in seconds, an integer or decimal number > 0 (e.g. "
@@ -436,8 +479,9 @@ def check_needs_time(terms, smoothing, has_time):
 def resolve_defaults(terms, smoothing, has_time):
     """What ``terms="auto"`` and ``smoothing="auto"`` of ThermalFeatures mean.
 
-    - ``terms="auto"``: :data:`DEFAULT_STATE_TERMS` with a time column, the paper's
-      :data:`DEFAULT_TERMS` without one (rows only: no time constant can be honoured);
+    - ``terms="auto"``: :data:`DEFAULT_STATE_TERMS` with a time column,
+      :data:`DEFAULT_ROW_TERMS` (the paper's terms and T²) without one (rows only: no time
+      constant can be honoured);
     - ``smoothing="auto"``: :data:`DEFAULT_SMOOTHING` seconds with a time column when the
       (resolved) terms hold a thermal-state term ``T_lag<tau>s``, as measured; otherwise 0
       (no smoothing: the paper's backward difference, so ``terms=DEFAULT_TERMS`` is exactly
@@ -466,15 +510,16 @@ def resolve_defaults(terms, smoothing, has_time):
     Examples
     --------
     >>> from sklearn_ifog._contract import resolve_defaults
-    >>> resolve_defaults("auto", "auto", has_time=True)
-    (('T', 'dT', 'TdT', 'T_lag900s', 'T_lag3600s'), 120.0)
+    >>> resolve_defaults("auto", "auto", has_time=True)  # doctest: +NORMALIZE_WHITESPACE
+    (('T', 'dT', 'TdT', 'T2', 'T_lag900s', 'TT_lag900s', 'T_lag3600s', 'TT_lag3600s'),
+     120.0)
     >>> resolve_defaults("auto", "auto", has_time=False)
-    (('T', 'dT', 'TdT'), 0.0)
+    (('T', 'dT', 'TdT', 'T2'), 0.0)
     >>> resolve_defaults(("T", "dT", "TdT"), "auto", has_time=True)
     (('T', 'dT', 'TdT'), 0.0)
     """
     if isinstance(terms, str) and terms == "auto":
-        terms = DEFAULT_STATE_TERMS if has_time else DEFAULT_TERMS
+        terms = DEFAULT_STATE_TERMS if has_time else DEFAULT_ROW_TERMS
     if not isinstance(terms, str):
         terms = tuple(terms)
     if isinstance(smoothing, str) and smoothing == "auto":

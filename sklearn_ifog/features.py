@@ -423,16 +423,17 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
     terms : "auto", list or tuple of str, default="auto"
         Terms to output, any subset in any order of ``"T"`` (raw temperature), ``"dT"``,
         ``"TdT"`` (T·dT), ``"T2"`` (T²), ``"gradient"`` (this sensor minus the first
-        sensor; needs several sensors) and ``"T_lag<tau>s"``: ``T - lag_tau(T)``, the excess
+        sensor; needs several sensors), ``"T_lag<tau>s"``: ``T - lag_tau(T)``, the excess
         of the temperature over its causal first-order lag at time constant ``tau`` seconds
         (an integer or decimal number, e.g. ``"T_lag600s"``, ``"T_lag90.5s"``; needs
-        ``time``). ``"auto"``: with ``time``, the thermal-state set
-        ``("T", "dT", "TdT", "T_lag900s", "T_lag3600s")``
-        (:data:`sklearn_ifog._contract.DEFAULT_STATE_TERMS`, measured against the paper's
-        set over physics presets, seeds and sample periods by
-        ``python benchmarks/bench_thermal_state.py``); without ``time``, the paper's
-        ``("T", "dT", "TdT")``. Pass ``terms=("T", "dT", "TdT")`` to reproduce the paper
-        (its modified model; ``("T", "dT")`` is its traditional model).
+        ``time``), and ``"TT_lag<tau>s"``: ``T * (T - lag_tau(T))``, that excess with a
+        temperature-dependent gain, as ``"TdT"`` is to ``"dT"``. ``"auto"``: with ``time``,
+        the thermal-state set ``("T", "dT", "TdT", "T2", "T_lag900s", "TT_lag900s",
+        "T_lag3600s", "TT_lag3600s")`` (:data:`sklearn_ifog._contract.DEFAULT_STATE_TERMS`,
+        measured against the paper's set over physics presets, seeds and sample periods by
+        ``python benchmarks/bench_thermal_state.py``); without ``time``, the paper's terms
+        and T², ``("T", "dT", "TdT", "T2")``. Pass ``terms=("T", "dT", "TdT")`` to reproduce
+        the paper (its modified model; ``("T", "dT")`` is its traditional model).
     smoothing : "auto" or float, default="auto"
         Time constant, in seconds, of the smoothing of ``dT`` (0: none, ``dT`` is the
         backward difference). With ``smoothing > 0`` (needs ``time``), ``dT`` is the rate of
@@ -490,9 +491,10 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
     (seconds) and no smoothing: ``dT[i] = (T[i] - T[i-1]) / (t[i] - t[i-1])`` in deg C per
     ``rate_unit``. Lag terms are in deg C.
 
-    **Names.** One sensor: ``"T"``, ``"dT"``, ``"T_dT"``, ``"T2"``, ``"T_lag600s"`` (the
-    time constant as an integer, or a decimal number, of seconds). Several sensors: each
-    prefixed with the sensor's column name (``"x<position>"`` for arrays), e.g.
+    **Names.** One sensor: ``"T"``, ``"dT"``, ``"T_dT"``, ``"T2"``, ``"T_lag600s"``,
+    ``"T_T_lag600s"`` (the time constant as an integer, or a decimal number, of seconds).
+    Several sensors: each prefixed with the sensor's column name (``"x<position>"`` for
+    arrays), e.g.
     ``"coil_T_dT"``, ``"coil_T_lag600s"``, sensor by sensor, term by term;
     ``"<sensor>_gradient"`` is that sensor minus the first one, which gets no gradient column.
 
@@ -500,9 +502,13 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
     ``dT`` smoothed over 120 s: a single lagging sensor's (T, dT, T·dT) do not carry the
     temperature distribution inside a coil of several layers, its lags at 900 s and 3600 s
     do (measured by ``python benchmarks/bench_thermal_state.py``), and every one of them is
-    a time constant in seconds, the same at any sample period. Use the paper's
+    a time constant in seconds, the same at any sample period. The drift is, to first order,
+    a static bias quadratic in T plus each thermal-state term times a coefficient linear in
+    T, so the set holds T² and the products with T: a linear model on it extrapolates to
+    held-out conditions, where one with every square and cross product of the five
+    unmultiplied terms fits slowly varying gyro noise through them. Use the paper's
     ``terms=("T", "dT", "TdT")`` to reproduce the paper's experiments or its models; without
-    a time column (``time=None``) the default is the paper's set, unsmoothed.
+    a time column (``time=None``) the default is the paper's set and T², unsmoothed.
 
     **Fitting.** Nothing is learnt: :meth:`transform` works without :meth:`fit`
     (``__sklearn_is_fitted__`` is True, the ``requires_fit`` tag False), resolving
@@ -542,10 +548,11 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
     3  29.0    -0.9754
     4  23.0     2.7643
     >>> default = ThermalFeatures(time="time", run="run").fit(X)
-    >>> default.terms_, default.smoothing_
-    (('T', 'dT', 'TdT', 'T_lag900s', 'T_lag3600s'), 120.0)
+    >>> default.terms_, default.smoothing_  # doctest: +NORMALIZE_WHITESPACE
+    (('T', 'dT', 'TdT', 'T2', 'T_lag900s', 'TT_lag900s', 'T_lag3600s', 'TT_lag3600s'),
+     120.0)
     >>> ThermalFeatures().fit(X[["temperature"]]).terms_
-    ('T', 'dT', 'TdT')
+    ('T', 'dT', 'TdT', 'T2')
     """
 
     _parameter_constraints: ClassVar[dict] = {

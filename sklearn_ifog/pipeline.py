@@ -66,11 +66,11 @@ def make_compensation_pipeline(
         Run id column of X; None: X is one run.
     terms : list or tuple of str, default=None
         Thermal terms; None means :class:`~sklearn_ifog.ThermalFeatures`' default,
-        ``"auto"``: with a time column the thermal-state set
-        ``("T", "dT", "TdT", "T_lag900s", "T_lag3600s")`` with ``dT`` smoothed over 120 s,
-        without one the paper's ``("T", "dT", "TdT")``. ``("T", "dT", "TdT")`` is the
-        paper's modified model (to reproduce the paper), ``("T", "dT")`` its traditional
-        model.
+        ``"auto"``: with a time column the thermal-state set ``("T", "dT", "TdT", "T2",
+        "T_lag900s", "TT_lag900s", "T_lag3600s", "TT_lag3600s")`` with ``dT`` smoothed over
+        120 s, without one the paper's terms and T², ``("T", "dT", "TdT", "T2")``.
+        ``("T", "dT", "TdT")`` is the paper's modified model (to reproduce the paper),
+        ``("T", "dT")`` its traditional model.
     **feature_params
         Further parameters of :class:`~sklearn_ifog.ThermalFeatures` (``smoothing``,
         ``rate_unit``).
@@ -107,8 +107,8 @@ def make_compensation_pipeline(
     >>> model.named_steps["features"].terms
     'auto'
     >>> drift = model.fit(X, y).predict(X)
-    >>> model.named_steps["features"].terms_
-    ('T', 'dT', 'TdT', 'T_lag900s', 'T_lag3600s')
+    >>> model.named_steps["features"].terms_  # doctest: +NORMALIZE_WHITESPACE
+    ('T', 'dT', 'TdT', 'T2', 'T_lag900s', 'TT_lag900s', 'T_lag3600s', 'TT_lag3600s')
     >>> bool(((y - drift) ** 2).mean() < (y**2).mean())
     True
     >>> from sklearn.preprocessing import MinMaxScaler

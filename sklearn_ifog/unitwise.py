@@ -532,6 +532,11 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                     f"unit {_label(unit)!r} (column {self.unit!r} of X) was not seen in fit; "
                     f"the fitted units are {fitted}{more}."
                 )
+        if self.lot_estimator_ is not None and all(
+            self.estimators_[_label(unit)] is self.lot_estimator_ for unit in present
+        ):
+            # One model for every unit here ("full"): one call, the lot model's own answer.
+            return np.asarray(self.lot_estimator_.predict(X_inner), dtype=np.float64)
         output = None
         for unit in present:
             index = np.flatnonzero(units == unit)

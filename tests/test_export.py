@@ -156,13 +156,15 @@ MODELS = {
     "rbf-no-tail": lambda c: _fitted(
         c, StandardScaler(), _rbf(tail=False, refine=None), features=_features(smoothing=300.0)
     ),
-    # Thermal-state terms and a smoothed rate whose time constant is also a lag term's.
+    # Thermal-state terms (and their products with T) and a smoothed rate whose time
+    # constant is also a lag term's.
     "lags-rbf": lambda c: _fitted(
         c,
         StandardScaler(),
         _rbf(tail="linear"),
         features=_features(
-            terms=("T", "dT", "TdT", "T_lag600s", "T_lag3600s", "T_lag90.5s"), smoothing=600.0
+            terms=("T", "dT", "TdT", "T_lag600s", "TT_lag600s", "T_lag3600s", "T_lag90.5s"),
+            smoothing=600.0,
         ),
     ),
     "lags-2-sensors-poly": lambda c: _fitted(
@@ -183,13 +185,20 @@ MODELS = {
         c, StandardScaler(), Ridge(alpha=1e-3), features=_features(terms=("T", "T_lag1800s"))
     ),
     # A linear tail: an unpenalised quadratic one on these ten nearly collinear features
-    # sums terms ~900 times the drift, which alone costs float its 1e-4.
+    # sums terms ~900 times the drift, which alone costs float its 1e-4. The five
+    # unmultiplied state terms per sensor: with the default's sixteen columns (T, T² and the
+    # T products of two sensors nearly collinear) the recursive least squares of
+    # adapt="output" amplifies rounding, and C and Python part by 2e-9 of max|drift|.
     "rbf-2-sensors-2-outputs": lambda c: _fitted(
         c,
         MinMaxScaler(clip=True),
         _rbf(tail="linear"),
         features=ThermalFeatures(
-            temperature=["temperature", "temperature_2"], time="time", run="run", smoothing=60.0
+            temperature=["temperature", "temperature_2"],
+            time="time",
+            run="run",
+            terms=("T", "dT", "TdT", "T_lag900s", "T_lag3600s"),
+            smoothing=60.0,
         ),
         target=("drift", "drift_2"),
     ),
@@ -479,7 +488,11 @@ def evaluate_json(spec, frame):
             for term, tau in zip(features["terms"], features["term_time_constants"], strict=True):
                 if term == "gradient" and sensor == 0:
                     continue
-                columns.append(terms[term] if tau is None else deficit[:, sensor, taus.index(tau)])
+                if tau is None:
+                    columns.append(terms[term])
+                else:
+                    lagged = deficit[:, sensor, taus.index(tau)]
+                    columns.append(T * lagged if term.startswith("TT_lag") else lagged)
         rows[index] = np.column_stack(columns)
     x = rows
     for step in spec["steps"]:
@@ -535,8 +548,16 @@ def test_json_holds_exact_parameters(campaign, tmp_path):
 def test_json_carries_the_time_constants(campaign, tmp_path):
     model = MODELS["lags-rbf"](campaign)
     features = json.loads(to_json(model, tmp_path / "model.json").read_text())["features"]
-    assert features["terms"] == ["T", "dT", "TdT", "T_lag600s", "T_lag3600s", "T_lag90.5s"]
-    assert features["term_time_constants"] == [None, None, None, 600.0, 3600.0, 90.5]
+    assert features["terms"] == [
+        "T",
+        "dT",
+        "TdT",
+        "T_lag600s",
+        "TT_lag600s",
+        "T_lag3600s",
+        "T_lag90.5s",
+    ]
+    assert features["term_time_constants"] == [None, None, None, 600.0, 600.0, 3600.0, 90.5]
     assert features["smoothing"] == 600.0
     assert features["time_constants"] == [90.5, 600.0, 3600.0]  # the smoothing shares 600 s
     assert features["seconds_per_unit"] == 60.0

@@ -354,7 +354,17 @@ def test_set_output_pandas_named_columns():
     frame.index = frame.index + 100
     features = ThermalFeatures(time="time", run="run").set_output(transform="pandas")
     out = features.fit(frame).transform(frame)
-    assert list(out.columns) == ["T", "dT", "T_dT", "T_lag900s", "T_lag3600s"]
+    assert list(out.columns) == [
+        "T",
+        "dT",
+        "T_dT",
+        "T2",
+        "T_lag900s",
+        "T_T_lag900s",
+        "T_lag3600s",
+        "T_T_lag3600s",
+    ]
+    assert_array_equal(out["T_T_lag900s"], out["T"] * out["T_lag900s"])
     assert list(out.index) == list(frame.index)
     assert_array_equal(out["T"], frame["temperature"])
 
@@ -612,13 +622,15 @@ def test_sampling_invariance_of_default_features(monkeypatch):
 
     Same bound as above (from the sensor's resolution q = 0.01 degC, the simulator's own
     difference eta between its 10 s and 60 s sensor temperatures and the linear hold), per
-    column of the default ``("T", "dT", "TdT", "T_lag900s", "T_lag3600s")`` with ``dT``
-    smoothed over 120 s:
+    column of the default ``("T", "dT", "TdT", "T2", "T_lag900s", "TT_lag900s",
+    "T_lag3600s", "TT_lag3600s")`` with ``dT`` smoothed over 120 s:
 
     - T, the raw readings: ``|u10 - u60| <= q + eta``;
     - the lag deficits: ``2 q + 2 eta + (10^2 + 60^2) / 8 max|c''|``;
     - dT, the deficit at 120 s over 120 s, in degC/min: that bound times 60 / 120;
-    - T·dT: ``max|T| b_dT + max|dT| b_T`` (product rule on the two bounds above).
+    - T·dT: ``max|T| b_dT + max|dT| b_T`` (product rule on the two bounds above);
+    - T² and T·deficit: the product rule with its second-order term,
+      ``|a1 b1 - a2 b2| <= |a2| |b1 - b2| + |b2| |a1 - a2| + |a1 - a2| |b1 - b2|``.
     """
     runs = {period: _simulated_run(period) for period in (10.0, 60.0)}
     t10, t60 = (runs[p]["time"].to_numpy() for p in (10.0, 60.0))
@@ -635,26 +647,47 @@ def test_sampling_invariance_of_default_features(monkeypatch):
 
     features = ThermalFeatures(time="time", run="run")
     out10 = features.fit_transform(runs[10.0])[coincident]
-    assert features.terms_ == ("T", "dT", "TdT", "T_lag900s", "T_lag3600s")
+    assert features.terms_ == DEFAULT_STATE_TERMS
+    assert features.terms_ == (
+        "T",
+        "dT",
+        "TdT",
+        "T2",
+        "T_lag900s",
+        "TT_lag900s",
+        "T_lag3600s",
+        "TT_lag3600s",
+    )
     assert features.smoothing_ == 120.0
     out60 = features.fit_transform(runs[60.0])
     after_first_hour = t60 >= 3600.0
     out10, out60 = out10[after_first_hour], out60[after_first_hour]
-    error = dict(
-        zip(features.get_feature_names_out(), np.abs(out10 - out60).max(axis=0), strict=True)
-    )
+    names = list(features.get_feature_names_out())
+    error = dict(zip(names, np.abs(out10 - out60).max(axis=0), strict=True))
+    column = {name: out60[:, names.index(name)] for name in names}
     temperature_bound = q + eta
     rate_bound = deficit_bound * 60.0 / 120.0
-    product_bound = (
-        np.abs(out60[:, 0]).max() * rate_bound + np.abs(out60[:, 1]).max() * temperature_bound
+    largest_T = np.abs(column["T"]).max()
+    product_bound = largest_T * rate_bound + np.abs(column["dT"]).max() * temperature_bound
+
+    def second_order_product_bound(a_max, a_bound, b_max, b_bound):
+        return a_max * b_bound + b_max * a_bound + a_bound * b_bound
+
+    square_bound = second_order_product_bound(
+        largest_T, temperature_bound, largest_T, temperature_bound
     )
     # Measured (lumped physics): T 0.0100, dT 0.0046 degC/min, T_dT 0.106, T_lag900s 0.0097,
     # T_lag3600s 0.0100 degC; bounds 0.0117, 0.0122, 0.375, 0.0245, 0.0245.
     assert error["T"] <= temperature_bound
     assert error["dT"] <= rate_bound
     assert error["T_dT"] <= product_bound
-    assert error["T_lag900s"] <= deficit_bound
-    assert error["T_lag3600s"] <= deficit_bound
+    assert error["T2"] <= square_bound
+    for tau in ("900", "3600"):
+        assert error[f"T_lag{tau}s"] <= deficit_bound
+        assert error[f"T_T_lag{tau}s"] <= second_order_product_bound(
+            largest_T, temperature_bound, np.abs(column[f"T_lag{tau}s"]).max(), deficit_bound
+        )
     # The columns are not trivially equal: the run heats and cools by tens of degC.
-    assert np.ptp(out60[:, 0]) > 10.0
-    assert np.abs(out60[:, 3]).max() > 100 * deficit_bound
+    assert np.ptp(column["T"]) > 10.0
+    assert np.abs(column["T_lag900s"]).max() > 100 * deficit_bound
+    assert np.abs(column["T_T_lag900s"]).max() > 100 * error["T_T_lag900s"]

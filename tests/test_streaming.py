@@ -31,7 +31,7 @@ from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.features import compute_thermal_features
 from sklearn_ifog.streaming import StreamingCompensator, advance_features
 
-LAG_TERMS = ("T", "dT", "TdT", "T_lag600s", "T_lag3600s")
+LAG_TERMS = ("T", "dT", "TdT", "T_lag600s", "T_lag3600s", "TT_lag3600s")
 
 RTOL = 1e-12
 
@@ -292,7 +292,7 @@ def test_advance_features_continues_exactly(smoothing):
     rng = np.random.default_rng(0)
     temperature = 20 + np.cumsum(rng.normal(0, 0.01, (150, 2)), axis=0)
     time = np.cumsum(rng.uniform(0.5, 1.5, 150))  # irregular steps
-    terms = ("T", "dT", "TdT", "T_lag2s", "T_lag40.5s")
+    terms = ("T", "dT", "TdT", "T_lag2s", "T_lag40.5s", "TT_lag2s")
     params = {"terms": terms, "smoothing": smoothing, "seconds_per_unit": 60.0}
     start = {"has_history": False, "temperature": None, "last_time": None, "deficit": None}
     whole, _ = advance_features(temperature, time, start, **params)
@@ -321,10 +321,12 @@ def test_advance_features_continues_exactly(smoothing):
         time[17] - time[16],
         np.asarray(taus),
     )
-    np.testing.assert_allclose(step[0, [3, 8]], expected[:, 0], rtol=1e-15)
-    np.testing.assert_allclose(step[0, [4, 9]], expected[:, -1], rtol=1e-15)
-    # First row: dT = 0 and every lag 0.
-    np.testing.assert_array_equal(whole[0, [1, 3, 4, 6, 8, 9]], 0.0)
+    np.testing.assert_allclose(step[0, [3, 9]], expected[:, 0], rtol=1e-15)
+    np.testing.assert_allclose(step[0, [4, 10]], expected[:, -1], rtol=1e-15)
+    # TT_lag2s is T times that deficit.
+    np.testing.assert_allclose(step[0, [5, 11]], temperature[17] * expected[:, 0], rtol=1e-15)
+    # First row: dT = 0 and every lag (and lag product) 0.
+    np.testing.assert_array_equal(whole[0, [1, 3, 4, 5, 7, 9, 10, 11]], 0.0)
 
 
 def test_irregular_steps_and_interleaved_runs_stream_like_batch(models, campaign):
@@ -363,7 +365,16 @@ def test_pandas_output_pipeline_gets_named_features(campaign):
     run = _one_run(campaign, 300)
     model = make_pipeline(_features(), StandardScaler(), Ridge()).set_output(transform="pandas")
     model.fit(run, run["drift"])
-    assert list(model[1].feature_names_in_) == ["T", "dT", "T_dT", "T_lag900s", "T_lag3600s"]
+    assert list(model[1].feature_names_in_) == [
+        "T",
+        "dT",
+        "T_dT",
+        "T2",
+        "T_lag900s",
+        "T_T_lag900s",
+        "T_lag3600s",
+        "T_T_lag3600s",
+    ]
     compensator = StreamingCompensator(model)
     with warnings.catch_warnings():
         # A missing-feature-names warning here would mean the rows lost their names.

@@ -17,9 +17,9 @@ def to_json(pipeline, path):
     (currently 2). Per sensor and per time constant ``tau`` of ``time_constants``, the
     deficit ``e`` of the temperature ``u`` behind its first-order lag is 0 at a run's first
     row, then ``x = (t - t_prev) / tau``, ``a = exp(-x)``, ``g = -expm1(-x) / x`` (1 when
-    ``x == 0``), ``e = a * e + g * (u - u_prev)``; a ``"T_lag<tau>s"`` term is that ``e``
-    and, with ``smoothing > 0``, ``dT = e / smoothing * seconds_per_unit`` at
-    ``tau = smoothing``. Floats are written with
+    ``x == 0``), ``e = a * e + g * (u - u_prev)``; a ``"T_lag<tau>s"`` term is that ``e``,
+    a ``"TT_lag<tau>s"`` term ``u * e``, and, with ``smoothing > 0``,
+    ``dT = e / smoothing * seconds_per_unit`` at ``tau = smoothing``. Floats are written with
     round-trip precision (Python's ``repr``). The schema is documented in
     ``sklearn_ifog/export/_spec.py``; in short, per step ``op``:
 

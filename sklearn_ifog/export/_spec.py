@@ -17,7 +17,8 @@ Schema (version 2; version 1 had an EMA ``smoothing`` in samples and its ``alpha
         "temperature": [<column name or position>, ...],   # one per sensor, in order
         "time": <column> | null,
         "run": <column> | null,
-        "terms": [...],              # among "T", "dT", "TdT", "T2", "gradient", "T_lag<tau>s"
+        "terms": [...],              # among "T", "dT", "TdT", "T2", "gradient", "T_lag<tau>s",
+                                     # "TT_lag<tau>s"
         "term_time_constants": [...],  # per term: its lag's time constant, s, or null
         "smoothing": float,          # time constant of dT's smoothing, s (0: none)
         "time_constants": [...],     # s: the lags carried per sensor (lag terms, smoothing)
@@ -62,7 +63,8 @@ seconds_per_unit`` when ``smoothing > 0`` (``e_smoothing``: the deficit at
 ``tau = smoothing``), else ``dT = (u - u_prev) / (t - t_prev) * seconds_per_unit``, or
 ``u - u_prev`` without time. Terms: ``"T"`` the raw temperature, ``"dT"``, ``"TdT"`` =
 ``T * dT``, ``"T2"`` = ``T * T``, ``"gradient"`` = ``T - T_first_sensor`` (no column for the
-first sensor), ``"T_lag<tau>s"`` = the deficit at its ``term_time_constants`` entry. Columns:
+first sensor), ``"T_lag<tau>s"`` = the deficit at its ``term_time_constants`` entry,
+``"TT_lag<tau>s"`` = ``T *`` that deficit. Columns:
 sensor by sensor, term by term within a sensor.
 """
 

@@ -98,7 +98,7 @@ candidates, max_samples, validation_fraction, max_iter, tol, learning_rate, rand
     >>> params = RBFNetRegressor(refine=None, random_state=0).get_params()
     >>> fitted = fit_network(X, 2 * X + 1, np.ones(200), **params)
     >>> fitted.tail_degree, fitted.network.tail_coef.shape
-    (2, (1, 2))
+    (1, (1, 1))
     """
     sw = sample_weight
     x_mean, x_scale = standardisation(X, sw)
@@ -152,7 +152,13 @@ candidates, max_samples, validation_fraction, max_iter, tol, learning_rate, rand
                 max_samples=None,
                 random_state=selection.random_state.randint(np.iinfo(np.int32).max),
             )
-            n_iter, refined = int(result.n_iter), bool(result.improved)
+            # A best iterate at the starting centres and widths differs only in its output
+            # weights, which the solve on all rows below replaces: nothing was refined.
+            moved = not (
+                np.array_equal(result.network.centers, network.centers)
+                and np.array_equal(result.network.widths, network.widths)
+            )
+            n_iter, refined = int(result.n_iter), bool(result.improved) and moved
             network = result.network
             if not result.converged:
                 warnings.warn(

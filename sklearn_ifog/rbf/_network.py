@@ -85,7 +85,7 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
         Mean squared training error to reach, in target units (averaged over outputs), as
         in MATLAB's ``newrb``: the first prefix of the path that reaches it is kept (all
         ``n_centers`` if none does). Overrides ``criterion`` for the number of centres.
-    tail : {"quadratic", "linear", "auto"} or bool, default="quadratic"
+    tail : {"linear", "quadratic", "auto"} or bool, default="linear"
         Polynomial tail: always-in regressors beside the Gaussian units (orthogonalised
         before the candidates are ranked), like ``degree`` in scipy's ``RBFInterpolator``,
         so the network extrapolates like a polynomial instead of falling back to a constant.
@@ -95,7 +95,7 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
         ``criterion`` is kept, the linear one on a tie. ``False``: no tail. The tail weights
         are not penalised by ``alpha`` (see Notes), so a quadratic tail needs at least
         ``10 (d (d + 3) / 2 + 1)`` selection rows for ``d`` features; with fewer, the linear
-        tail is used, with a warning. The default is ``"quadratic"`` (see Notes). Outside
+        tail is used, with a warning. The default is ``"linear"`` (see Notes). Outside
         the calibrated range the network follows its tail: a quadratic tail extrapolates as
         a parabola and can bend away far beyond the training temperatures (the real
         recording's warm-to-cold split in the gallery shows it); when a calibration must
@@ -279,7 +279,7 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
         tail_alpha=0.0,
         criterion="cv",
         goal=None,
-        tail="quadratic",
+        tail="linear",
         max_candidates=300,
         candidates="kmeans++",
         max_samples=3000,
