@@ -26,8 +26,8 @@ function):
 - ``friedman1``: :func:`sklearn.datasets.make_friedman1` with 5 features (noise 1.0);
   N = 1e3, 1e4, 1e5; test targets from the same function with ``noise=0``.
 - ``thermal``: :func:`sklearn_ifog.datasets.make_thermal_campaign` (3 units, 4 azimuths,
-  3 runs each, one sample a minute) through ``ThermalFeatures(time="time", run="run")`` (T, dT,
-  T·dT); leave-one-azimuth-out within each unit (12 folds); the score is the MSD of the
+  3 runs each, one sample a minute) through ``ThermalFeatures(time="time", run="run")`` (its
+  default thermal-state terms); leave-one-azimuth-out within each unit (12 folds); the score is the MSD of the
   compensated rate, ``mean((rate - prediction - reference)²)`` on the held-out runs. Folds whose
   held-out runs reach temperatures outside the training runs' range are reported separately.
 
@@ -397,13 +397,12 @@ def thermal_worker(quick):
     features = ThermalFeatures(temperature="temperature", time="time", run="run")
     default_refine = RBFNetRegressor().refine
     models = {rbf_name(r): (lambda r=r: rbf_model(r)) for r in REFINE_MODES}
-    n_features = 3
-    peers = peer_models(n_features, None)
-    for name in ("KernelRidge", "SVR", "MLP(20)", "Nystroem+Ridge", "Poly3+Ridge"):
-        models[name] = peers[name]
     # ThermalFeatures is causal within each run and learns nothing from the rows, so the
     # features of the whole campaign serve every fold of the kernel peers.
     features_all = features.fit_transform(X_all)
+    peers = peer_models(features_all.shape[1], None)
+    for name in ("KernelRidge", "SVR", "MLP(20)", "Nystroem+Ridge", "Poly3+Ridge"):
+        models[name] = peers[name]
     temperature = frame["temperature"].to_numpy()
     folds = []
     rng = np.random.default_rng(0)

@@ -55,7 +55,7 @@ fig.tight_layout()
 # 0.5 °C between bursts, 300 s apart. So the model here uses the temperature alone,
 # ``terms=("T",)``: a static thermal-bias model, which is what a MEMS gyro needs most. The
 # three axes are fitted at once (multi-output). The RBF network is tried with its default
-# quadratic tail and with a linear one (see :ref:`rbf`).
+# linear tail and with a quadratic one (see :ref:`rbf`).
 from sklearn.dummy import DummyRegressor
 from sklearn.linear_model import LinearRegression
 
@@ -72,7 +72,7 @@ models = {
     "bias only": DummyRegressor(),
     "linear in T": thermal_model(LinearRegression()),
     "RBF network on T": thermal_model(RBFNetRegressor(random_state=0)),
-    "RBF, linear tail": thermal_model(RBFNetRegressor(tail="linear", random_state=0)),
+    "RBF, quadratic tail": thermal_model(RBFNetRegressor(tail="quadratic", random_state=0)),
 }
 
 # %%
@@ -178,18 +178,17 @@ fig.tight_layout()
 #   and a thermal model can only add its own error (a reduction near or below 1). Fit a
 #   thermal model per axis only where the axis has a thermal drift to model;
 # * extrapolating to colder temperatures than in training is where the models part ways.
-#   A polynomial tail extrapolates as a polynomial: the default quadratic tail of the RBF
-#   network can bend away outside the calibrated range, where a linear tail (or the linear
-#   model) keeps the trend. Compare the two RBF rows of the warm/cold table; for a
-#   calibration that must extrapolate, prefer ``tail="linear"``, and check it on held-out
-#   temperatures as here.
+#   A polynomial tail extrapolates as a polynomial: a quadratic tail can bend away outside
+#   the calibrated range, where the default linear tail (or the linear model) keeps the
+#   trend. Compare the two RBF rows of the warm/cold table; whatever the model, check a
+#   calibration that must extrapolate on held-out temperatures as here.
 #
 # Several things limit what this recording can show: one cooling run (no held-out *run*,
 # only held-out bursts of the same run, whose errors are correlated), a temperature scale
 # fitted from a hand-written chamber log (``recording.temperature_calibration`` gives its
 # residuals), and no temperature rate. It is a workflow check on real data, not evidence for
 # the IFOG results of the rest of this documentation.
-for model_name in ("RBF network on T", "RBF, linear tail"):
+for model_name in ("RBF network on T", "RBF, quadratic tail"):
     reduction = pd.DataFrame(
         {
             name: table["raw"] / table[model_name]
