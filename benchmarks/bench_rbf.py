@@ -27,9 +27,10 @@ function):
   N = 1e3, 1e4, 1e5; test targets from the same function with ``noise=0``.
 - ``thermal``: :func:`sklearn_ifog.datasets.make_thermal_campaign` (3 units, 4 azimuths,
   3 runs each, one sample a minute) through ``ThermalFeatures(time="time", run="run")`` (its
-  default thermal-state terms); leave-one-azimuth-out within each unit (12 folds); the score is the MSD of the
-  compensated rate, ``mean((rate - prediction - reference)²)`` on the held-out runs. Folds whose
-  held-out runs reach temperatures outside the training runs' range are reported separately.
+  default thermal-state terms); leave-one-azimuth-out within each unit (12 folds); the score
+  is the MSD of the compensated rate, ``mean((rate - prediction - reference)²)`` on the
+  held-out runs. Folds whose held-out runs reach temperatures outside the training runs'
+  range are reported separately.
 
 ``--quick``: smooth and friedman1 at N = 1e3 only, without the Gaussian process; thermal on
 one unit with 2 runs per azimuth (4 folds).

@@ -85,13 +85,16 @@ FULL = {"n_units": 1, "n_runs": 3, "azimuths": (0.0, 90.0, 180.0, 270.0)}
 QUICK = {"n_units": 1, "n_runs": 1, "azimuths": (0.0, 90.0, 180.0)}
 
 
-def feature_sets(taus, smoothing):
+def feature_sets(taus, smoothing, terms=None):
     """The paper's (T, dT, T·dT) and the thermal-state features, both from ThermalFeatures.
 
-    ``taus=None`` means ThermalFeatures' own default (what a user gets untuned); a list gives
-    the terms ``T_lag<tau>s`` explicitly, with ``smoothing`` seconds, to explore other sets.
+    ``taus=None`` and ``terms=None`` mean ThermalFeatures' own default (what a user gets
+    untuned); a list of ``taus`` gives the paper's terms and ``T_lag<tau>s`` explicitly, and
+    ``terms`` any explicit set, with ``smoothing`` seconds, to explore other sets.
     """
-    if taus is None:
+    if terms is not None:
+        state = {"terms": tuple(terms), "smoothing": smoothing}
+    elif taus is None:
         state = {}
     else:
         lags = tuple(f"T_lag{tau:g}s" for tau in taus)
@@ -531,6 +534,13 @@ def main(argv=None):
         "ThermalFeatures' default terms and smoothing)",
     )
     parser.add_argument(
+        "--state-terms",
+        nargs="+",
+        default=None,
+        help="explicit terms of the state features (overrides --taus), e.g. T dT TdT T2 "
+        "T_lag900s T_lag3600s",
+    )
+    parser.add_argument(
         "--smoothing",
         type=float,
         default=120.0,
@@ -561,14 +571,21 @@ def main(argv=None):
     )
     started = time.perf_counter()
     records = run(
-        seeds, physics_list, periods, sizes, models, (args.taus, args.smoothing), args.n_jobs
+        seeds,
+        physics_list,
+        periods,
+        sizes,
+        models,
+        (args.taus, args.smoothing, args.state_terms),
+        args.n_jobs,
     )
     records.sort(key=lambda r: (PHYSICS.index(r["physics"]), r["period"], r["seed"], r["fold"]))
     summary, checks = summarize(records, args.default_features)
     real = real_recording(models)
     checks += real_checks(real)
     elapsed = time.perf_counter() - started
-    state = feature_sets(args.taus, args.smoothing)["state"]().fit(
+    explicit = args.taus is not None or args.state_terms is not None
+    state = feature_sets(args.taus, args.smoothing, args.state_terms)["state"]().fit(
         _campaign(0, "lumped", 60.0, QUICK).data
     )
     # The resolved terms and smoothing (fitted attributes when the parameters say "auto").
@@ -576,9 +593,9 @@ def main(argv=None):
     smoothing = getattr(state, "smoothing_", state.smoothing)
     state_text = (
         "ThermalFeatures(time='time', run='run'"
-        + (") with its default " if args.taus is None else ", ")
+        + (", " if explicit else ") with its default ")
         + f"terms={terms}, smoothing={smoothing:g}"
-        + (")" if args.taus is not None else "")
+        + (")" if explicit else "")
     )
     header = [
         "# Thermal state: paper features against thermal-state features",
@@ -606,6 +623,7 @@ def main(argv=None):
             key: list(value) if isinstance(value, tuple) else value for key, value in sizes.items()
         },
         "taus": args.taus,
+        "state_terms": args.state_terms,
         "smoothing": args.smoothing,
         "default_features": args.default_features,
         "summary": summary,
