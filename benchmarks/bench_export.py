@@ -1,7 +1,7 @@
 """Deployment speed: compiled C against Python streaming and the batch ``predict``.
 
 One simulated campaign, one fitted Pipeline per model (ThermalFeatures → StandardScaler →
-RBFNetRegressor with 40 Gaussian units and its default quadratic tail, and a Ridge baseline),
+RBFNetRegressor with 40 Gaussian units and its default tail, and a Ridge baseline),
 measured in one run, on one core:
 
 - C: the exported ``{prefix}_step`` (double and float), compiled with ``cc -O2`` in a

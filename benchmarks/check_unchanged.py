@@ -446,13 +446,13 @@ def _snapshot_models(sim, real):
     out, models = {}, {}
     frame, train, target = sim
     fixed = {"n_centers": 20, "criterion": None}
-    specifications = {"default": ({}, True)}
+    specifications = {"default": {}}
     for mode in REFINE_MODES:
-        specifications[f"refine-{mode}"] = ({"refine": mode}, mode != "varpro")
-        specifications[f"fixed20-refine-{mode}"] = ({**fixed, "refine": mode}, True)
-    for name, (params, fit_it) in specifications.items():
-        if not fit_it:  # the default is refine="varpro": the same model
-            continue
+        # Every mode, the default's included: what the default is may differ between the
+        # revisions compared.
+        specifications[f"refine-{mode}"] = {"refine": mode}
+        specifications[f"fixed20-refine-{mode}"] = {**fixed, "refine": mode}
+    for name, params in specifications.items():
         model = _rbf_pipeline("run", **params).fit(frame[train], target[train])
         out[f"model.sim.{name}:predict"] = model.predict(frame[~train])
         out.update(_network_attributes(f"model.sim.{name}", model[-1]))

@@ -536,8 +536,9 @@ def default_regressors(*, features=None, max_kernel_samples=600, random_state=0)
 
     Every model but ``"rbf"`` reads the paper's features (those of ``features``); ``"rbf"``
     reads the same step with ``terms="auto"``, with a time column the thermal-state set
-    (T, ΔT, T·ΔT and T's excess over its lags at 900 s and 3600 s, ΔT smoothed over 120 s),
-    so ``"rbf_modified"`` against ``"rbf"`` shows what the thermal-state terms add.
+    (T, ΔT, T·ΔT, T², T's excess over its lags at 900 s and 3600 s and those excesses times
+    T, ΔT smoothed over 120 s), so ``"rbf_modified"`` against ``"rbf"`` shows what the
+    thermal-state terms add.
 
     Parameters
     ----------
