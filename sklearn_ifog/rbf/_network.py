@@ -206,13 +206,12 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
     ``python benchmarks/bench_thermal_state.py --n-jobs 2`` (results in
     ``benchmarks/results/thermal_state.md``: three seeds of the simulator's lumped, layered
     and layered-with-glass-transition physics at 10 s and 60 s, leave one azimuth out): on
-    the default features the network's MSD over the noise floor, pooled, is 1.003-1.073 with
-    the linear tail and 1.050-1.270 with the quadratic one (a degree-2 polynomial Ridge:
+    the default features the network's MSD over the noise floor, pooled, is 1.004-1.083 with
+    the linear tail and 1.084-1.363 with the quadratic one (a degree-2 polynomial Ridge:
     1.047-1.271). A plain linear Ridge on the same features ties it (1.001-1.076): there the
     held-out error rarely justifies a Gaussian unit (they are kept in 1 to 8 of 12 folds,
-    most on the glass transition at 60 s, where the network's 1.073 edges the linear
-    model's 1.076). On features without the squares, such as the paper's (T, dT, T·dT), the
-    units carry them (kept in 11 or 12 of 12 folds there).
+    most on the glass transition at 60 s). On features without the squares, such as the
+    paper's (T, dT, T·dT), the units carry them (kept in 11 or 12 of 12 folds there).
 
     The default refinement is variable projection: it moves centres and widths with the
     output weights solved exactly at every step, so it converges in few iterations. On a
@@ -220,7 +219,8 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
     ``benchmarks/results/bench_rbf.md``) it lowers the selected network's error about
     tenfold. On thermal tests it neither gains nor loses much: the selection keeps few units
     there, and in the thermal-state benchmark above the network without refinement
-    (``RBFNet (refine=None)`` rows) is within a few per cent of it on every preset;
+    (``RBFNet (refine=None)`` rows) is within 1% of it in pooled MSD on every preset and
+    sample period;
     ``tests/test_refine_holdout.py`` records campaigns where varpro and Levenberg–Marquardt
     end worse than the unrefined network on held-out runs (strict expected failures):
     refinement lowers the training objective, not always the error on other runs.
