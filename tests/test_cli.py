@@ -2,6 +2,7 @@
 
 import io
 import json
+import re
 import subprocess
 import sys
 import time
@@ -292,6 +293,13 @@ def test_demo_writes_what_it_says(tmp_path, capsys):
     assert "Table 2" in captured.out
     assert "rbf_modified" in captured.out
     assert "Noise floor: a perfect model of the simulated thermal drift" in captured.out
+    # after_over_floor is msd_after over the floor: for "raw" (no compensation), the
+    # largest possible reduction the floor line states.
+    header = next(line for line in captured.out.splitlines() if "after_over_floor" in line)
+    raw_row = next(line for line in captured.out.splitlines() if line.startswith("raw "))
+    column = header.split().index("after_over_floor")
+    bound = re.search(r"a reduction of at most ([0-9.e+-]+)x", captured.out).group(1)
+    assert float(raw_row.split()[1 + column]) == pytest.approx(float(bound), rel=1e-2)
     markdown = (out / "report.md").read_text()
     assert "## The reference paper's experiments" in markdown
     # the model it saved compensates the campaign it wrote
