@@ -29,8 +29,7 @@ mean((predicted - true drift)²) / floor. Targets (exit 1 when one fails):
    sample period (only when every one of those models is in the run);
 4. Gaussian units in use (``centers_`` not empty) in most folds of the default network on
    "layered" and "layered_glass", per sample period (counted over seeds; only when RBFNet
-   is in the run).
-
+   is in the run);
 5. on the shipped real recording (``load_psim_tvc``, alternate bursts, gyro x and y): the
    default network's held-out burst-mean MSD at most 1.02 x the best other model's,
    "linear in T" included (see :func:`real_recording`).

@@ -188,7 +188,7 @@ MODELS = {
     # sums terms ~900 times the drift, which alone costs float its 1e-4. The five
     # unmultiplied state terms per sensor: with the default's sixteen columns (T, T² and the
     # T products of two sensors nearly collinear) the recursive least squares of
-    # adapt="output" amplifies rounding, and C and Python part by 2e-9 of max|drift|.
+    # adapt="output" amplifies rounding, and C and Python part by more than the 1e-9 bound.
     "rbf-2-sensors-2-outputs": lambda c: _fitted(
         c,
         MinMaxScaler(clip=True),
