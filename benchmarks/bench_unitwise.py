@@ -6,10 +6,10 @@ at one azimuth; every unit is calibrated on its first 1, 2 or 4 runs and tested 
 kinds of lot: "similar" (units of one design, ``lot_spread=LOT_SPREAD``) and "independent"
 (every unit drawn on its own, ``lot_spread=None``); two physics presets ("lumped" and
 "layered_glass"). The models are the package's pipeline (``make_compensation_pipeline``,
-on the features ``MEASURED_TERMS``, the default when the committed results were measured)
-with a linear regressor and with the RBF network (``refine=None`` for speed, linear tail),
-wrapped in ``UnitwiseRegressor`` with each pooling; scikit-lego's ``GroupedPredictor`` with
-its shrinkage options wraps the same pipeline as a comparison (a test-only dependency). The
+its default features) with a linear regressor and with the RBF network (``refine=None`` for
+speed, linear tail), wrapped in ``UnitwiseRegressor`` with each pooling; scikit-lego's
+``GroupedPredictor`` with its shrinkage options wraps the same pipeline as a comparison (a
+test-only dependency). The
 RBF network with a quadratic tail (the default of earlier releases) is run too and reported
 separately (see the notes in the results).
 
@@ -67,17 +67,11 @@ TOLERANCE = 1.05
 LOTS = {"similar": LOT_SPREAD, "independent": None}
 
 
-# The features as measured for the committed results (the package's default then): the
-# benchmark measures the pooling, and names the features it measured it on until it is run
-# again with the current default.
-MEASURED_TERMS = ("T", "dT", "TdT", "T_lag900s", "T_lag3600s")
-
-
 def models(seed, quick):
     """name -> (pipeline, in the verdict, GroupedPredictor shrinkage options run)."""
     found = {
         "linear": (
-            make_compensation_pipeline(LinearRegression(), terms=MEASURED_TERMS),
+            make_compensation_pipeline(LinearRegression()),
             True,
             SKLEGO_SHRINKAGE,
         )
@@ -87,16 +81,14 @@ def models(seed, quick):
         # the option the issue measured ("relative"), to keep the run short.
         found["rbf"] = (
             make_compensation_pipeline(
-                RBFNetRegressor(refine=None, tail="linear", random_state=seed),
-                terms=MEASURED_TERMS,
+                RBFNetRegressor(refine=None, tail="linear", random_state=seed)
             ),
             True,
             ("relative",),
         )
         found["rbf_quadratic_tail"] = (
             make_compensation_pipeline(
-                RBFNetRegressor(refine=None, tail="quadratic", random_state=seed),
-                terms=MEASURED_TERMS,
+                RBFNetRegressor(refine=None, tail="quadratic", random_state=seed)
             ),
             False,
             (),

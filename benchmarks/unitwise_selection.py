@@ -16,16 +16,23 @@ the same fits. Rules:
 - ``cv_lot_own``: the same strengths; own model chosen for the lot (summed held-out
   errors), the own model's error scaled by ``(r - 1) / r`` (both models);
 - ``chosen``: what ``UnitwiseRegressor`` does: strengths by log-evidence, per unit with two
-  runs or more, one from the summed log-evidence for the single-run units; own model
-  chosen for the lot, scaled, RBF network only;
-- ``evidence_unit_own``: as ``chosen``, but the own model chosen unit by unit;
-- ``evidence_lot_own_unscaled``: as ``chosen``, without the ``(r - 1) / r`` scaling;
-- ``evidence_lot_own_linear_too``: as ``chosen``, the own model tried for the linear model
-  too;
-- ``evidence_shared``: as ``chosen``, with one strength for the lot at every calibration
-  size;
-- ``evidence_blocks8``: as ``chosen``, but the single-run units' shared strength by 8
-  contiguous blocks held out in turn (the previous rule used 4).
+  runs or more, one from the summed log-evidence for the single-run units; a unit with two
+  runs or more whose evidence puts it far from the lot (``n lam <= 1 / OWN_MODEL_SPREAD²``)
+  keeps its own model; the own model otherwise chosen for the lot, scaled, RBF network
+  only;
+- ``evidence_lot_own``: as ``chosen`` without the far-unit rule (the previous release's
+  choice);
+- ``far_own_spread1``, ``far_own_spread3``: as ``chosen``, with ``OWN_MODEL_SPREAD`` 1 and 3
+  instead of 2;
+- ``evidence_unit_own``: as ``evidence_lot_own``, but the own model chosen unit by unit;
+- ``evidence_lot_own_unscaled``: as ``evidence_lot_own``, without the ``(r - 1) / r``
+  scaling;
+- ``evidence_lot_own_linear_too``: as ``evidence_lot_own``, the own model tried for the
+  linear model too;
+- ``evidence_shared``: as ``evidence_lot_own``, with one strength for the lot at every
+  calibration size;
+- ``evidence_blocks8``: as ``evidence_lot_own``, but the single-run units' shared strength
+  by 8 contiguous blocks held out in turn (the previous rule used 4).
 
 The table gives, per rule and cell (physics, lot, model, calibration runs), the seed-mean
 test MSD over the better of "none" and "full" (bench_unitwise's target 1: <= 1.05), for the
@@ -54,7 +61,13 @@ from sklearn.base import clone
 
 from sklearn_ifog import _shrinkage
 from sklearn_ifog._io import write_text_files
-from sklearn_ifog.unitwise import _final_step, _layer_inputs, layer_design, layer_weights
+from sklearn_ifog.unitwise import (
+    OWN_MODEL_SPREAD,
+    _final_step,
+    _layer_inputs,
+    layer_design,
+    layer_weights,
+)
 
 from bench_unitwise import (  # isort: skip
     CALIBRATION_RUNS,
@@ -74,6 +87,9 @@ RULES = (
     "cv_per_unit",
     "cv_lot_own",
     "chosen",
+    "evidence_lot_own",
+    "far_own_spread1",
+    "far_own_spread3",
     "evidence_unit_own",
     "evidence_lot_own_unscaled",
     "evidence_lot_own_linear_too",
@@ -196,7 +212,16 @@ def _strengths(units, how):
     return chosen
 
 
-def _with_own(units, chosen, *, lot_level, scaled):
+def _far(units, chosen, spread):
+    """Units of two runs or more whose evidence puts them ``spread`` noise sd from the lot."""
+    return {
+        u["unit"]
+        for u in units
+        if u["n_runs"] >= 2 and u["n_train"] * GRID[chosen[u["unit"]]] <= spread**-2.0
+    }
+
+
+def _with_own(units, chosen, *, lot_level, scaled, far=()):
     several = [u for u in units if u["n_runs"] >= 2]
 
     def own_error(u):
@@ -211,6 +236,7 @@ def _with_own(units, chosen, *, lot_level, scaled):
         owners = {u["unit"] for u in several} if own else set()
     else:
         owners = {u["unit"] for u in several if own_error(u) < shrunk_error(u)}
+    owners |= set(far)
     return sum(
         u["test_own"] if u["unit"] in owners else u["test_grid"][chosen[u["unit"]]] for u in units
     )
@@ -245,9 +271,13 @@ def rule_sse(cell, rule):
         return _with_own(units, chosen, lot_level=True, scaled=True)
     how = "shared" if rule == "evidence_shared" else "evidence"
     chosen = _strengths(units, how)
+    spread = {"chosen": OWN_MODEL_SPREAD, "far_own_spread1": 1.0, "far_own_spread3": 3.0}
+    far = _far(units, chosen, spread[rule]) if rule in spread else set()
     if not rbf:
-        return sum(u["test_grid"][chosen[u["unit"]]] for u in units)
-    return _with_own(units, chosen, lot_level=True, scaled=True)
+        return sum(
+            u["test_own"] if u["unit"] in far else u["test_grid"][chosen[u["unit"]]] for u in units
+        )
+    return _with_own(units, chosen, lot_level=True, scaled=True, far=far)
 
 
 def summarise(cells, seeds):

@@ -19,7 +19,7 @@ from sklearn_ifog import (
 from sklearn_ifog import _shrinkage as shrinkage
 from sklearn_ifog._compat import InvalidParameterError
 from sklearn_ifog.datasets import make_thermal_campaign
-from sklearn_ifog.unitwise import _layer_inputs, layer_design, layer_weights
+from sklearn_ifog.unitwise import OWN_MODEL_SPREAD, _layer_inputs, layer_design, layer_weights
 
 
 @pytest.fixture(scope="module")
@@ -142,7 +142,10 @@ def test_strength_maximises_each_units_evidence(lot):
         np.testing.assert_allclose(model.shrinkage_evidence_[unit], evidence, rtol=1e-9)
         assert evidence[0] == -np.inf  # strength 0: a flat prior, never chosen
         best = np.flatnonzero(evidence >= evidence.max() - 1e-12 * abs(evidence.max()))[-1]
-        assert model.shrinkage_[unit] == grid[best]
+        if rows.sum() * grid[best] <= OWN_MODEL_SPREAD**-2:
+            assert model.shrinkage_[unit] is None  # far from the lot: its own model
+        else:
+            assert model.shrinkage_[unit] == grid[best]
         assert model.n_folds_[unit] == 3  # one held-out run at a time
         assert model.shrinkage_scores_[unit].shape == grid.shape
         assert model.own_scores_[unit] is None  # a linear model's own fit is strength 0
@@ -195,31 +198,31 @@ def test_log_evidence_is_the_gaussian_marginal_likelihood():
 
 
 def test_own_models_are_chosen_for_the_lot_on_scaled_held_out_errors(lot):
-    """RBF network: every multi-run unit keeps its own model, or none does, as the
-    held-out errors say (the own model's scaled by (r - 1) / r)."""
+    """RBF network: every multi-run unit keeps its own model, or only those the evidence
+    puts far from the lot do, as the held-out errors say (the own model's scaled by
+    (r - 1) / r)."""
     X, y = lot.data, lot.target.to_numpy().copy()
     odd = _unit_rows(lot, 1)
     y[odd] = -5.0 * y[odd] + 0.3
     model = UnitwiseRegressor(_rbf(), pooling="partial").fit(X, y)
     grid = model.shrinkage_grid_
     own_total = shrunk_total = 0.0
+    far = []
     for unit in range(4):
         size = _unit_rows(lot, unit).sum()
         own_total += model.own_scores_[unit] * size * 2 / 3  # three runs a unit
-        lam = model.shrinkage_[unit]
-        if lam is None:  # the chosen strength is still the evidence's
-            evidence = model.shrinkage_evidence_[unit]
-            lam = grid[
-                np.flatnonzero(evidence >= evidence.max() - 1e-12 * abs(evidence.max()))[-1]
-            ]
+        # the chosen strength is the evidence's, whether or not the own model was kept
+        lam = shrinkage.pick_strength(-model.shrinkage_evidence_[unit], grid)
         shrunk_total += model.shrinkage_scores_[unit][grid == lam][0] * size
+        if size * lam <= OWN_MODEL_SPREAD**-2:
+            far.append(unit)
     owners = [unit for unit in range(4) if model.shrinkage_[unit] is None]
-    assert owners == ([0, 1, 2, 3] if own_total < shrunk_total else [])
+    assert owners == ([0, 1, 2, 3] if own_total < shrunk_total else far)
     lot_final = model.lot_estimator_.steps[-1][1]
     for unit in range(4):
         final = model.estimators_[unit].steps[-1][1]
         rows = _unit_rows(lot, unit)
-        if owners:
+        if unit in owners:
             alone = _rbf().fit(X[rows].drop(columns="unit"), y[rows])
             np.testing.assert_array_equal(final.coef_, alone.steps[-1][1].coef_)
         else:
@@ -269,13 +272,39 @@ def test_partial_lets_a_unit_unlike_the_lot_keep_its_own_weights(lot):
     model = UnitwiseRegressor(_linear(), pooling="partial").fit(X, y)
     none = UnitwiseRegressor(_linear(), pooling="none").fit(X, y)
     full = UnitwiseRegressor(_linear(), pooling="full").fit(X, y)
-    # its own weights on the lot's basis, or its own model altogether
-    assert model.shrinkage_[2] is None or model.shrinkage_[2] < 1e-2
+    # the evidence puts it far from the lot: its own model altogether
+    assert model.shrinkage_[2] is None
+    np.testing.assert_array_equal(model.predict(X[odd]), none.predict(X[odd]))
     msd = {
         name: np.mean((y[odd] - m.predict(X[odd])) ** 2)
         for name, m in (("partial", model), ("none", none), ("full", full))
     }
     assert msd["partial"] <= 1.1 * msd["none"] < 0.1 * msd["full"]
+
+
+@pytest.mark.parametrize("reversed_unit", [False, True], ids=["similar", "one-reversed"])
+def test_the_own_model_rule_follows_the_evidence_unit_by_unit(lot, reversed_unit):
+    """A unit of several runs keeps its own model exactly when n lam <= 1 / spread²:
+    none of the similar lot's units does; the reversed unit does."""
+    X, y = lot.data, lot.target.to_numpy().copy()
+    if reversed_unit:
+        y[_unit_rows(lot, 1)] *= -1.0
+    model = UnitwiseRegressor(_linear(), pooling="partial").fit(X, y)
+    grid = model.shrinkage_grid_
+    kept = set()
+    for unit in range(4):
+        rows = _unit_rows(lot, unit)
+        strength = shrinkage.pick_strength(-model.shrinkage_evidence_[unit], grid)
+        far = rows.sum() * strength <= OWN_MODEL_SPREAD**-2
+        assert (model.shrinkage_[unit] is None) == far, unit
+        if far:
+            kept.add(unit)
+            inner = X[rows].drop(columns="unit")
+            own = clone(_linear()).fit(inner, y[rows])
+            np.testing.assert_array_equal(
+                model.estimators_[unit].predict(inner), own.predict(inner)
+            )
+    assert (1 in kept) if reversed_unit else not kept
 
 
 def test_single_run_units_share_one_strength(lot):
