@@ -8,15 +8,17 @@ Usage (from the repository root)::
 Every held-out fold is one (unit, azimuth) pair of a simulated campaign
 (:class:`~sklearn_ifog.model_selection.LeaveOneAzimuthOut`, within each unit); the three
 methods are calibrated on the fold's training runs only, with the same drift model, the
-:func:`~sklearn_ifog.make_compensation_pipeline` with the features ``MEASURED_TERMS`` and
-``RBFNetRegressor(refine=None, criterion="holdout", tail="quadratic")`` inside (the
-package's defaults when the committed results were measured) (no refinement and a one-split
+:func:`~sklearn_ifog.make_compensation_pipeline` with its default features and
+``RBFNetRegressor(refine=None, criterion="holdout")`` inside (no refinement and a one-split
 choice of centres and width: about five times cheaper to fit, for speed), at 90 % nominal
 coverage, on campaigns of one unit, four azimuths, three runs each, 300 s samples:
 
 - ``ours``: :class:`~sklearn_ifog.ConformalRegressor` (run-wise, adaptive, CV+),
   ``cv=GroupKFold(5)`` over the training runs (the same folds as MAPIE by run; with
-  ``--ours-cv runs``, the estimator's default ``cv=None``, one fold per run);
+  ``--ours-cv runs``, the estimator's default ``cv=None``, one fold per run; with
+  ``--ours-cv headings``, the splits of ``LeaveOneAzimuthOut`` on the training runs, a
+  whole heading held out per fold as in the test, the runs still the scoring groups; the
+  real recording, which has no heading, keeps ``GroupKFold(5)``);
 - ``ours_flat``: the same with ``adaptive=False`` (run-wise, absolute scores);
 - ``mapie_rows``: MAPIE ``CrossConformalRegressor(cv=KFold(5, shuffle))``, CV+;
 - ``mapie_runs``: MAPIE ``CrossConformalRegressor(cv=GroupKFold(5))`` with the runs as groups.
@@ -30,7 +32,7 @@ into 5 blocks of 5 bursts, each held out in turn, the bursts being the calibrati
 
 Targets (on ``ours``, every preset, every seed): mean coverage in [0.87, 0.95], every held-out
 fold >= 0.85, mean width <= 1.2 x oracle, out-of-range coverage >= 0.85 (every run group).
-Results go to ``benchmarks/results/conformal[_quick][_cvruns].md`` and ``.json``; exit 1 if
+Results go to ``benchmarks/results/conformal[_quick][_cvruns|_cvheadings].md`` and ``.json``; exit 1 if
 a target fails.
 """
 
@@ -57,22 +59,19 @@ METHODS = ("ours", "ours_flat", "mapie_rows", "mapie_runs")
 RESULTS = Path(__file__).parent / "results"
 # How ``ours`` splits its calibration runs: GroupKFold(5) (the folds of MAPIE by run, the
 # default here) or, with ``--ours-cv runs``, the estimator's own default (one fold per run).
-OURS_CV = {"groupkfold5": lambda: GroupKFold(5), "runs": lambda: None}
+OURS_CV = {
+    "groupkfold5": lambda X: GroupKFold(5),
+    "runs": lambda X: None,
+    "headings": lambda X: (
+        list(LeaveOneAzimuthOut().split(X)) if "azimuth" in X.columns else GroupKFold(5)
+    ),
+}
 SETTINGS = {"ours_cv": "groupkfold5"}
 
 
-# The drift model's features and tail as measured for the committed results (the package's
-# defaults then): the benchmark measures the intervals, and names the pipeline it measured
-# them on until it is run again with the current defaults.
-MEASURED_TERMS = ("T", "dT", "TdT", "T_lag900s", "T_lag3600s")
-MEASURED_TAIL = "quadratic"
-
-
 def pipeline(**kwargs):
-    regressor = RBFNetRegressor(
-        refine=None, criterion="holdout", tail=MEASURED_TAIL, random_state=0
-    )
-    return make_compensation_pipeline(regressor, **{"terms": MEASURED_TERMS, **kwargs})
+    regressor = RBFNetRegressor(refine=None, criterion="holdout", random_state=0)
+    return make_compensation_pipeline(regressor, **kwargs)
 
 
 def fit_predict(method, X_train, y_train, groups, X_test, base):
@@ -81,7 +80,7 @@ def fit_predict(method, X_train, y_train, groups, X_test, base):
         model = ConformalRegressor(
             base,
             coverage=NOMINAL,
-            cv=OURS_CV[SETTINGS["ours_cv"]](),
+            cv=OURS_CV[SETTINGS["ours_cv"]](X_train),
             adaptive=method == "ours",
         )
         model.fit(X_train, y_train, groups=groups)
@@ -237,9 +236,9 @@ def markdown(results, failures, command, elapsed):
         "# Conformal intervals: ours vs MAPIE row-wise vs MAPIE by run",
         "",
         f"Command: `{command}` ({elapsed:.0f} s). 90 % nominal; held-out folds: leave one "
-        "azimuth out within each unit; drift model: make_compensation_pipeline with "
-        f"terms={MEASURED_TERMS} and RBFNetRegressor(refine=None, criterion='holdout', "
-        f"tail={MEASURED_TAIL!r}). Oracle: 5-95 % range of the "
+        "azimuth out within each unit; drift model: make_compensation_pipeline (default "
+        "features) with RBFNetRegressor(refine=None, criterion='holdout'). Oracle: 5-95 % "
+        "range of the "
         "method's own held-out residuals. Out of range: calibrated on the warmer half of the "
         "runs, tested on the colder half. Real: load_psim_tvc gyro_x, 5 blocks of 5 bursts "
         "held out in turn.",
@@ -281,7 +280,8 @@ def main(argv=None):
         choices=tuple(OURS_CV),
         default="groupkfold5",
         help="how ours splits its calibration runs: GroupKFold(5), as MAPIE by run "
-        "(default), or one fold per run (the estimator's default cv=None)",
+        "(default), one fold per run (the estimator's default cv=None), or one heading "
+        "held out per fold (LeaveOneAzimuthOut)",
     )
     args = parser.parse_args(argv)
     SETTINGS["ours_cv"] = args.ours_cv
@@ -330,7 +330,7 @@ def main(argv=None):
     )
     text = markdown(results, failures, command, elapsed)
     stem = ("conformal_quick" if args.quick else "conformal") + (
-        "_cvruns" if args.ours_cv == "runs" else ""
+        "" if args.ours_cv == "groupkfold5" else f"_cv{args.ours_cv}"
     )
     args.out.mkdir(parents=True, exist_ok=True)
     payload = {

@@ -11,7 +11,13 @@ calibrations below are compared on the same out-of-fold residuals, at 90 % nomin
   absolute residual on the standardised features and their magnitudes, cross-fitted;
 - ``distance``: the package's adaptive score: a ridge model of the *squared* residual on the
   mean distance to the 10 nearest rows the predicting model was fitted on (in the
-  standardised features), cross-fitted; checked equal to ``ConformalRegressor`` on one split;
+  standardised features), cross-fitted, and the band widened by the fold models' jackknife
+  variance where it exceeds its calibrated level (``conformal.extrapolation_variance``);
+  checked equal to ``ConformalRegressor`` on one split;
+- ``distance, no jackknife``: the same without the widening (the previous release's band);
+- ``distance, ref q0.5``, ``distance, ref max``: the widening above the median and above
+  the largest fold-prediction variance of the calibration rows instead of its 0.95 quantile
+  (``_EXTRAPOLATION_REFERENCE``): how much the reference matters;
 - ``distance c=0.7``, ``distance c=0.8``: the same with a higher ``confidence``: what it costs
   in width to bring the last folds to 0.85.
 
@@ -42,7 +48,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from scipy.stats import spearmanr
+from scipy.stats import norm, spearmanr
 from sklearn.base import clone
 from sklearn.linear_model import Ridge
 from sklearn.model_selection import GroupKFold
@@ -50,9 +56,11 @@ from sklearn.model_selection import GroupKFold
 from sklearn_ifog import ConformalRegressor
 from sklearn_ifog._io import write_text_files
 from sklearn_ifog.conformal import (
+    _EXTRAPOLATION_REFERENCE,
     _fit_difficulty,
     _predict_difficulty,
     _soften,
+    extrapolation_variance,
     knn_distance,
     plus_interval,
     run_quantile_scores,
@@ -64,7 +72,16 @@ from bench_conformal import NOMINAL, campaign, pipeline  # isort: skip
 RESULTS = Path(__file__).parent / "results"
 DEV_SEEDS = (0, 1, 2)
 EXTRA_SEEDS = (3, 4)
-VARIANTS = ("flat", "features", "distance", "distance c=0.7", "distance c=0.8")
+VARIANTS = (
+    "flat",
+    "features",
+    "distance, no jackknife",
+    "distance, ref q0.5",
+    "distance, ref max",
+    "distance",
+    "distance c=0.7",
+    "distance c=0.8",
+)
 
 
 def split_predictions(X, y, runs, train, test, base):
@@ -74,12 +91,13 @@ def split_predictions(X, y, runs, train, test, base):
     splits = list(GroupKFold(5).split(X_train, y_train, groups))
     oof = np.empty(len(train))
     fold_of = np.empty(len(train), dtype=int)
-    test_predictions = []
+    test_predictions, train_predictions = [], []
     for k, (inner_train, inner_test) in enumerate(splits):
         model = clone(base).fit(X_train.iloc[inner_train], y_train[inner_train])
         oof[inner_test] = model.predict(X_train.iloc[inner_test])
         fold_of[inner_test] = k
         test_predictions.append(model.predict(X_test))
+        train_predictions.append(model.predict(X_train))
     full = clone(base).fit(X_train, y_train)
     return {
         "y_train": y_train,
@@ -89,6 +107,7 @@ def split_predictions(X, y, runs, train, test, base):
         "oof": oof,
         "fold_of": fold_of,
         "test_predictions": np.array(test_predictions),
+        "train_predictions": np.array(train_predictions),
         "full_test": full.predict(X_test),
         "raw_train": np.asarray(full[:-1].transform(X_train), dtype=float),
         "raw_test": np.asarray(full[:-1].transform(X_test), dtype=float),
@@ -158,9 +177,22 @@ def bounds(variant, split):
     labels, group_scores = run_quantile_scores(residual / sigma, split["groups"], NOMINAL)
     first = {label: np.flatnonzero(split["groups"] == label)[0] for label in labels}
     group_fold = np.array([split["fold_of"][first[label]] for label in labels])
-    return plus_interval(
+    band = plus_interval(
         split["test_predictions"], test_sigma, group_scores, group_fold, confidence
     )
+    if not variant.startswith("distance") or "no jackknife" in variant:
+        return band
+    # as ConformalRegressor: the fold models' jackknife variance beyond its calibrated level
+    level = {"distance, ref q0.5": 0.5, "distance, ref max": 1.0}.get(
+        variant, _EXTRAPOLATION_REFERENCE
+    )
+    reference = np.quantile(split["train_predictions"].var(axis=0), level)
+    extra = extrapolation_variance(split["test_predictions"], reference)
+    half = np.sqrt(
+        np.square(np.diff(band, axis=1).ravel() / 2) + norm.ppf((1 + NOMINAL) / 2) ** 2 * extra
+    )
+    middle = band.mean(axis=1)
+    return np.column_stack([middle - half, middle + half])
 
 
 def coverage_and_ratio(split, band):

@@ -4,6 +4,7 @@ import joblib
 import numpy as np
 import pandas as pd
 import pytest
+from scipy.stats import norm
 from sklearn.base import clone
 from sklearn.linear_model import LinearRegression, Ridge
 from sklearn.model_selection import GridSearchCV, GroupKFold, TimeSeriesSplit
@@ -14,6 +15,7 @@ from sklearn.preprocessing import StandardScaler
 from sklearn_ifog import ConformalRegressor, RBFNetRegressor, make_compensation_pipeline
 from sklearn_ifog.conformal import (
     conformal_quantile,
+    extrapolation_variance,
     knn_distance,
     plus_interval,
     run_quantile_scores,
@@ -102,6 +104,47 @@ def test_adaptive_band_is_wider_away_from_the_calibrated_conditions(seed):
     flat = ConformalRegressor(LinearRegression(), adaptive=False).fit(X, y, groups=runs)
     flat_width = np.diff(flat.predict_interval(grid), axis=1).ravel()
     np.testing.assert_allclose(flat_width, flat_width[0], rtol=0.2)
+
+
+def test_extrapolation_variance_is_the_jackknife_excess():
+    predictions = np.array([[1.0, 0.0, 2.0], [1.0, 2.0, -2.0], [1.0, 1.0, 0.0]])
+    # variances over the folds: 0, 2/3, 8/3; jackknife factor K - 1 = 2
+    np.testing.assert_allclose(
+        extrapolation_variance(predictions, 0.0), [0.0, 4.0 / 3.0, 16.0 / 3.0]
+    )
+    np.testing.assert_allclose(extrapolation_variance(predictions, 1.0), [0.0, 0.0, 10.0 / 3.0])
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_band_widens_where_the_fold_models_part(seed):
+    """Out of the calibrated range the fold models' jackknife variance joins the band in
+    quadrature; inside it, where they agree as on the calibration rows, the band is the
+    CV+ band alone."""
+    rng = np.random.RandomState(seed)
+    x = rng.uniform(0.0, 1.0, size=(12, 50))
+    y = (2.0 * x + 0.1 * rng.normal(size=x.shape) + 0.05 * rng.normal(size=(12, 1))).ravel()
+    X, runs = x.reshape(-1, 1), np.repeat(np.arange(12), 50)
+    model = ConformalRegressor(LinearRegression(), cv=4).fit(X, y, groups=runs)
+    on_calibration = np.stack([m.predict(X) for m in model.estimators_])
+    assert model.fold_variance_reference_ == pytest.approx(
+        np.quantile(on_calibration.var(axis=0), 0.95), rel=1e-12
+    )
+    grid = np.array([[0.5], [4.0], [8.0]])
+    predictions = np.stack([m.predict(grid) for m in model.estimators_])
+    extra = extrapolation_variance(predictions, model.fold_variance_reference_)
+    assert extra[0] == 0.0
+    assert 0.0 < extra[1] < extra[2]
+    cv_plus = plus_interval(
+        predictions, model._scale(grid), model.group_scores_, model.group_fold_, 0.6
+    )
+    half = np.sqrt((np.diff(cv_plus, axis=1).ravel() / 2) ** 2 + norm.ppf(0.95) ** 2 * extra)
+    middle = cv_plus.mean(axis=1)
+    bounds = model.predict_interval(grid)
+    np.testing.assert_allclose(bounds, np.column_stack([middle - half, middle + half]))
+    np.testing.assert_allclose(bounds[0], cv_plus[0])
+    # another coverage re-reads the scores and the normal quantile of that coverage
+    wide = model.predict_interval(grid, coverage=0.99)
+    assert np.all(np.diff(wide, axis=1) > np.diff(bounds, axis=1))
 
 
 def test_knn_distance_values_and_cross_fitting():
