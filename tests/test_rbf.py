@@ -18,6 +18,8 @@ from sklearn_ifog.rbf._basis import (
     predict_network,
     tail_features,
 )
+from sklearn_ifog.rbf._ols import width_grid
+from sklearn_ifog.rbf._select import WIDTH_MULTIPLES
 
 
 def _smooth(n, seed=0, noise=0.05):
@@ -219,6 +221,37 @@ def test_fixed_number_of_centres_and_width():
     # Centres are training rows (standardised).
     Z = (X - model.x_mean_) / model.x_scale_
     assert all(np.any(np.all(np.isclose(c, Z), axis=1)) for c in model.centers_)
+
+
+def test_width_grid_reaches_the_radius_of_clustered_rows():
+    """Rows in tight clusters (a held temperature, a quantised sensor): the nearest-neighbour
+    spacing is the within-cluster one; the grid doubles on until the data's radius."""
+    even = np.linspace(-1.0, 1.0, 41)[:, None]
+    assert_allclose(width_grid(even, WIDTH_MULTIPLES), 0.05 * np.asarray(WIDTH_MULTIPLES))
+    clusters = np.concatenate([c + 1e-3 * np.arange(5) for c in np.linspace(-1, 1, 9)])[:, None]
+    widths = width_grid(clusters, WIDTH_MULTIPLES)
+    assert_allclose(widths[:4], 1e-3 * np.asarray(WIDTH_MULTIPLES))
+    assert_allclose(widths[4:] / widths[3:-1], 2.0)
+    radius = 0.5 * np.median(np.abs(clusters - clusters.T)[np.triu_indices(45, 1)])
+    assert widths[-2] < radius <= widths[-1]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_clustered_rows_are_interpolated_between_clusters(seed):
+    """Twelve clusters of one input (a gyro read at held temperatures): the network must
+    follow the curve between them, not one narrow unit per cluster (0.04-0.46 here with
+    the grid of nearest-neighbour multiples alone)."""
+    rng = np.random.RandomState(seed)
+    levels = np.linspace(-2.0, 2.0, 12)
+    X = (np.repeat(levels, 100) + 0.003 * rng.normal(size=1200))[:, None]
+
+    def curve(t):
+        return np.sin(1.5 * t) + 0.3 * t**2
+
+    y = curve(X[:, 0]) + 0.3 * rng.normal(size=1200)
+    model = RBFNetRegressor(random_state=seed).fit(X, y)
+    between = ((levels[:-1] + levels[1:]) / 2)[:, None]
+    assert np.mean((model.predict(between) - curve(between[:, 0])) ** 2) < 0.02
 
 
 def test_goal_stops_at_first_prefix_reaching_it():

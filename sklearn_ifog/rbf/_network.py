@@ -41,7 +41,9 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
     width : "auto" or float, default="auto"
         Shared width σ of the Gaussian units, in standardised input units. ``"auto"`` picks
         it from multiples 2, 4, 8 and 16 of the candidates' median nearest-neighbour
-        distance by the same criterion as the number of centres.
+        distance, doubled further until the widest reaches half the candidates' median
+        distance (rows in tight clusters, such as readings at held temperatures), by the
+        same criterion as the number of centres.
     refine : {"varpro", "lm", "gd"} or None, default="varpro"
         Refinement of centres, widths (log-parametrised) and weights after selection:
         variable projection (weights solved inside), Levenberg–Marquardt on all parameters,

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
+from scipy.spatial.distance import pdist
 from sklearn.cluster import kmeans_plusplus
 from sklearn.utils import check_random_state
 
@@ -459,6 +460,50 @@ def median_nn_distance(candidates):
     distances, _ = cKDTree(candidates).query(candidates, k=2)
     median = float(np.median(distances[:, 1]))
     return median if median > 0 else 1.0
+
+
+def width_grid(candidates, multiples):
+    """Shared widths to try: ``multiples`` of the median nearest-neighbour distance, then
+    doublings until the widest reaches the data's radius.
+
+    The nearest-neighbour distance is the local spacing of the candidates. When the rows
+    come in clusters (a temperature held while the gyro is read, a quantised sensor at fast
+    sampling) it is the spacing *within* a cluster, and every width on its multiples is
+    narrower than the gaps between clusters: each unit could only fit one cluster. Widths
+    are therefore doubled from the largest multiple until one reaches half the median
+    distance between candidates (the radius of the data); on rows spread evenly the
+    multiples reach it already and nothing is added.
+
+    Parameters
+    ----------
+    candidates : ndarray of shape (n_candidates, n_features)
+        Distinct candidate centres.
+    multiples : sequence of float
+        Increasing multiples of the median nearest-neighbour distance.
+
+    Returns
+    -------
+    widths : ndarray of shape (n_widths,)
+        Increasing widths.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> even = np.linspace(0.0, 1.0, 11)[:, None]
+    >>> width_grid(even, (1.0, 2.0, 4.0)).round(3).tolist()
+    [0.1, 0.2, 0.4]
+    >>> clusters = np.concatenate([c + 0.001 * np.arange(5) for c in (0.0, 0.5, 1.0)])[:, None]
+    >>> width_grid(clusters, (1.0, 2.0, 4.0)).round(3).tolist()
+    [0.001, 0.002, 0.004, 0.008, 0.016, 0.032, 0.064, 0.128, 0.256]
+    """
+    widths = median_nn_distance(candidates) * np.asarray(multiples, dtype=float)
+    if candidates.shape[0] < 2:
+        return widths
+    radius = 0.5 * float(np.median(pdist(candidates)))
+    extra = []
+    while widths[-1] * 2.0 ** len(extra) < radius:
+        extra.append(widths[-1] * 2.0 ** (len(extra) + 1))
+    return np.concatenate([widths, extra])
 
 
 def contiguous_validation_mask(n_samples, fraction, n_blocks):

@@ -25,10 +25,10 @@ from sklearn_ifog.rbf._basis import (
 from sklearn_ifog.rbf._ols import (
     candidate_pool,
     contiguous_validation_mask,
-    median_nn_distance,
     ols_forward_select,
     path_criterion,
     prefix_fits,
+    width_grid,
     within_one_standard_error,
 )
 
@@ -297,7 +297,7 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
                 stacklevel=5,
             )
     if options.width == "auto":
-        widths_tried = median_nn_distance(candidates) * np.asarray(WIDTH_MULTIPLES)
+        widths_tried = width_grid(candidates, WIDTH_MULTIPLES)
     else:
         widths_tried = np.array([float(options.width)])
     widths_tried = np.clip(widths_tried, *WIDTH_LIMITS)
