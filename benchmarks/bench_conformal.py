@@ -32,8 +32,8 @@ into 5 blocks of 5 bursts, each held out in turn, the bursts being the calibrati
 
 Targets (on ``ours``, every preset, every seed): mean coverage in [0.87, 0.95], every held-out
 fold >= 0.85, mean width <= 1.2 x oracle, out-of-range coverage >= 0.85 (every run group).
-Results go to ``benchmarks/results/conformal[_quick][_cvruns|_cvheadings].md`` and ``.json``; exit 1 if
-a target fails.
+Results go to ``benchmarks/results/conformal[_quick][_cvruns|_cvheadings].md`` and
+``.json``; exit 1 if a target fails.
 """
 
 import argparse
