@@ -234,6 +234,13 @@ def test_width_grid_reaches_the_radius_of_clustered_rows():
     assert_allclose(widths[4:] / widths[3:-1], 2.0)
     radius = 0.5 * np.median(np.abs(clusters - clusters.T)[np.triu_indices(45, 1)])
     assert widths[-2] < radius <= widths[-1]
+    # Nearly duplicated rows: at most six widths more, the last one the radius itself.
+    twins = np.concatenate([c + 1e-9 * np.arange(2) for c in np.linspace(-1, 1, 9)])[:, None]
+    widths = width_grid(twins, WIDTH_MULTIPLES)
+    assert widths.shape == (len(WIDTH_MULTIPLES) + 6,)
+    assert np.all(np.diff(widths) > 0)
+    radius = 0.5 * np.median(np.abs(twins - twins.T)[np.triu_indices(18, 1)])
+    assert widths[-1] == pytest.approx(radius)
 
 
 @pytest.mark.parametrize("seed", range(6))

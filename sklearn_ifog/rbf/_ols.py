@@ -462,6 +462,12 @@ def median_nn_distance(candidates):
     return median if median > 0 else 1.0
 
 
+# Widths added above the multiples at most (each one more selection path to run), and the
+# candidates the data's radius is measured on at most (their pairwise distances are held).
+_MAX_EXTRA_WIDTHS = 6
+_RADIUS_SAMPLE = 1000
+
+
 def width_grid(candidates, multiples):
     """Shared widths to try: ``multiples`` of the median nearest-neighbour distance, then
     doublings until the widest reaches the data's radius.
@@ -472,7 +478,9 @@ def width_grid(candidates, multiples):
     narrower than the gaps between clusters: each unit could only fit one cluster. Widths
     are therefore doubled from the largest multiple until one reaches half the median
     distance between candidates (the radius of the data); on rows spread evenly the
-    multiples reach it already and nothing is added.
+    multiples reach it already and nothing is added. At most six widths are added (spread
+    geometrically up to the radius when six doublings do not reach it, as with nearly
+    duplicated rows), so the selection's cost stays bounded.
 
     Parameters
     ----------
@@ -497,12 +505,19 @@ def width_grid(candidates, multiples):
     [0.001, 0.002, 0.004, 0.008, 0.016, 0.032, 0.064, 0.128, 0.256]
     """
     widths = median_nn_distance(candidates) * np.asarray(multiples, dtype=float)
-    if candidates.shape[0] < 2:
+    n_candidates = candidates.shape[0]
+    if n_candidates < 2:
         return widths
+    if n_candidates > _RADIUS_SAMPLE:  # the median of a spread-out subset: memory bounded
+        candidates = candidates[np.linspace(0, n_candidates - 1, _RADIUS_SAMPLE).astype(int)]
     radius = 0.5 * float(np.median(pdist(candidates)))
-    extra = []
-    while widths[-1] * 2.0 ** len(extra) < radius:
-        extra.append(widths[-1] * 2.0 ** (len(extra) + 1))
+    if not widths[-1] < radius:
+        return widths
+    n_extra = int(np.ceil(np.log2(radius / widths[-1])))
+    if n_extra <= _MAX_EXTRA_WIDTHS:
+        extra = widths[-1] * 2.0 ** np.arange(1, n_extra + 1)
+    else:  # near-duplicate rows: as many widths, spread geometrically up to the radius
+        extra = np.geomspace(widths[-1], radius, _MAX_EXTRA_WIDTHS + 1)[1:]
     return np.concatenate([widths, extra])
 
 
