@@ -48,7 +48,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from scipy.stats import norm, spearmanr
+from scipy.stats import spearmanr
 from sklearn.base import clone
 from sklearn.linear_model import Ridge
 from sklearn.model_selection import GroupKFold
@@ -60,6 +60,7 @@ from sklearn_ifog.conformal import (
     _fit_difficulty,
     _predict_difficulty,
     _soften,
+    _widen,
     extrapolation_variance,
     knn_distance,
     plus_interval,
@@ -188,11 +189,7 @@ def bounds(variant, split):
     )
     reference = np.quantile(split["train_predictions"].var(axis=0), level)
     extra = extrapolation_variance(split["test_predictions"], reference)
-    half = np.sqrt(
-        np.square(np.diff(band, axis=1).ravel() / 2) + norm.ppf((1 + NOMINAL) / 2) ** 2 * extra
-    )
-    middle = band.mean(axis=1)
-    return np.column_stack([middle - half, middle + half])
+    return _widen(band, extra, NOMINAL)
 
 
 def coverage_and_ratio(split, band):

@@ -293,6 +293,18 @@ def extrapolation_variance(predictions, reference):
     return (n_folds - 1) * excess
 
 
+def _widen(bounds, variance, coverage):
+    """``bounds`` widened about their middle by ``variance`` in quadrature, at the normal
+    quantile of ``coverage`` (unchanged where ``variance`` is zero)."""
+    if not np.any(variance > 0):
+        return bounds
+    middle = bounds.mean(axis=1)
+    half = np.sqrt(
+        np.square((bounds[:, 1] - bounds[:, 0]) / 2) + norm.ppf((1 + coverage) / 2) ** 2 * variance
+    )
+    return np.column_stack([middle - half, middle + half])
+
+
 def _fit_difficulty(distance, sq_residual):
     """A linear model of the squared residual on the distance; returns (model, floor)."""
     model = Ridge(alpha=_DIFFICULTY_ALPHA).fit(distance[:, None], sq_residual)
@@ -706,13 +718,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         # coverage (the residuals say nothing of conditions no calibration run had).
         level = self.coverage if coverage is None else coverage
         extra = extrapolation_variance(predictions, self.fold_variance_reference_)
-        if not np.any(extra > 0):
-            return bounds
-        middle = bounds.mean(axis=1)
-        half = np.sqrt(
-            np.square((bounds[:, 1] - bounds[:, 0]) / 2) + norm.ppf((1 + level) / 2) ** 2 * extra
-        )
-        return np.column_stack([middle - half, middle + half])
+        return _widen(bounds, extra, level)
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
