@@ -8,7 +8,13 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils import check_random_state
 from threadpoolctl import threadpool_limits
 
-from sklearn_ifog.rbf._basis import Network, solve_output_weights_chunked, standardisation
+from sklearn_ifog.rbf._basis import (
+    Network,
+    predict_network,
+    solve_output_weights_chunked,
+    standardisation,
+)
+from sklearn_ifog.rbf._ols import within_one_standard_error
 from sklearn_ifog.rbf._refine import refine_network
 from sklearn_ifog.rbf._select import (
     SelectionOptions,
@@ -17,6 +23,39 @@ from sklearn_ifog.rbf._select import (
     subsample,
     tail_degrees,
 )
+
+
+def beats_beyond_noise(candidate, start, Z_val, Y_val, sw_val):
+    """Whether ``candidate`` beats ``start`` on held-out rows by more than one standard error.
+
+    The paired difference of their squared held-out errors (summed over outputs) is judged
+    by :func:`~sklearn_ifog.rbf._ols.within_one_standard_error`, the rule the selection
+    uses: a refined network that the held-out rows cannot tell from the OLS network it
+    started from is not kept, since its moved centres and widths were chosen on those same
+    rows (early stopping) and the gain is within their noise.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn_ifog.rbf._basis import Network
+    >>> Z = np.linspace(-1, 1, 200)[:, None]
+    >>> def net(w):
+    ...     return Network(
+    ...         np.zeros((1, 1)), np.ones(1), np.array([[w]]), np.zeros((1, 1)), np.zeros(1)
+    ...     )
+    >>> Y = np.exp(-0.5 * Z**2)
+    >>> bool(beats_beyond_noise(net(1.0), net(0.0), Z, Y, np.ones(200)))
+    True
+    >>> bool(beats_beyond_noise(net(0.0), net(0.0), Z, Y, np.ones(200)))
+    False
+    """
+    losses = np.vstack(
+        [
+            np.square(Y_val - predict_network(Z_val, *network)).sum(axis=1)
+            for network in (start, candidate)
+        ]
+    )
+    return not within_one_standard_error(losses, sw_val)[0]
 
 
 class FittedNetwork(NamedTuple):
@@ -67,6 +106,7 @@ def fit_network(
     learning_rate,
     random_state,
     tail_alpha=0.0,
+    groups=None,
 ):
     """Fit a Gaussian RBF network: selection, refinement, output weights on all rows.
 
@@ -84,6 +124,8 @@ def fit_network(
     n_centers, width, refine, alpha, tail_alpha, criterion, goal, tail, max_candidates, \
 candidates, max_samples, validation_fraction, max_iter, tol, learning_rate, random_state
         As in :class:`~sklearn_ifog.RBFNetRegressor`.
+    groups : ndarray of int of shape (n_samples,), default=None
+        Group codes (``_select.group_codes``): held-out rows and folds are whole groups.
 
     Returns
     -------
@@ -120,7 +162,7 @@ candidates, max_samples, validation_fraction, max_iter, tol, learning_rate, rand
     )
 
     needs_blocks = criterion in ("holdout", "cv", None) or refine is not None
-    train, val = split_rows(sw, validation_fraction, needs_blocks=needs_blocks)
+    train, val = split_rows(sw, validation_fraction, needs_blocks=needs_blocks, groups=groups)
     sel_rows = subsample(train, max_samples, rng)
     val_rows = subsample(val, max_samples, rng) if val is not None else None
     degrees = tail_degrees(tail, X.shape[1], sel_rows.shape[0])
@@ -129,7 +171,16 @@ candidates, max_samples, validation_fraction, max_iter, tol, learning_rate, rand
     # slower on a loaded machine).
     with threadpool_limits(limits=1, user_api="blas"):
         selection = select_network(
-            Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degrees=degrees, options=options
+            Z,
+            Ys,
+            sw,
+            sel_rows,
+            val_rows,
+            y_scale,
+            rng,
+            degrees=degrees,
+            options=options,
+            groups=groups,
         )
         network, path = selection.network, selection.path
         tail_degree = path["tail_degree"]
@@ -159,8 +210,17 @@ candidates, max_samples, validation_fraction, max_iter, tol, learning_rate, rand
                 and np.array_equal(result.network.widths, network.widths)
             )
             n_iter, refined = int(result.n_iter), bool(result.improved) and moved
-            network = result.network
-            if not result.converged:
+            # Early stopping picked the refined iterate on the held-out rows themselves, so
+            # it must beat the OLS network there by more than their noise to be kept.
+            rejected = refined and not beats_beyond_noise(
+                result.network, network, Z[val_rows], Ys[val_rows], sw[val_rows]
+            )
+            path["refine_rejected"] = rejected
+            if rejected:
+                refined = False
+            else:
+                network = result.network
+            if not result.converged and not rejected:
                 warnings.warn(
                     f"RBFNetRegressor: {refine!r} refinement stopped at "
                     f"max_iter={max_iter} before converging; the best iterate was kept.",

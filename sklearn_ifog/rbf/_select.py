@@ -9,7 +9,6 @@ standardised and the inputs are ``Z``, standardised too.
 """
 
 import copy
-import itertools
 import warnings
 from typing import NamedTuple
 
@@ -41,6 +40,8 @@ MIN_VALIDATION_ROWS = 10
 # Held-out blocks per fit (fewer when there are few rows: at least 5 rows per block).
 N_VALIDATION_BLOCKS = 2
 MIN_BLOCK_ROWS = 5
+# At most this many cross-validation folds of whole groups (one group per fold up to it).
+MAX_GROUP_FOLDS = 10
 # Tail degrees tried for each value of ``tail``.
 TAIL_DEGREES = {False: (0,), True: (1,), "linear": (1,), "quadratic": (2,), "auto": (1, 2)}
 # The quadratic tail's weights are not penalised: it needs at least this many selection rows
@@ -125,7 +126,93 @@ class Selection(NamedTuple):
     random_state: np.random.RandomState
 
 
-def split_rows(sample_weight, validation_fraction, *, needs_blocks):
+def group_codes(groups, n_samples):
+    """Integer code of every row's group, numbered in order of first appearance.
+
+    Parameters
+    ----------
+    groups : array-like of shape (n_samples,)
+        Group label (recording run) of every row.
+    n_samples : int
+        Number of rows the labels must match.
+
+    Returns
+    -------
+    codes : ndarray of int of shape (n_samples,)
+        0 for the first group seen, 1 for the next, ...
+
+    Examples
+    --------
+    >>> group_codes(["b", "b", "a", "c", "a"], 5).tolist()
+    [0, 0, 1, 2, 1]
+    """
+    labels = np.asarray(groups)
+    if labels.ndim != 1 or labels.shape[0] != n_samples:
+        raise ValueError(
+            f"groups must be one label per row of X, of shape ({n_samples},); "
+            f"got shape {labels.shape}."
+        )
+    if labels.dtype.kind == "f":
+        missing = np.isnan(labels)
+    elif labels.dtype.kind == "O":  # NaN is the one label unequal to itself
+        missing = np.equal(labels, None) | (labels != labels)
+    else:
+        missing = np.zeros(labels.shape, dtype=bool)
+    if missing.any():
+        raise ValueError(
+            f"groups is missing on {int(missing.sum())} row(s) (NaN or None), first at row "
+            f"{int(np.flatnonzero(missing)[0])}; every row needs its run label."
+        )
+    _, first, inverse = np.unique(labels, return_index=True, return_inverse=True)
+    rank = np.empty(first.shape[0], dtype=int)
+    rank[np.argsort(first, kind="stable")] = np.arange(first.shape[0])
+    return rank[inverse.reshape(-1)]
+
+
+def cv_folds(n_samples, validation_fraction, groups=None):
+    """The cross-validation folds: (training rows, held-out rows) pairs.
+
+    Without groups (or with a single one) the rows are cut into
+    ``round(1 / validation_fraction)`` contiguous folds (2 to 10). With groups, every fold
+    holds out whole groups: one group per fold up to ``MAX_GROUP_FOLDS`` groups, then
+    consecutive groups (in order of first appearance) share a fold. Holding out whole runs
+    measures what the model is for, a run it never saw, where a block cut inside a run
+    leaves the run's other rows (its offset, its conditions) in the training set.
+
+    Parameters
+    ----------
+    n_samples : int
+        Number of rows.
+    validation_fraction : float
+        Fraction of the rows per fold without groups.
+    groups : ndarray of int of shape (n_samples,), default=None
+        Group codes (:func:`group_codes`).
+
+    Returns
+    -------
+    folds : list of (ndarray, ndarray)
+        Training and held-out rows of every fold, each in row order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> [out.tolist() for _, out in cv_folds(6, 0.5)]
+    [[0, 1, 2], [3, 4, 5]]
+    >>> [out.tolist() for _, out in cv_folds(6, 0.5, np.array([0, 0, 1, 1, 2, 2]))]
+    [[0, 1], [2, 3], [4, 5]]
+    """
+    n_groups = 0 if groups is None else int(groups.max()) + 1
+    if n_groups < 2:
+        n_folds = int(np.clip(round(1.0 / validation_fraction), 2, 10))
+        bounds = np.linspace(0, n_samples, n_folds + 1).round().astype(int)
+        fold = np.repeat(np.arange(n_folds), np.diff(bounds))
+    else:
+        n_folds = min(n_groups, MAX_GROUP_FOLDS)
+        fold = (np.arange(n_groups) * n_folds // n_groups)[groups]
+    return [(np.flatnonzero(fold != k), np.flatnonzero(fold == k)) for k in range(n_folds)]
+
+
+def split_rows(sample_weight, validation_fraction, *, needs_blocks, groups=None):
     """Training rows and held-out contiguous blocks (None when too few rows or not needed).
 
     Parameters
@@ -136,6 +223,10 @@ def split_rows(sample_weight, validation_fraction, *, needs_blocks):
         Fraction of the rows held out.
     needs_blocks : bool
         Whether held-out blocks are wanted at all (a held-out criterion or a refinement).
+    groups : ndarray of int of shape (n_samples,), default=None
+        Group codes (:func:`group_codes`). With two groups or more, the held-out rows are
+        ``round(validation_fraction * n_groups)`` whole groups (at least one), spread
+        evenly over the groups' order, instead of row blocks.
 
     Returns
     -------
@@ -155,8 +246,14 @@ def split_rows(sample_weight, validation_fraction, *, needs_blocks):
     n_held = round(validation_fraction * n_samples)
     if not needs_blocks or n_held < MIN_VALIDATION_ROWS:
         return np.arange(n_samples), None
-    n_blocks = max(1, min(N_VALIDATION_BLOCKS, n_held // MIN_BLOCK_ROWS))
-    mask = contiguous_validation_mask(n_samples, validation_fraction, n_blocks)
+    n_groups = 0 if groups is None else int(groups.max()) + 1
+    if n_groups >= 2:
+        n_held_groups = int(np.clip(round(validation_fraction * n_groups), 1, n_groups - 1))
+        held = (np.arange(n_held_groups) * 2 + 1) * n_groups // (2 * n_held_groups)
+        mask = np.isin(groups, held)
+    else:
+        n_blocks = max(1, min(N_VALIDATION_BLOCKS, n_held // MIN_BLOCK_ROWS))
+        mask = contiguous_validation_mask(n_samples, validation_fraction, n_blocks)
     if not (sample_weight[mask].sum() > 0 and sample_weight[~mask].sum() > 0):
         return np.arange(n_samples), None
     return np.flatnonzero(~mask), np.flatnonzero(mask)
@@ -199,7 +296,17 @@ def tail_degrees(tail, n_features, n_rows):
 
 
 def select_network(
-    Z, Y, sample_weight, sel_rows, val_rows, y_scale, random_state, *, degrees, options
+    Z,
+    Y,
+    sample_weight,
+    sel_rows,
+    val_rows,
+    y_scale,
+    random_state,
+    *,
+    degrees,
+    options,
+    groups=None,
 ):
     """Select the network: OLS paths over the width grid, for every tail degree.
 
@@ -227,6 +334,9 @@ def select_network(
         Tail degrees to try (:func:`tail_degrees`).
     options : SelectionOptions
         The remaining settings.
+    groups : ndarray of int of shape (n_samples,), default=None
+        Group code of every row (:func:`group_codes`): the cross-validation folds hold out
+        whole groups (:func:`cv_folds`). None: contiguous row blocks.
 
     Returns
     -------
@@ -261,7 +371,7 @@ def select_network(
     for degree in degrees:
         rng = copy.deepcopy(random_state) if len(degrees) > 1 else random_state
         network, path, score = _select_at_degree(
-            Z, Y, sample_weight, sel_rows, val_rows, y_scale, rng, degree, options
+            Z, Y, sample_weight, sel_rows, val_rows, y_scale, rng, degree, options, groups
         )
         trials.append(_Trial(score, degree, network, path, rng))
     best = min(trials, key=lambda trial: (trial.score, trial.degree))
@@ -270,7 +380,7 @@ def select_network(
     return Selection(best.network, best.path, best.random_state)
 
 
-def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, options):
+def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, options, groups):
     """OLS paths over the width grid, with a polynomial tail of degree ``degree``.
 
     Returns the chosen network, its path record and its criterion value (lower is
@@ -348,6 +458,7 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
             rng,
             degree,
             options,
+            groups,
         )
     if losses is not None:
         choice = _choose_by_losses(losses, sw_losses, fixed_size, paths)
@@ -452,6 +563,7 @@ def _cross_validated_losses(
     rng,
     degree,
     options,
+    groups=None,
 ):
     """Held-out squared errors of every (width, tail penalty, prefix) over contiguous folds.
 
@@ -464,16 +576,13 @@ def _cross_validated_losses(
     path that stopped early repeats its last prefix) and the weights of the scored rows,
     which are in row order.
     """
-    n_samples = Z.shape[0]
-    n_folds = int(np.clip(round(1.0 / options.validation_fraction), 2, 10))
-    bounds = np.linspace(0, n_samples, n_folds + 1).round().astype(int)
+    folds = cv_folds(Z.shape[0], options.validation_fraction, groups)
+    n_folds = len(folds)
     tail_alphas = tail_alphas_tried(options.tail_alpha, degree)
     n_ta = len(tail_alphas)
     losses = [[] for _ in range(len(widths_tried) * n_ta)]
     weights = []
-    for start, stop in itertools.pairwise(bounds):
-        rows_in = np.concatenate([np.arange(start), np.arange(stop, n_samples)])
-        rows_out = np.arange(start, stop)
+    for rows_in, rows_out in folds:
         if not (sw[rows_in].sum() > 0 and sw[rows_out].sum() > 0):
             continue
         rows_in = subsample(rows_in, options.max_samples, rng)
