@@ -419,7 +419,7 @@ def _markdown(meta, step_times, chunk_times, c_results, ageing, targets, info):
         "",
         f"Command: `{meta['command']}`  ",
         f"{meta['machine']}; {meta['compiler']}; BLAS 1 thread; {meta['date']}. Default "
-        f"pipeline: {meta['n_centers']} Gaussian unit(s) selected, quadratic tail. Timings: "
+        f"pipeline: {meta['n_centers']} Gaussian unit(s) selected, {meta['tail']} tail. Timings: "
         f"median over {meta['blocks']} alternating blocks.",
         "",
         "## Latency (one sample)",
@@ -511,6 +511,7 @@ def main(argv=None):
         "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
         "blocks": blocks,
         "n_centers": int(n_centers),
+        "tail": {0: "no", 1: "linear", 2: "quadratic"}[int(model[-1].tail_degree_)],
         "seeds": list(seeds),
     }
     markdown = _markdown(meta, step_times, chunk_times, c_results, ageing, targets, info)

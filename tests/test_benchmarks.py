@@ -89,6 +89,11 @@ QUICK_RUNS = {
         ["rbf_scale_quick.md", "rbf_scale_quick.json"],
         True,
     ),
+    "rbf_run_folds_check": (
+        ["--quick", "--out", "{out}"],
+        ["rbf_run_folds_quick.md", "rbf_run_folds_quick.json"],
+        False,
+    ),
     "rbf_variance_check": (
         ["--quick", "--out", "{out}"],
         ["rbf_variance_quick.md", "rbf_variance_quick.json"],

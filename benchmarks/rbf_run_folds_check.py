@@ -1,0 +1,314 @@
+"""Whole runs held out inside RBFNetRegressor: ``fit(X, y, groups=runs)`` against row blocks.
+
+Issue 12 lists "more, shorter folds by run rather than by row blocks when runs are given"
+among the changes worth measuring. ``RBFNetRegressor.fit`` takes ``groups``: its
+cross-validation folds then hold out whole runs (one per fold, up to 10) and the
+refinement's held-out rows are whole runs too, instead of contiguous row blocks. This
+diagnostic measures it against the default (row blocks), with the default refinement
+guard in both (a refined network is kept only when it beats the OLS network on the
+held-out rows by more than one standard error), in three settings:
+
+- **thermal-state folds**: the campaigns and folds of ``bench_thermal_state.py`` (one unit,
+  four azimuths, three runs each; leave one azimuth out; the default ThermalFeatures ->
+  StandardScaler -> regressor), RBFNetRegressor with and without the training runs as
+  ``groups``, and a linear Ridge(1e-3) on the same features (the network's own linear
+  tail, alone). Each number is the pooled excess ``sum(MSD - floor) / sum(floor)`` over the
+  folds of a campaign, as a ratio to Ridge's; "units" counts the folds whose network keeps
+  a Gaussian unit.
+- **refinement on held-out runs**: the campaigns of ``tests/test_refine_holdout.py``
+  (azimuths 0 and 180 train, 90 tests; two runs each, 60 s; ten fixed units), the held-out
+  MSD of each refinement mode over that of the unrefined network, with and without groups,
+  and how often the guard rejected the refinement.
+- **real recording**: ``load_psim_tvc``'s alternate bursts (as in ``bench_thermal_state``),
+  burst-mean MSD with and without the training bursts as groups.
+
+No targets: a diagnostic (exits 0 when it ran). Run::
+
+    python benchmarks/rbf_run_folds_check.py --n-jobs 2          # about 6 min on two cores
+    python benchmarks/rbf_run_folds_check.py --quick              # one seed, 60 s, 2 folds
+
+Writes ``benchmarks/results/rbf_run_folds[_quick].md`` and ``.json``.
+"""
+
+import argparse
+import json
+import sys
+import time
+import warnings
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+from joblib import Parallel, delayed
+from sklearn.linear_model import Ridge
+from sklearn.pipeline import Pipeline
+from sklearn.preprocessing import StandardScaler
+
+from sklearn_ifog import RBFNetRegressor, ThermalFeatures, make_compensation_pipeline
+from sklearn_ifog._io import write_text_files
+from sklearn_ifog.datasets import load_psim_tvc, make_thermal_campaign, noise_floor
+from sklearn_ifog.model_selection import LeaveOneAzimuthOut
+
+RESULTS = Path(__file__).parent / "results"
+PHYSICS = ("lumped", "layered", "layered_glass")
+FULL = {"n_units": 1, "n_runs": 3, "azimuths": (0.0, 90.0, 180.0, 270.0)}
+MODELS = ("RBFNet", "RBFNet (run groups)", "Ridge")
+REFINE_MODES = ("varpro", "lm", "gd")
+REFINE_CASES = [(physics, seed) for physics in ("lumped", "layered") for seed in range(5)]
+REAL_AXES = ("gyro_x", "gyro_y")
+
+
+def _quiet_fit(model, X, y, **params):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # convergence and refinement warnings: judged below
+        return model.fit(X, y, **params)
+
+
+def thermal_fold(seed, physics, period, fold):
+    campaign = make_thermal_campaign(
+        **FULL, profile="mix", sampling_period=period, physics=physics, random_state=seed
+    )
+    X, y = campaign.data, np.asarray(campaign.target)
+    train, test = list(LeaveOneAzimuthOut().split(X))[fold]
+    floor = noise_floor(campaign.frame, test)
+    runs = X["run"].to_numpy()[train]
+    record = {"seed": seed, "physics": physics, "period": period, "fold": fold, "floor": floor}
+    for name in MODELS:
+        regressor = Ridge(1e-3) if name == "Ridge" else RBFNetRegressor(random_state=seed)
+        pipeline = Pipeline(
+            [
+                ("features", ThermalFeatures(time="time", run="run")),
+                ("scale", StandardScaler()),
+                ("regressor", regressor),
+            ]
+        )
+        params = {"regressor__groups": runs} if name == "RBFNet (run groups)" else {}
+        _quiet_fit(pipeline, X.iloc[train], y[train], **params)
+        msd = float(np.mean(np.square(y[test] - pipeline.predict(X.iloc[test]))))
+        units = int(regressor.centers_.shape[0]) if hasattr(regressor, "centers_") else 0
+        record[name] = {"msd": msd, "units": units}
+    return record
+
+
+def refine_case(physics, seed):
+    campaign = make_thermal_campaign(
+        n_units=1,
+        n_runs=2,
+        azimuths=(0.0, 90.0, 180.0),
+        sampling_period=60.0,
+        physics=physics,
+        random_state=seed,
+    )
+    X, y = campaign.data, np.asarray(campaign.target)
+    test = (X["azimuth"] == 90.0).to_numpy()
+    runs = X["run"].to_numpy()[~test]
+    record = {"physics": physics, "seed": seed}
+    for grouped in (False, True):
+        params = {"regressor__groups": runs} if grouped else {}
+        msd, rejected, kept = {}, {}, {}
+        for mode in (None, *REFINE_MODES):
+            network = RBFNetRegressor(refine=mode, n_centers=10, criterion=None, random_state=seed)
+            model = _quiet_fit(make_compensation_pipeline(network), X[~test], y[~test], **params)
+            msd[mode] = float(np.mean(np.square(y[test] - model.predict(X[test]))))
+            rejected[mode] = bool(network.selection_path_.get("refine_rejected", False))
+            kept[mode] = bool(network.selection_path_["refined"])
+        key = "run groups" if grouped else "row blocks"
+        record[key] = {
+            mode: {"ratio": msd[mode] / msd[None], "rejected": rejected[mode], "kept": kept[mode]}
+            for mode in REFINE_MODES
+        }
+    return record
+
+
+def real_recording(axes):
+    recording = load_psim_tvc(drop_spikes=True)
+    X, Y = recording.data, recording.target
+    burst = X["burst"].to_numpy()
+    scores = {}
+    for parity in (0, 1):
+        train = burst % 2 == parity
+        held_out = np.unique(burst[~train])
+        for axis in axes:
+            key = f"{axis}, test {'odd' if parity == 0 else 'even'} bursts"
+            for grouped in (False, True):
+                network = RBFNetRegressor(random_state=0)
+                pipeline = make_compensation_pipeline(network, time=None, run=None, terms=("T",))
+                params = {"regressor__groups": burst[train]} if grouped else {}
+                _quiet_fit(pipeline, X[train], Y[axis][train], **params)
+                residual = Y[axis][~train].to_numpy() - pipeline.predict(X[~train])
+                means = np.bincount(burst[~train], weights=residual) / np.maximum(
+                    np.bincount(burst[~train]), 1
+                )
+                name = "RBFNet (burst groups)" if grouped else "RBFNet"
+                scores.setdefault(key, {})[name] = {
+                    "msd": float(np.mean(means[held_out] ** 2)),
+                    "units": int(network.centers_.shape[0]),
+                }
+    return scores
+
+
+def thermal_summary(folds):
+    cells = defaultdict(list)
+    for record in folds:
+        cells[record["physics"], record["period"], record["seed"]].append(record)
+    rows = []
+    for (physics, period, seed), records in sorted(cells.items()):
+        floor = sum(r["floor"] for r in records)
+        excess = {
+            name: sum(r[name]["msd"] - r["floor"] for r in records) / floor for name in MODELS
+        }
+        units = {name: sum(r[name]["units"] > 0 for r in records) for name in MODELS[:2]}
+        rows.append(
+            {
+                "physics": physics,
+                "period": period,
+                "seed": seed,
+                "n_folds": len(records),
+                "excess": excess,
+                "folds_with_units": units,
+            }
+        )
+    return rows
+
+
+def markdown(result, command, elapsed):
+    lines = [
+        "# Whole runs held out inside RBFNetRegressor (groups) against row blocks",
+        "",
+        f"Command: `{command}` ({elapsed / 60:.1f} min). See the script's docstring for the "
+        "settings.",
+        "",
+        "## Thermal-state folds",
+        "",
+        "Pooled excess (MSD - floor) / floor of each campaign, and its ratio to the linear "
+        "Ridge's; folds keeping a Gaussian unit.",
+        "",
+        "| physics | period | seed | Ridge excess | RBFNet / Ridge | RBFNet (run groups) / "
+        "Ridge | folds with units (row blocks; run groups) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    pooled = defaultdict(lambda: defaultdict(float))
+    for row in result["thermal"]:
+        e = row["excess"]
+        u = row["folds_with_units"]
+        lines.append(
+            f"| {row['physics']} | {row['period']:g} s | {row['seed']} | {e['Ridge']:.4f} | "
+            f"{e['RBFNet'] / e['Ridge']:.3f} | {e['RBFNet (run groups)'] / e['Ridge']:.3f} | "
+            f"{u['RBFNet']} of {row['n_folds']}; {u['RBFNet (run groups)']} of "
+            f"{row['n_folds']} |"
+        )
+        for name in MODELS:
+            pooled[row["physics"], row["period"]][name] += e[name] / len(result["seeds"])
+    lines += [
+        "",
+        "Mean over seeds of the campaigns' excess:",
+        "",
+        "| physics | period | RBFNet | RBFNet (run groups) | Ridge |",
+        "|---|---|---|---|---|",
+    ]
+    for (physics, period), values in pooled.items():
+        lines.append(
+            f"| {physics} | {period:g} s | "
+            + " | ".join(f"{values[name]:.4f}" for name in MODELS)
+            + " |"
+        )
+    lines += [
+        "",
+        "## Refinement on held-out runs",
+        "",
+        "Held-out MSD of the refined network over the unrefined one (10 fixed units); "
+        "`+`: the refinement was kept; `*`: the guard rejected it (the unrefined network is "
+        "kept, ratio 1); neither: no iterate beat the start.",
+        "",
+        "| case | "
+        + " | ".join(f"{m} (row blocks) | {m} (run groups)" for m in REFINE_MODES)
+        + " |",
+        "|---|" + "---|---|" * len(REFINE_MODES),
+    ]
+    for record in result["refine"]:
+        cells = []
+        for mode in REFINE_MODES:
+            for key in ("row blocks", "run groups"):
+                value = record[key][mode]
+                mark = "+" if value["kept"] else "*" if value["rejected"] else ""
+                cells.append(f"{value['ratio']:.3f}{mark}")
+        lines.append(f"| {record['physics']} seed {record['seed']} | " + " | ".join(cells) + " |")
+    lines += ["", "Worst ratio, and cases kept and rejected, per mode:", ""]
+    for mode in REFINE_MODES:
+        parts = []
+        for key in ("row blocks", "run groups"):
+            values = [record[key][mode] for record in result["refine"]]
+            parts.append(
+                f"{key} worst {max(v['ratio'] for v in values):.3f}, kept "
+                f"{sum(v['kept'] for v in values)}, rejected {sum(v['rejected'] for v in values)}"
+                f" of {len(values)}"
+            )
+        lines.append(f"- {mode}: " + "; ".join(parts))
+    lines += [
+        "",
+        "## Real recording, alternate bursts",
+        "",
+        "Mean of the squared held-out burst-mean residuals, (deg/h)^2 (units kept).",
+        "",
+        "| split | RBFNet | RBFNet (burst groups) |",
+        "|---|---|---|",
+    ]
+    for split, cell in result["real"].items():
+        lines.append(
+            f"| {split} | {cell['RBFNet']['msd']:.2f} ({cell['RBFNet']['units']}) | "
+            f"{cell['RBFNet (burst groups)']['msd']:.2f} "
+            f"({cell['RBFNet (burst groups)']['units']}) |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="one seed, 60 s, two folds")
+    parser.add_argument("--n-jobs", type=int, default=1)
+    parser.add_argument("--out", type=Path, default=RESULTS)
+    args = parser.parse_args(argv)
+    start = time.perf_counter()
+    if args.quick:
+        seeds, periods, physics, n_folds = (0,), (60.0,), ("lumped", "layered_glass"), 2
+        cases, axes = REFINE_CASES[:1], REAL_AXES[:1]
+    else:
+        seeds, periods, physics, n_folds = (0, 1, 2), (10.0, 60.0), PHYSICS, 4
+        cases, axes = REFINE_CASES, REAL_AXES
+    jobs = [
+        delayed(thermal_fold)(seed, name, period, fold)
+        for name in physics
+        for period in periods
+        for seed in seeds
+        for fold in range(n_folds)
+    ]
+    jobs += [delayed(refine_case)(name, seed) for name, seed in cases]
+    done = Parallel(n_jobs=args.n_jobs)(jobs)
+    result = {
+        "seeds": list(seeds),
+        "thermal": thermal_summary(done[: len(done) - len(cases)]),
+        "thermal_folds": done[: len(done) - len(cases)],
+        "refine": done[len(done) - len(cases) :],
+        "real": real_recording(axes),
+    }
+    elapsed = time.perf_counter() - start
+    command = (
+        "python benchmarks/rbf_run_folds_check.py"
+        + (" --quick" if args.quick else "")
+        + (f" --n-jobs {args.n_jobs}" if args.n_jobs != 1 else "")
+    )
+    stem = "rbf_run_folds_quick" if args.quick else "rbf_run_folds"
+    text = markdown(result, command, elapsed)
+    args.out.mkdir(parents=True, exist_ok=True)
+    write_text_files(
+        {
+            args.out / f"{stem}.md": text,
+            args.out / f"{stem}.json": json.dumps(result, indent=1) + "\n",
+        }
+    )
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
