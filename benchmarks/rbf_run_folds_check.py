@@ -24,7 +24,7 @@ held-out rows by more than one standard error), in three settings:
 
 No targets: a diagnostic (exits 0 when it ran). Run::
 
-    python benchmarks/rbf_run_folds_check.py --n-jobs 2          # about 6 min on two cores
+    python benchmarks/rbf_run_folds_check.py --n-jobs 2          # about 4 min on two cores
     python benchmarks/rbf_run_folds_check.py --quick              # one seed, 60 s, 2 folds
 
 Writes ``benchmarks/results/rbf_run_folds[_quick].md`` and ``.json``.
