@@ -14,6 +14,8 @@ from sklearn_ifog.rbf._select import cv_folds, group_codes, split_rows
 def test_group_codes_number_groups_by_first_appearance():
     assert group_codes(np.array([7, 7, 3, 9, 3]), 5).tolist() == [0, 0, 1, 2, 1]
     assert group_codes(["b", "a", "b"], 3).tolist() == [0, 1, 0]
+    mixed = np.array([1, "a", 2, "b", 1], dtype=object)  # hashed, no order needed
+    assert group_codes(mixed, 5).tolist() == [0, 1, 2, 3, 0]
 
 
 @pytest.mark.parametrize(
@@ -21,11 +23,11 @@ def test_group_codes_number_groups_by_first_appearance():
     [
         (np.zeros(4), r"one label per row of X, of shape \(5,\); got shape \(4,\)"),
         (np.zeros((5, 1)), r"got shape \(5, 1\)"),
+        (np.array([0.0, 1.0, np.nan, 1.0, 0.0]), r"groups: missing run id \(NaN\) at row 2"),
         (
-            np.array([0.0, 1.0, np.nan, 1.0, 0.0]),
-            r"missing on 1 row\(s\) \(NaN or None\), first at row 2",
+            np.array(["a", None, "b", np.nan, "a"], dtype=object),
+            r"groups: Missing run id \(None or NaN\) at row 1",
         ),
-        (np.array(["a", None, "b", np.nan, "a"], dtype=object), r"missing on 2 row\(s\).*row 1"),
     ],
 )
 def test_bad_groups_are_a_value_error_naming_them(groups, match):

@@ -14,6 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from sklearn_ifog._table import run_codes
 from sklearn_ifog.rbf._basis import (
     WIDTH_LIMITS,
     Network,
@@ -152,21 +153,17 @@ def group_codes(groups, n_samples):
             f"groups must be one label per row of X, of shape ({n_samples},); "
             f"got shape {labels.shape}."
         )
-    if labels.dtype.kind == "f":
-        missing = np.isnan(labels)
-    elif labels.dtype.kind == "O":  # NaN is the one label unequal to itself
-        missing = np.equal(labels, None) | (labels != labels)
-    else:
-        missing = np.zeros(labels.shape, dtype=bool)
-    if missing.any():
-        raise ValueError(
-            f"groups is missing on {int(missing.sum())} row(s) (NaN or None), first at row "
-            f"{int(np.flatnonzero(missing)[0])}; every row needs its run label."
-        )
-    _, first, inverse = np.unique(labels, return_index=True, return_inverse=True)
+    if labels.dtype.kind == "f" and np.isnan(labels).any():
+        row = int(np.flatnonzero(np.isnan(labels))[0])
+        raise ValueError(f"groups: missing run id (NaN) at row {row}; every row needs one.")
+    try:
+        codes = run_codes(labels)  # the runs as ThermalFeatures reads them
+    except ValueError as exc:
+        raise ValueError(f"groups: {exc}") from exc
+    _, first = np.unique(codes, return_index=True)
     rank = np.empty(first.shape[0], dtype=int)
     rank[np.argsort(first, kind="stable")] = np.arange(first.shape[0])
-    return rank[inverse.reshape(-1)]
+    return rank[codes]
 
 
 def cv_folds(n_samples, validation_fraction, groups=None):
