@@ -90,7 +90,12 @@ def thermal_fold(seed, physics, period, fold):
     return record
 
 
-def refine_case(physics, seed):
+def refine_split(physics, seed):
+    """One refinement case: (X_train, y_train, X_test, y_test), azimuth 90 held out.
+
+    ``tests/test_refine_holdout.py`` imports it, so that its expected losses are the ones
+    this script measures.
+    """
     campaign = make_thermal_campaign(
         n_units=1,
         n_runs=2,
@@ -101,15 +106,20 @@ def refine_case(physics, seed):
     )
     X, y = campaign.data, np.asarray(campaign.target)
     test = (X["azimuth"] == 90.0).to_numpy()
-    runs = X["run"].to_numpy()[~test]
+    return X[~test], y[~test], X[test], y[test]
+
+
+def refine_case(physics, seed):
+    X_train, y_train, X_test, y_test = refine_split(physics, seed)
+    runs = X_train["run"].to_numpy()
     record = {"physics": physics, "seed": seed}
     for grouped in (False, True):
         params = {"regressor__groups": runs} if grouped else {}
         msd, rejected, kept = {}, {}, {}
         for mode in (None, *REFINE_MODES):
             network = RBFNetRegressor(refine=mode, n_centers=10, criterion=None, random_state=seed)
-            model = _quiet_fit(make_compensation_pipeline(network), X[~test], y[~test], **params)
-            msd[mode] = float(np.mean(np.square(y[test] - model.predict(X[test]))))
+            model = _quiet_fit(make_compensation_pipeline(network), X_train, y_train, **params)
+            msd[mode] = float(np.mean(np.square(y_test - model.predict(X_test))))
             rejected[mode] = bool(network.selection_path_.get("refine_rejected", False))
             kept[mode] = bool(network.selection_path_["refined"])
         key = "run groups" if grouped else "row blocks"
