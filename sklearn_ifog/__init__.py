@@ -1,22 +1,26 @@
 """sklearn-ifog: temperature-drift compensation for fibre-optic gyroscopes.
 
 Public names only: the feature transformer, the RBF network, the recommended pipeline, the
-per-unit meta-estimator and model persistence. The rest lives in the submodules
+per-unit meta-estimator, the calibration domain and model persistence. The rest lives in the submodules
 (``datasets``, ``metrics``, ``model_selection``, ``export``, ...).
 """
 
 __version__ = "0.1.0.dev0"
 
 from sklearn_ifog.conformal import ConformalRegressor
+from sklearn_ifog.domain import CalibrationDomain, OutsideCalibrationWarning
 from sklearn_ifog.features import ThermalFeatures
 from sklearn_ifog.persistence import TRUSTED_TYPES, load_model, save_model
-from sklearn_ifog.pipeline import make_compensation_pipeline
+from sklearn_ifog.pipeline import CompensationPipeline, make_compensation_pipeline
 from sklearn_ifog.rbf import RBFNetRegressor
 from sklearn_ifog.unitwise import UnitwiseRegressor
 
 __all__ = [
     "TRUSTED_TYPES",
+    "CalibrationDomain",
+    "CompensationPipeline",
     "ConformalRegressor",
+    "OutsideCalibrationWarning",
     "RBFNetRegressor",
     "ThermalFeatures",
     "UnitwiseRegressor",

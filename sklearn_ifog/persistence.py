@@ -39,8 +39,11 @@ __all__ = ["TRUSTED_TYPES", "ModelVersionWarning", "load_model", "save_model"]
 TRUSTED_TYPES = [
     # the package's estimators
     "sklearn_ifog.conformal.ConformalRegressor",
+    "sklearn_ifog.domain.CalibrationDomain",
+    "sklearn_ifog.domain.Fallback",
     "sklearn_ifog.features.ThermalFeatures",
     "sklearn_ifog.model_selection.SubsampledRegressor",
+    "sklearn_ifog.pipeline.CompensationPipeline",
     "sklearn_ifog.rbf._network.RBFNetRegressor",
     "sklearn_ifog.unitwise.UnitwiseRegressor",
     # the kernel of compare_regressors' Gaussian process baseline (kernels are not estimators,

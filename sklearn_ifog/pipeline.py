@@ -3,17 +3,39 @@
 :func:`make_compensation_pipeline` builds it; the command line, the demo, the paper's
 experiments and :func:`~sklearn_ifog.model_selection.default_regressors` all build their
 drift models with it, so the step names (``"features"``, ``"scale"``, ``"regressor"``) and
-the feature defaults are the same everywhere.
+the feature defaults are the same everywhere. It is a :class:`CompensationPipeline`: a
+scikit-learn Pipeline that also learns its calibration domain and stays safe outside it.
 """
 
+import warnings
+from numbers import Real
+from typing import ClassVar
+
+import numpy as np
 from sklearn.base import is_regressor
+from sklearn.metrics import r2_score
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
+from sklearn.utils.validation import check_is_fitted
 
+from sklearn_ifog._compat import Interval, StrOptions, _fit_context
+from sklearn_ifog._contract import get_term
+from sklearn_ifog.domain import (
+    CalibrationDomain,
+    OutsideCalibrationWarning,
+    box_distance,
+    check_varies,
+    fallback_weight,
+    fit_fallback,
+    project_to_box,
+)
 from sklearn_ifog.features import ThermalFeatures
 from sklearn_ifog.rbf import RBFNetRegressor
 
-__all__ = ["make_compensation_pipeline"]
+__all__ = ["OUTSIDE_POLICIES", "CompensationPipeline", "make_compensation_pipeline"]
+
+#: The ``outside`` policies of :class:`CompensationPipeline`.
+OUTSIDE_POLICIES = ("blend", "clip", "none")
 
 # The term the reference paper adds to the "traditional" model (T, ΔT) to get its "modified"
 # one (T, ΔT, T·ΔT).
@@ -42,6 +64,8 @@ def make_compensation_pipeline(
     time="time",
     run="run",
     terms=None,
+    outside="blend",
+    margin=0.1,
     **feature_params,
 ):
     """Build the drift model ``ThermalFeatures → StandardScaler → regressor``.
@@ -71,14 +95,22 @@ def make_compensation_pipeline(
         120 s, without one the paper's terms and T², ``("T", "dT", "TdT", "T2")``.
         ``("T", "dT", "TdT")`` is the paper's modified model (to reproduce the paper),
         ``("T", "dT")`` its traditional model.
+    outside : {"blend", "clip", "none"}, default="blend"
+        What the model predicts for rows outside its calibration domain
+        (:class:`CompensationPipeline`): ``"blend"`` moves smoothly to a line in T (or a
+        constant) as the row lies farther out; ``"clip"`` predicts at the domain's edge;
+        ``"none"`` leaves the regressor's extrapolation alone.
+    margin : float, default=0.1
+        Distance outside the calibrated box, in decorrelated standard deviations, that
+        still counts as inside (:class:`~sklearn_ifog.domain.CalibrationDomain`).
     **feature_params
         Further parameters of :class:`~sklearn_ifog.ThermalFeatures` (``smoothing``,
         ``rate_unit``).
 
     Returns
     -------
-    pipeline : sklearn.pipeline.Pipeline
-        The unfitted pipeline.
+    pipeline : CompensationPipeline
+        The unfitted pipeline (a :class:`sklearn.pipeline.Pipeline`).
 
     Raises
     ------
@@ -127,6 +159,309 @@ def make_compensation_pipeline(
     if terms is not None:
         feature_params["terms"] = terms
     features = ThermalFeatures(temperature=temperature, time=time, run=run, **feature_params)
-    return Pipeline(
-        [("features", features), ("scale", StandardScaler()), ("regressor", regressor)]
+    return CompensationPipeline(
+        [("features", features), ("scale", StandardScaler()), ("regressor", regressor)],
+        outside=outside,
+        margin=margin,
     )
+
+
+def _temperature_column(features):
+    """Column of the first sensor's T among a fitted ThermalFeatures' outputs, or None."""
+    if not isinstance(features, ThermalFeatures) or "T" not in features.terms_:
+        return None
+    first_sensor_terms = [term for term in features.terms_ if get_term(term).first_sensor]
+    return first_sensor_terms.index("T")
+
+
+def _as_rows(values):
+    """A 2-D float array of a transformer's output (ndarray, pandas or polars)."""
+    if hasattr(values, "to_numpy"):
+        values = values.to_numpy()
+    return np.asarray(values, dtype=np.float64)
+
+
+def _like(template, values):
+    """``values`` in the container of ``template`` (a pandas DataFrame keeps its columns)."""
+    if type(template).__module__.startswith("pandas"):
+        import pandas as pd
+
+        return pd.DataFrame(values, columns=template.columns)
+    return values
+
+
+class CompensationPipeline(Pipeline):
+    """A compensation Pipeline that knows where it was calibrated and stays safe outside.
+
+    A :class:`sklearn.pipeline.Pipeline` (same steps, names, parameters and methods) whose
+    first step computes the thermal features. At :meth:`fit` it also learns, from those
+    features, its calibration domain (:class:`~sklearn_ifog.domain.CalibrationDomain`: the
+    temperatures, rates and thermal states, and their combinations, that the calibration
+    covered) and a conservative fallback (a line in the first sensor's T where its slope
+    extrapolates, else the calibration's mean drift: :func:`~sklearn_ifog.domain.fit_fallback`).
+    At :meth:`predict`, rows inside the domain get the regressor's prediction unchanged;
+    rows outside follow ``outside``, and an
+    :class:`~sklearn_ifog.domain.OutsideCalibrationWarning` says how many there were and how
+    far out. :func:`make_compensation_pipeline` builds one.
+
+    Parameters
+    ----------
+    steps : list of (str, estimator)
+        As for :class:`~sklearn.pipeline.Pipeline`; the first step is the feature step
+        (usually :class:`~sklearn_ifog.ThermalFeatures`), the last a regressor.
+    outside : {"blend", "clip", "none"}, default="blend"
+        Prediction outside the domain. ``"blend"``: ``(1 - w) * model + w * fallback`` with
+        ``w`` rising smoothly from 0 at ``margin`` to 1 at ``margin + BLEND_WIDTH``
+        (:func:`~sklearn_ifog.domain.fallback_weight`), so far outside the model gives way
+        to the line (no step anywhere). ``"clip"``: the model at the nearest point of the
+        domain (the firmware convention of clamping T to its calibrated range, in
+        decorrelated coordinates). ``"none"``: the regressor's own extrapolation (the
+        behaviour before the domain existed). The default is the policy that
+        ``benchmarks/bench_extrapolation.py`` measures as never worse than uncompensated.
+    margin : float, default=0.1
+        Distance outside the calibrated box, in decorrelated standard deviations, that still
+        counts as inside (the domain's ``margin``).
+    transform_input, memory, verbose
+        As for :class:`~sklearn.pipeline.Pipeline`.
+
+    Attributes
+    ----------
+    domain_ : CalibrationDomain
+        The calibration domain, fitted on the first step's output (the thermal features).
+    fallback_ : Fallback
+        The conservative model outside the domain: ``intercept``, ``slope`` (0 where the
+        slope did not extrapolate better than a constant) and ``column`` (of T).
+    feature_names_out_ : ndarray of str
+        Names of the first step's output columns (the domain's features).
+
+    See Also
+    --------
+    make_compensation_pipeline : Builds the recommended CompensationPipeline.
+    sklearn_ifog.domain.CalibrationDomain : The domain, usable alone.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn_ifog import make_compensation_pipeline
+    >>> from sklearn_ifog.datasets import make_thermal_campaign
+    >>> X, y = make_thermal_campaign(
+    ...     n_units=1,
+    ...     n_runs=2,
+    ...     azimuths=[0.0],
+    ...     sampling_period=120.0,
+    ...     temperature_range=(10.0, 40.0),
+    ...     random_state=0,
+    ...     return_X_y=True,
+    ... )
+    >>> model = make_compensation_pipeline(LinearRegression()).fit(X, y)
+    >>> bool(model.outside_calibration(X).any())  # the calibration itself is inside
+    False
+    >>> cold = X.assign(temperature=X["temperature"] - 30.0)
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     drift = model.predict(cold)
+    >>> caught[0].category.__name__
+    'OutsideCalibrationWarning'
+    >>> float(model.outside_calibration(cold).mean())
+    1.0
+    """
+
+    _parameter_constraints: ClassVar[dict] = {
+        **Pipeline._parameter_constraints,
+        "outside": [StrOptions(set(OUTSIDE_POLICIES))],
+        "margin": [Interval(Real, 0, None, closed="left")],
+    }
+
+    def __init__(
+        self,
+        steps,
+        *,
+        outside="blend",
+        margin=0.1,
+        transform_input=None,
+        memory=None,
+        verbose=False,
+    ):
+        super().__init__(steps, transform_input=transform_input, memory=memory, verbose=verbose)
+        self.outside = outside
+        self.margin = margin
+
+    @_fit_context(
+        # Pipeline's steps are validated when each is fitted.
+        prefer_skip_nested_validation=False
+    )
+    def fit(self, X, y=None, **params):
+        """Fit the steps, then the calibration domain and the fallback.
+
+        Parameters
+        ----------
+        X : iterable
+            Training data, in the first step's layout.
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            Drift target.
+        **params : dict
+            As for :meth:`sklearn.pipeline.Pipeline.fit`.
+
+        Returns
+        -------
+        self : CompensationPipeline
+            Fitted.
+
+        Raises
+        ------
+        ValueError
+            As the steps raise; also when a thermal feature is constant over the calibration
+            (a single temperature), which leaves no domain to learn.
+        """
+        if y is None:
+            raise ValueError(
+                "CompensationPipeline.fit needs the drift target y (rate - reference); got None."
+            )
+        super().fit(X, y, **params)
+        features = self.steps[0][1]
+        raw = _as_rows(features.transform(X))
+        names = np.asarray(features.get_feature_names_out(), dtype=object)
+        self.feature_names_out_ = names
+        check_varies(raw, names)
+        self.domain_ = CalibrationDomain(margin=self.margin).fit(raw)
+        column = _temperature_column(features)
+        Y = np.asarray(y, dtype=np.float64).reshape(raw.shape[0], -1)
+        self.fallback_ = fit_fallback(None if column is None else raw[:, column], Y, column)
+        return self
+
+    def _transform_features(self, X):
+        check_is_fitted(self, "domain_")
+        return self.steps[0][1].transform(X)
+
+    def _predict_features(self, features, **params):
+        """The regressor's prediction from the first step's output."""
+        Xt = features
+        for _, step in self.steps[1:-1]:
+            if step not in (None, "passthrough"):
+                Xt = step.transform(Xt)
+        return np.asarray(self.steps[-1][1].predict(Xt, **params), dtype=np.float64)
+
+    def calibration_distance(self, X):
+        """Distance of every row outside the calibration domain (0 inside the box).
+
+        In decorrelated standard deviations
+        (:meth:`~sklearn_ifog.domain.CalibrationDomain.distance`); a row is outside when
+        this exceeds ``margin``.
+
+        Parameters
+        ----------
+        X : iterable
+            Rows in the layout of :meth:`fit` (the features are computed run by run).
+
+        Returns
+        -------
+        distance : ndarray of shape (n_samples,)
+        """
+        return box_distance(self.domain_.box_, _as_rows(self._transform_features(X)))
+
+    def outside_calibration(self, X):
+        """Whether every row lies outside the calibration domain.
+
+        Parameters
+        ----------
+        X : iterable
+            Rows in the layout of :meth:`fit`.
+
+        Returns
+        -------
+        outside : ndarray of shape (n_samples,), dtype=bool
+        """
+        return self.calibration_distance(X) > self.margin
+
+    def predict(self, X, **params):
+        """Predict the drift, following ``outside`` for rows outside the domain.
+
+        Parameters
+        ----------
+        X : iterable
+            Rows in the layout of :meth:`fit`.
+        **params : dict
+            Passed to the final step's ``predict``.
+
+        Returns
+        -------
+        y_pred : ndarray of shape (n_samples,) or (n_samples, n_outputs)
+
+        Warns
+        -----
+        OutsideCalibrationWarning
+            Once per call when rows lie outside the domain.
+        """
+        features = self._transform_features(X)
+        rows = _as_rows(features)
+        prediction = self._predict_features(features, **params)
+        distance = box_distance(self.domain_.box_, rows)
+        outside = distance > self.margin
+        if not outside.any():
+            return prediction
+        self._warn_outside(rows, distance, outside)
+        if self.outside == "clip":
+            projected = project_to_box(self.domain_.box_, rows[outside], self.margin)
+            prediction[outside] = self._predict_features(_like(features, projected), **params)
+        elif self.outside == "blend":
+            weight = fallback_weight(distance[outside], self.margin)
+            fallback = self.fallback_.predict(rows[outside])
+            if prediction.ndim == 1:
+                fallback = fallback[:, 0]
+            else:
+                weight = weight[:, None]
+            prediction[outside] = (1.0 - weight) * prediction[outside] + weight * fallback
+        return prediction
+
+    def _warn_outside(self, rows, distance, outside):
+        share = outside.mean()
+        message = (
+            f"{outside.sum()} of {rows.shape[0]} rows ({share:.1%}) lie outside the "
+            f"calibration domain (largest distance {distance.max():.3g} decorrelated "
+            "standard deviations"
+        )
+        column = self.fallback_.column
+        if column is not None:
+            low, high = self.domain_.data_min_[column], self.domain_.data_max_[column]
+            temperature = rows[outside, column]
+            beyond = np.maximum(low - temperature, temperature - high).max()
+            if beyond > 0:
+                message += (
+                    f"; up to {beyond:.3g} degC beyond the calibrated temperatures "
+                    f"{low:.4g} to {high:.4g} degC"
+                )
+        message += f"); their predictions follow outside={self.outside!r}."
+        warnings.warn(message, OutsideCalibrationWarning, stacklevel=3)
+
+    def score(self, X, y=None, sample_weight=None, **params):
+        """R² of :meth:`predict` (the ``outside`` policy included).
+
+        Parameters
+        ----------
+        X : iterable
+            Rows in the layout of :meth:`fit`.
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            True drift.
+        sample_weight : array-like of shape (n_samples,), default=None
+            Sample weights.
+        **params : dict
+            Passed to the final step's ``predict``.
+
+        Returns
+        -------
+        score : float
+        """
+        return r2_score(y, self.predict(X, **params), sample_weight=sample_weight)
+
+    def __getitem__(self, ind):
+        """A step, or for a slice a plain :class:`~sklearn.pipeline.Pipeline` of the steps.
+
+        A slice has no calibration domain of its own (it is usually the transformers only,
+        e.g. ``model[:-1].transform(X)``).
+        """
+        if isinstance(ind, slice):
+            if ind.step not in (1, None):
+                raise ValueError("Pipeline slicing only supports a step of 1")
+            return Pipeline(self.steps[ind], memory=self.memory, verbose=self.verbose)
+        return super().__getitem__(ind)

@@ -1,0 +1,535 @@
+"""The calibration domain: where a drift model was calibrated, and a safe answer outside it.
+
+A thermal calibration covers some temperatures, some rates and some thermal states (lags),
+and above all some *combinations* of them: a gyro switched on cold starts its lags at zero
+at a temperature where the calibration only ever saw them far from zero. A flexible model
+fitted on strongly correlated features (T, T², T·ΔT, lags and their products) cancels its
+weights inside the calibrated combinations and can return anything outside them. A range
+check per feature misses the harm, since every feature alone may lie inside its range.
+
+:class:`CalibrationDomain` therefore measures how far a row lies outside the training rows'
+box in *decorrelated* coordinates: the features are standardised, rotated onto their
+principal axes (SVD), and each axis keeps the range ``[lower, upper]`` that the calibration
+covered. A row's distance is the Euclidean norm of its excesses beyond those ranges, each in
+units of its axis's standard deviation: 0 inside the box, 1 one standard deviation of the
+calibrated spread beyond it along an axis. Along the temperature axis of a one-feature
+domain the box is exactly the firmware convention ``[TMIN, TMAX]``. It follows
+scikit-learn's novelty-detection convention (``fit``, ``predict`` → +1 inside / −1 outside,
+``decision_function``, ``score_samples``), so it also stands alone.
+
+The plain functions below hold the numerics (numpy in, numpy out): :func:`fit_box`,
+:func:`box_distance`, :func:`project_to_box`, :func:`fit_fallback`,
+:func:`fallback_weight`; :class:`~sklearn_ifog.pipeline.CompensationPipeline` uses them to
+apply its ``outside`` policy, and the streaming path and the C export compute the same
+formulas.
+"""
+
+from numbers import Real
+from typing import ClassVar, NamedTuple
+
+import numpy as np
+from sklearn.base import BaseEstimator, OutlierMixin
+from sklearn.utils.validation import check_is_fitted, validate_data
+
+from sklearn_ifog._compat import Interval, _fit_context
+from sklearn_ifog.rbf._ols import within_one_standard_error
+
+__all__ = [
+    "BLEND_WIDTH",
+    "CalibrationDomain",
+    "Fallback",
+    "OutsideCalibrationWarning",
+    "box_distance",
+    "check_varies",
+    "fallback_weight",
+    "fit_box",
+    "fit_fallback",
+    "project_to_box",
+]
+
+#: Distance (in decorrelated standard deviations beyond the domain's margin) over which the
+#: ``"blend"`` policy moves from the model to its fallback (a smoothstep: no step at the
+#: edge, and none at the end).
+BLEND_WIDTH = 1.0
+
+# Axes whose spread is below this fraction of the widest axis's are numerically degenerate
+# (an exact linear relation between features, e.g. a duplicated column); their scale is
+# floored there so that round-off cannot read as a distance.
+_AXIS_FLOOR = 1e-6
+
+# The fallback's slope is tested by extrapolation: the coldest and the warmest fifth of the
+# calibration rows are held out in turn.
+_EXTRAPOLATION_FRACTION = 0.2
+_MIN_FALLBACK_ROWS = 10
+# A slope is real when, at each calibrated extreme, the extrapolated line leaves at most this
+# share of the constant's squared error: a thermal slope explains most of the variation at
+# the calibration's own extremes, while a slope fitted to noise or to a bias that drifted with
+# time (and so with the temperature of a monotone run) explains little of it and
+# extrapolates worse than a constant. On the shipped recording the x and y axes' ratios are
+# 0.001-0.06 and the z axis's (no thermal drift) 0.47-5.8, for every half of the recording.
+_REAL_SLOPE_RATIO = 0.25
+
+
+class OutsideCalibrationWarning(UserWarning):
+    """A model was asked to predict rows outside the domain it was calibrated on.
+
+    Given once per ``predict`` call, with the share of rows outside, the largest distance
+    and the largest temperature excess in degrees; the predictions themselves follow the
+    model's ``outside`` policy.
+    """
+
+
+class Box(NamedTuple):
+    """A fitted box in decorrelated coordinates (the result of :func:`fit_box`).
+
+    Attributes
+    ----------
+    center : ndarray of shape (n_features,)
+        Mean of every feature.
+    scale : ndarray of shape (n_features,)
+        Standard deviation of every feature.
+    axes : ndarray of shape (n_features, n_features)
+        Principal axes of the standardised features, one per row (orthonormal).
+    axis_scale : ndarray of shape (n_features,)
+        Standard deviation of the calibration rows along each axis (floored at
+        ``1e-6`` times the largest).
+    lower, upper : ndarray of shape (n_features,)
+        Smallest and largest coordinate of the calibration rows along each axis.
+    """
+
+    center: np.ndarray
+    scale: np.ndarray
+    axes: np.ndarray
+    axis_scale: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+
+
+def fit_box(X):
+    """Fit the decorrelated box of the rows ``X``.
+
+    Parameters
+    ----------
+    X : ndarray of shape (n_samples, n_features)
+        Calibration rows; every column must vary.
+
+    Returns
+    -------
+    box : Box
+        See :class:`Box`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.linspace(0.0, 10.0, 11)
+    >>> box = fit_box(np.column_stack([t, 2 * t + np.sin(t)]))
+    >>> bool(np.allclose(box.axes @ box.axes.T, np.eye(2)))
+    True
+    """
+    X = np.asarray(X, dtype=np.float64)
+    center = X.mean(axis=0)
+    scale = X.std(axis=0)
+    Z = (X - center) / scale
+    _, singular, axes = np.linalg.svd(Z, full_matrices=False)
+    n_features = X.shape[1]
+    if axes.shape[0] < n_features:  # fewer rows than features: complete the basis
+        complement = np.linalg.svd(np.eye(n_features) - axes.T @ axes)[0]
+        axes = np.vstack([axes, complement[:, : n_features - axes.shape[0]].T])
+        singular = np.concatenate([singular, np.zeros(n_features - singular.shape[0])])
+    axis_scale = singular / np.sqrt(X.shape[0])
+    axis_scale = np.maximum(axis_scale, _AXIS_FLOOR * axis_scale.max())
+    projected = Z @ axes.T
+    return Box(center, scale, axes, axis_scale, projected.min(axis=0), projected.max(axis=0))
+
+
+def check_varies(X, names=None):
+    """Raise a ValueError naming the first feature of ``X`` that is constant.
+
+    Parameters
+    ----------
+    X : ndarray of shape (n_samples, n_features)
+    names : sequence of str, default=None
+        Feature names for the message (positions without them).
+    """
+    constant = np.flatnonzero(np.ptp(X, axis=0) == 0)
+    if constant.size:
+        column = int(constant[0])
+        name = f"column {column}" if names is None else repr(str(names[column]))
+        raise ValueError(
+            f"Cannot fit a calibration domain: feature {name} is constant "
+            f"({X[0, column]!r}) over the {X.shape[0]} calibration rows. A calibration must "
+            "cover a range of temperatures (and rates) to say where it holds; calibrate on "
+            "runs that change temperature."
+        )
+
+
+def _coordinates(box, X):
+    return ((np.asarray(X, dtype=np.float64) - box.center) / box.scale) @ box.axes.T
+
+
+def box_distance(box, X):
+    """Distance of every row of ``X`` outside ``box``, in decorrelated standard deviations.
+
+    ``sqrt(sum_k (excess_k / axis_scale_k)²)`` with ``excess_k`` the row's coordinate
+    beyond ``[lower_k, upper_k]`` along axis ``k`` (0 inside the range).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> box = fit_box(np.linspace(0.0, 10.0, 11)[:, None])
+    >>> box_distance(box, [[5.0], [10.0], [13.16227766]]).round(3).tolist()
+    [0.0, 0.0, 1.0]
+    """
+    P = _coordinates(box, X)
+    excess = np.maximum(box.lower - P, 0.0) + np.maximum(P - box.upper, 0.0)
+    return np.sqrt(np.square(excess / box.axis_scale).sum(axis=1))
+
+
+def project_to_box(box, X, margin):
+    """The nearest point of ``box`` widened by ``margin`` (the ``"clip"`` policy).
+
+    Rows within ``margin`` of the box are returned unchanged; a row farther out moves along
+    its excess towards the box until its distance is ``margin``. For one feature this is
+    clamping to ``[min - margin·sd, max + margin·sd]``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> box = fit_box(np.linspace(0.0, 10.0, 11)[:, None])
+    >>> project_to_box(box, [[5.0], [-40.0], [40.0]], 0.0).round(6).ravel().tolist()
+    [5.0, 0.0, 10.0]
+    """
+    X = np.asarray(X, dtype=np.float64)
+    P = _coordinates(box, X)
+    inside = np.clip(P, box.lower, box.upper)
+    distance = np.sqrt(np.square((P - inside) / box.axis_scale).sum(axis=1))
+    far = distance > margin
+    shrink = np.ones_like(distance)
+    shrink[far] = margin / distance[far]
+    P = inside + (P - inside) * shrink[:, None]
+    return (P @ box.axes) * box.scale + box.center
+
+
+class Fallback(NamedTuple):
+    """The conservative model used outside the domain: a line in T, or a constant.
+
+    ``prediction = intercept + T * slope`` (one column per output); ``slope`` is 0 for the
+    outputs whose slope did not extrapolate better than a constant (:func:`fit_fallback`).
+
+    Attributes
+    ----------
+    intercept : ndarray of shape (n_outputs,)
+    slope : ndarray of shape (n_outputs,)
+    column : int or None
+        Column of the features that holds T (None: no temperature column, a constant).
+    """
+
+    intercept: np.ndarray
+    slope: np.ndarray
+    column: int | None
+
+    def predict(self, features):
+        """Fallback predictions, shape (n_samples, n_outputs)."""
+        features = np.asarray(features, dtype=np.float64)
+        if self.column is None:
+            return np.broadcast_to(self.intercept, (features.shape[0], self.intercept.size))
+        return self.intercept + features[:, [self.column]] * self.slope
+
+
+def _line(temperature, Y):
+    """Least-squares (intercept, slope) of each column of ``Y`` on ``temperature``."""
+    t_mean = temperature.mean()
+    centred = temperature - t_mean
+    denominator = centred @ centred
+    slope = centred @ (Y - Y.mean(axis=0)) / denominator if denominator > 0 else 0 * Y[0]
+    return Y.mean(axis=0) - slope * t_mean, slope
+
+
+def fit_fallback(temperature, Y, column=None):
+    """Fit the fallback: a line in T where its slope extrapolates, else a constant.
+
+    The slope is kept for an output only when it *extrapolates* better than a constant:
+    the coldest and the warmest fifth of the rows are held out in turn and a constant and a
+    line are fitted on the rest; at each held-out end the line must leave at most a quarter
+    of the constant's mean squared error, and over both it must beat the constant by more
+    than one standard error of the paired difference (the rule the network's selection uses,
+    with chunk means since neighbouring rows are correlated). An axis with no real thermal
+    slope then falls back to its mean: a line fitted to noise or to a bias that moved with
+    time, not with temperature, extrapolates worse than nothing.
+
+    Parameters
+    ----------
+    temperature : ndarray of shape (n_samples,) or None
+        T of the calibration rows (None: a constant fallback).
+    Y : ndarray of shape (n_samples, n_outputs)
+        Targets of the calibration rows.
+    column : int or None
+        Column of the model's features that holds T (stored in the result).
+
+    Returns
+    -------
+    fallback : Fallback
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.linspace(0.0, 30.0, 300)
+    >>> Y = np.column_stack([2.0 * t + rng.normal(size=300), rng.normal(size=300)])
+    >>> fallback = fit_fallback(t, Y, column=0)
+    >>> fallback.slope.round(1).tolist()  # a real slope; none on the noise-only output
+    [2.0, 0.0]
+    """
+    Y = np.asarray(Y, dtype=np.float64)
+    constant = Y.mean(axis=0)
+    zero = np.zeros(Y.shape[1])
+    if temperature is None:
+        return Fallback(constant, zero, None)
+    temperature = np.asarray(temperature, dtype=np.float64)
+    n_samples = temperature.shape[0]
+    n_held = round(_EXTRAPOLATION_FRACTION * n_samples)
+    if n_held < _MIN_FALLBACK_ROWS or np.ptp(temperature) == 0:
+        return Fallback(constant, zero, column)
+    order = np.argsort(temperature, kind="stable")
+    losses = []  # per held-out end: (2, n_held, n_outputs) squared errors, constant then line
+    for held in (order[:n_held], order[-n_held:]):
+        kept = np.ones(n_samples, dtype=bool)
+        kept[held] = False
+        intercept, slope = _line(temperature[kept], Y[kept])
+        line = intercept + temperature[held, None] * slope
+        losses.append(
+            np.stack([np.square(Y[held] - Y[kept].mean(axis=0)), np.square(Y[held] - line)])
+        )
+    # The line must remove most of the error at *both* calibrated extremes...
+    explains = np.all(
+        [end[1].mean(axis=0) <= _REAL_SLOPE_RATIO * end[0].mean(axis=0) for end in losses],
+        axis=0,
+    )
+    # ... and beat the constant beyond the noise of the held-out rows.
+    losses = np.concatenate(losses, axis=1)
+    beyond_noise = np.array(
+        [not within_one_standard_error(losses[:, :, k])[0] for k in range(Y.shape[1])]
+    )
+    real = explains & beyond_noise
+    intercept, slope = _line(temperature, Y)
+    return Fallback(np.where(real, intercept, constant), np.where(real, slope, 0.0), column)
+
+
+def fallback_weight(distance, margin, width=BLEND_WIDTH):
+    """Weight of the fallback under the ``"blend"`` policy: 0 inside, 1 far outside.
+
+    A smoothstep ``s² (3 - 2 s)`` of ``s = (distance - margin) / width`` clipped to [0, 1]:
+    continuous with a continuous slope, so the prediction has no step at the edge.
+
+    Examples
+    --------
+    >>> fallback_weight([0.0, 0.1, 0.6, 1.1, 5.0], margin=0.1).tolist()
+    [0.0, 0.0, 0.5, 1.0, 1.0]
+    """
+    s = np.clip((np.asarray(distance, dtype=np.float64) - margin) / width, 0.0, 1.0)
+    return s * s * (3.0 - 2.0 * s)
+
+
+class CalibrationDomain(OutlierMixin, BaseEstimator):
+    """Where a model was calibrated: the box of its rows in decorrelated coordinates.
+
+    The features are standardised and rotated onto their principal axes; the domain is the
+    range the calibration rows cover along every axis. :meth:`score_samples` is minus a
+    row's distance outside that box, in units of each axis's standard deviation (0 inside),
+    so it measures *combinations* that the calibration never showed (a lag at zero while T
+    is cold) as well as values beyond each feature's range, which a per-feature range check
+    misses. Rows farther than ``margin`` are outside (:meth:`predict` gives −1).
+
+    Parameters
+    ----------
+    margin : float, default=0.1
+        Distance, in decorrelated standard deviations, that still counts as inside: the
+        noise by which a new run of a calibrated profile steps past the calibration's
+        extremes (see :ref:`outside_calibration` for how it was measured).
+
+    Attributes
+    ----------
+    center_ : ndarray of shape (n_features_in_,)
+        Mean of every feature.
+    scale_ : ndarray of shape (n_features_in_,)
+        Standard deviation of every feature.
+    components_ : ndarray of shape (n_features_in_, n_features_in_)
+        Principal axes of the standardised features, one per row.
+    axis_scale_ : ndarray of shape (n_features_in_,)
+        Standard deviation of the calibration rows along each axis.
+    lower_, upper_ : ndarray of shape (n_features_in_,)
+        Range of the calibration rows along each axis.
+    data_min_, data_max_ : ndarray of shape (n_features_in_,)
+        Range of every feature, in its own units (degrees, degrees per minute, ...).
+    offset_ : float
+        ``-margin``: :meth:`decision_function` is ``score_samples - offset_``.
+    n_features_in_ : int
+        Number of features seen during fit.
+    feature_names_in_ : ndarray of shape (n_features_in_,)
+        Names of features seen during fit, when they are all strings.
+
+    See Also
+    --------
+    sklearn_ifog.pipeline.CompensationPipeline : Fits a domain on its thermal features and
+        applies its ``outside`` policy beyond it.
+    sklearn.covariance.EllipticEnvelope : A Gaussian novelty detector (an ellipsoid, blind
+        to one-sided ranges such as heating-only rates).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn_ifog.domain import CalibrationDomain
+    >>> t = np.linspace(10.0, 40.0, 200)
+    >>> X = np.column_stack([t, t**2])
+    >>> domain = CalibrationDomain().fit(X)
+    >>> domain.predict([[25.0, 625.0], [0.0, 0.0], [25.0, 0.0]]).tolist()
+    [1, -1, -1]
+    >>> domain.excess([[5.0, 25.0]]).round(1).tolist()  # degrees below the range
+    [[-5.0, -75.0]]
+    """
+
+    _parameter_constraints: ClassVar[dict] = {
+        "margin": [Interval(Real, 0, None, closed="left")],
+    }
+
+    def __init__(self, *, margin=0.1):
+        self.margin = margin
+
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y=None):
+        """Learn the calibration domain of the rows ``X``.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+            Calibration rows (usually the thermal features of the calibration runs).
+        y : None
+            Ignored.
+
+        Returns
+        -------
+        self : CalibrationDomain
+            Fitted.
+
+        Raises
+        ------
+        ValueError
+            If a feature is constant over the calibration (one temperature only: the
+            calibration cannot say where else it holds), or X holds NaN or inf.
+        """
+        X = validate_data(self, X, dtype=np.float64, ensure_min_samples=2)
+        check_varies(X, getattr(self, "feature_names_in_", None))
+        box = fit_box(X)
+        self.center_, self.scale_, self.components_ = box.center, box.scale, box.axes
+        self.axis_scale_, self.lower_, self.upper_ = box.axis_scale, box.lower, box.upper
+        self.data_min_, self.data_max_ = X.min(axis=0), X.max(axis=0)
+        self.offset_ = -float(self.margin)
+        return self
+
+    @property
+    def box_(self):
+        """The fitted :class:`Box` (the record the plain functions take)."""
+        check_is_fitted(self)
+        return Box(
+            self.center_,
+            self.scale_,
+            self.components_,
+            self.axis_scale_,
+            self.lower_,
+            self.upper_,
+        )
+
+    def _validated(self, X):
+        check_is_fitted(self)
+        return validate_data(self, X, dtype=np.float64, reset=False)
+
+    def distance(self, X):
+        """Distance of every row outside the calibrated box (0 inside).
+
+        In decorrelated standard deviations: ``sqrt(sum_k (excess_k / axis_scale_k)²)``.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+
+        Returns
+        -------
+        distance : ndarray of shape (n_samples,)
+        """
+        return box_distance(self.box_, self._validated(X))
+
+    def score_samples(self, X):
+        """Minus the distance outside the calibrated box: higher is more typical.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+
+        Returns
+        -------
+        scores : ndarray of shape (n_samples,)
+        """
+        return -self.distance(X)
+
+    def decision_function(self, X):
+        """``margin - distance``: negative outside the domain.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+
+        Returns
+        -------
+        decision : ndarray of shape (n_samples,)
+        """
+        return self.score_samples(X) - self.offset_
+
+    def predict(self, X):
+        """+1 for rows inside the domain (distance ≤ ``margin``), −1 outside.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+
+        Returns
+        -------
+        labels : ndarray of shape (n_samples,), dtype=int
+        """
+        return np.where(self.decision_function(X) >= 0, 1, -1)
+
+    def excess(self, X):
+        """How far every feature lies beyond its own calibrated range, in its units.
+
+        Negative below the smallest calibrated value, positive above the largest, 0 inside
+        (e.g. degrees below the coldest calibrated temperature). This per-feature view is for
+        reading; whether a row is outside is decided by :meth:`distance`.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+
+        Returns
+        -------
+        excess : ndarray of shape (n_samples, n_features)
+        """
+        X = self._validated(X)
+        return np.minimum(X - self.data_min_, 0.0) + np.maximum(X - self.data_max_, 0.0)
+
+    def project(self, X):
+        """The nearest point of the domain (the box widened by ``margin``) to every row.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+
+        Returns
+        -------
+        X_projected : ndarray of shape (n_samples, n_features)
+            Rows inside unchanged; rows outside moved onto the domain's edge.
+        """
+        return project_to_box(self.box_, self._validated(X), self.margin)
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.allow_nan = False
+        return tags
