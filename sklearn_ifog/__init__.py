@@ -1,8 +1,8 @@
 """sklearn-ifog: temperature-drift compensation for fibre-optic gyroscopes.
 
 Public names only: the feature transformer, the RBF network, the recommended pipeline, the
-per-unit meta-estimator, the calibration domain and model persistence. The rest lives in the submodules
-(``datasets``, ``metrics``, ``model_selection``, ``export``, ...).
+per-unit meta-estimator, the calibration domain and model persistence. The rest lives in the
+submodules (``datasets``, ``metrics``, ``model_selection``, ``export``, ...).
 """
 
 __version__ = "0.1.0.dev0"
