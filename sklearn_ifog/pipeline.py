@@ -322,6 +322,11 @@ class CompensationPipeline(Pipeline):
         features = self.steps[0][1]
         raw = _as_rows(features.transform(X))
         names = np.asarray(features.get_feature_names_out(), dtype=object)
+        if raw.shape[0] < 2:
+            raise ValueError(
+                "CompensationPipeline needs at least 2 calibration rows to learn its "
+                f"calibration domain, got n_samples={raw.shape[0]}."
+            )
         self.feature_names_out_ = names
         check_varies(raw, names)
         self.domain_ = CalibrationDomain(margin=self.margin).fit(raw)

@@ -8,6 +8,7 @@ adds on top.
 
 import pytest
 from sklearn.linear_model import LinearRegression, Ridge
+from sklearn.preprocessing import StandardScaler
 from sklearn.utils.estimator_checks import (
     check_dataframe_column_names_consistency,
     check_param_validation,
@@ -19,7 +20,7 @@ from sklearn.utils.estimator_checks import (
     parametrize_with_checks,
 )
 
-from sklearn_ifog import RBFNetRegressor
+from sklearn_ifog import RBFNetRegressor, ThermalFeatures
 from sklearn_ifog._discovery import all_estimators
 
 # Parameters under which an estimator can take the generic arrays the checks feed it.
@@ -29,6 +30,14 @@ CHECK_PARAMS = {
     # A meta-estimator needs an estimator; the checks' arrays have no run column, so the
     # calibration folds are given as an int (KFold over rows, each row its own group).
     "ConformalRegressor": {"estimator": Ridge(), "cv": 3},
+    # The recommended pipeline's steps, on the checks' unnamed arrays (temperature: column 0).
+    "CompensationPipeline": {
+        "steps": [
+            ("features", ThermalFeatures(temperature=0)),
+            ("scale", StandardScaler()),
+            ("regressor", LinearRegression()),
+        ]
+    },
     # The unit is a column of X: the first one of the checks' arrays. With pooling="full"
     # every unit is predicted by the lot's model, and a unit must have been seen in fit.
     "UnitwiseRegressor": {
@@ -39,15 +48,41 @@ CHECK_PARAMS = {
     },
 }
 
+_ORDER_DEPENDENT = {
+    "check_methods_subset_invariance": (
+        "dT of a row is the difference from the previous row of its run: a row transformed "
+        "in a smaller batch loses its predecessor (first-row rule, dT = 0)."
+    ),
+    "check_methods_sample_order_invariance": (
+        "Row order is the time order within a run: shuffling the rows changes every dT."
+    ),
+}
+
 # Checks that fail by design, with the reason (imbalanced-learn's convention).
 EXPECTED_FAILED_CHECKS = {
-    "ThermalFeatures": {
-        "check_methods_subset_invariance": (
-            "dT of a row is the difference from the previous row of its run: a row transformed "
-            "in a smaller batch loses its predecessor (first-row rule, dT = 0)."
+    "ThermalFeatures": _ORDER_DEPENDENT,
+    "CalibrationDomain": {
+        "check_outliers_fit_predict": (
+            "A novelty detector without contamination: the calibration rows define the "
+            "domain, so every one of them is inside and fit_predict never gives -1."
         ),
-        "check_methods_sample_order_invariance": (
-            "Row order is the time order within a run: shuffling the rows changes every dT."
+        "check_outliers_train": (
+            "A novelty detector without contamination: every training row is inside by "
+            "construction, so the check's expected -1 on training outliers never comes."
+        ),
+    },
+    "CompensationPipeline": {
+        **_ORDER_DEPENDENT,
+        "check_estimators_overwrite_params": (
+            "A Pipeline fits its steps in place, as scikit-learn's own Pipeline does (which "
+            "scikit-learn does not run through these checks)."
+        ),
+        "check_dont_overwrite_parameters": (
+            "A Pipeline fits its steps in place, as scikit-learn's own Pipeline does."
+        ),
+        "check_regressors_train": (
+            "The thermal features read only the temperature column (column 0) of the check's "
+            "arrays, whose target depends on every column, so the training score stays low."
         ),
     },
     "UnitwiseRegressor": {
@@ -97,7 +132,13 @@ def _ids(estimator):
 
 def test_every_estimator_is_checked():
     names = {name for name, _ in all_estimators()}
-    assert {"ThermalFeatures", "RBFNetRegressor", "UnitwiseRegressor"} <= names
+    assert {
+        "CalibrationDomain",
+        "CompensationPipeline",
+        "ThermalFeatures",
+        "RBFNetRegressor",
+        "UnitwiseRegressor",
+    } <= names
 
 
 @parametrize_with_checks(_instances(), expected_failed_checks=expected_failed_checks)
