@@ -157,9 +157,9 @@ def check_varies(X, names=None):
         name = f"column {column}" if names is None else repr(str(names[column]))
         raise ValueError(
             f"Cannot fit a calibration domain: feature {name} is constant "
-            f"({float(X[0, column])!r}) over the {X.shape[0]} calibration rows. A calibration must "
-            "cover a range of temperatures (and rates) to say where it holds; calibrate on "
-            "runs that change temperature."
+            f"({float(X[0, column])!r}) over the {X.shape[0]} calibration rows. A "
+            "calibration must cover a range of temperatures (and rates) to say where it "
+            "holds; calibrate on runs that change temperature."
         )
 
 
