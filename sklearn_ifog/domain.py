@@ -24,7 +24,7 @@ apply its ``outside`` policy, and the streaming path and the C export compute th
 formulas.
 """
 
-from numbers import Real
+from numbers import Integral, Real
 from typing import ClassVar, NamedTuple
 
 import numpy as np
@@ -44,13 +44,15 @@ __all__ = [
     "fallback_weight",
     "fit_box",
     "fit_fallback",
+    "outside_domain",
     "project_to_box",
+    "temperature_excess",
 ]
 
 #: Distance (in decorrelated standard deviations beyond the domain's margin) over which the
 #: ``"blend"`` policy moves from the model to its fallback (a smoothstep: no step at the
 #: edge, and none at the end).
-BLEND_WIDTH = 1.0
+BLEND_WIDTH = 10.0
 
 # Axes whose spread is below this fraction of the widest axis's are numerically degenerate
 # (an exact linear relation between features, e.g. a duplicated column); their scale is
@@ -210,6 +212,50 @@ def project_to_box(box, X, margin):
     return (P @ box.axes) * box.scale + box.center
 
 
+def temperature_excess(X, columns, low, high):
+    """How far the temperature columns of ``X`` lie beyond their calibrated ranges.
+
+    Parameters
+    ----------
+    X : ndarray of shape (n_samples, n_features)
+    columns : sequence of int
+        The temperature columns (one per sensor); empty: no temperature rule.
+    low, high : ndarray of shape (n_features,)
+        Calibrated range of every feature.
+
+    Returns
+    -------
+    excess : ndarray of shape (n_samples,)
+        The largest excess over the columns, in degrees (0 inside every range).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> temperature_excess(np.array([[5.0], [12.0], [43.0]]), [0], [10.0], [40.0]).tolist()
+    [5.0, 0.0, 3.0]
+    """
+    X = np.asarray(X, dtype=np.float64)
+    columns = list(columns)
+    if not columns:
+        return np.zeros(X.shape[0])
+    low, high = np.asarray(low)[columns], np.asarray(high)[columns]
+    values = X[:, columns]
+    return np.maximum(np.maximum(low - values, values - high), 0.0).max(axis=1)
+
+
+def outside_domain(distance, temperature_beyond, margin):
+    """The domain's rule: outside when farther than ``margin`` from the decorrelated box,
+    or when a temperature lies beyond its calibrated range (by any amount: the firmware
+    convention of a calibrated [TMIN, TMAX]).
+
+    Examples
+    --------
+    >>> outside_domain([0.0, 2.0, 0.0], [0.0, 0.0, 0.5], margin=1.0).tolist()
+    [False, True, True]
+    """
+    return (np.asarray(distance) > margin) | (np.asarray(temperature_beyond) > 0)
+
+
 class Fallback(NamedTuple):
     """The conservative model used outside the domain: a line in T, or a constant.
 
@@ -323,7 +369,7 @@ def fallback_weight(distance, margin, width=BLEND_WIDTH):
 
     Examples
     --------
-    >>> fallback_weight([0.0, 0.1, 0.6, 1.1, 5.0], margin=0.1).tolist()
+    >>> fallback_weight([0.0, 1.0, 6.0, 11.0, 50.0], margin=1.0).tolist()
     [0.0, 0.0, 0.5, 1.0, 1.0]
     """
     s = np.clip((np.asarray(distance, dtype=np.float64) - margin) / width, 0.0, 1.0)
@@ -338,14 +384,20 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
     row's distance outside that box, in units of each axis's standard deviation (0 inside),
     so it measures *combinations* that the calibration never showed (a lag at zero while T
     is cold) as well as values beyond each feature's range, which a per-feature range check
-    misses. Rows farther than ``margin`` are outside (:meth:`predict` gives −1).
+    misses. A row is outside (:meth:`predict` gives −1) when it lies farther than ``margin``
+    from the box, or when a ``temperature`` column lies beyond its calibrated range by any
+    amount (the firmware convention of a calibrated [TMIN, TMAX]).
 
     Parameters
     ----------
-    margin : float, default=0.1
+    margin : float, default=1.0
         Distance, in decorrelated standard deviations, that still counts as inside: the
         noise by which a new run of a calibrated profile steps past the calibration's
-        extremes (see :ref:`outside_calibration` for how it was measured).
+        extremes along the decorrelated axes (see :ref:`outside_calibration` for how it was
+        chosen and measured).
+    temperature : int, list of int or None, default=None
+        Column(s) holding a temperature, whose calibrated range admits no margin. None: the
+        distance alone decides.
 
     Attributes
     ----------
@@ -361,6 +413,8 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         Range of the calibration rows along each axis.
     data_min_, data_max_ : ndarray of shape (n_features_in_,)
         Range of every feature, in its own units (degrees, degrees per minute, ...).
+    temperature_columns_ : list of int
+        The temperature columns (from ``temperature``).
     offset_ : float
         ``-margin``: :meth:`decision_function` is ``score_samples - offset_``.
     n_features_in_ : int
@@ -381,19 +435,23 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
     >>> from sklearn_ifog.domain import CalibrationDomain
     >>> t = np.linspace(10.0, 40.0, 200)
     >>> X = np.column_stack([t, t**2])
-    >>> domain = CalibrationDomain().fit(X)
-    >>> domain.predict([[25.0, 625.0], [0.0, 0.0], [25.0, 0.0]]).tolist()
-    [1, -1, -1]
+    >>> domain = CalibrationDomain(temperature=0).fit(X)
+    >>> domain.predict([[25.0, 625.0], [0.0, 0.0], [25.0, 0.0], [40.5, 1640.25]]).tolist()
+    [1, -1, -1, -1]
+    >>> domain.temperature_excess([[40.5, 1640.25]]).tolist()  # degrees above the range
+    [0.5]
     >>> domain.excess([[5.0, 25.0]]).round(1).tolist()  # degrees below the range
     [[-5.0, -75.0]]
     """
 
     _parameter_constraints: ClassVar[dict] = {
         "margin": [Interval(Real, 0, None, closed="left")],
+        "temperature": [Interval(Integral, 0, None, closed="left"), list, None],
     }
 
-    def __init__(self, *, margin=0.1):
+    def __init__(self, *, margin=1.0, temperature=None):
         self.margin = margin
+        self.temperature = temperature
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None):
@@ -419,6 +477,14 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         """
         X = validate_data(self, X, dtype=np.float64, ensure_min_samples=2)
         check_varies(X, getattr(self, "feature_names_in_", None))
+        columns = [] if self.temperature is None else np.atleast_1d(self.temperature).tolist()
+        bad = [c for c in columns if not isinstance(c, Integral) or not 0 <= c < X.shape[1]]
+        if bad:
+            raise ValueError(
+                f"temperature must name columns 0 to {X.shape[1] - 1} of X by position, got "
+                f"{bad[0]!r}."
+            )
+        self.temperature_columns_ = [int(c) for c in columns]
         box = fit_box(X)
         self.center_, self.scale_, self.components_ = box.center, box.scale, box.axes
         self.axis_scale_, self.lower_, self.upper_ = box.axis_scale, box.lower, box.upper
@@ -458,8 +524,28 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         """
         return box_distance(self.box_, self._validated(X))
 
+    def temperature_excess(self, X):
+        """Degrees by which the temperature columns lie beyond their calibrated ranges.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+
+        Returns
+        -------
+        excess : ndarray of shape (n_samples,)
+            The largest over the ``temperature`` columns (0 inside, and without them).
+        """
+        return temperature_excess(
+            self._validated(X), self.temperature_columns_, self.data_min_, self.data_max_
+        )
+
     def score_samples(self, X):
-        """Minus the distance outside the calibrated box: higher is more typical.
+        """Minus how far a row lies outside: higher is more typical.
+
+        ``-distance`` while every temperature is inside its calibrated range; beyond it,
+        ``-max(distance, margin + excess / scale)`` (excess in degrees over that column's
+        standard deviation), so that the row scores below every row inside.
 
         Parameters
         ----------
@@ -469,10 +555,17 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         -------
         scores : ndarray of shape (n_samples,)
         """
-        return -self.distance(X)
+        X = self._validated(X)
+        distance = box_distance(self.box_, X)
+        columns = self.temperature_columns_
+        if not columns:
+            return -distance
+        beyond = temperature_excess(X, columns, self.data_min_, self.data_max_)
+        scaled = beyond / self.scale_[columns].min()
+        return -np.where(beyond > 0, np.maximum(distance, self.margin + scaled), distance)
 
     def decision_function(self, X):
-        """``margin - distance``: negative outside the domain.
+        """``score_samples + margin``: negative outside the domain.
 
         Parameters
         ----------
@@ -485,7 +578,10 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         return self.score_samples(X) - self.offset_
 
     def predict(self, X):
-        """+1 for rows inside the domain (distance ≤ ``margin``), −1 outside.
+        """+1 for rows inside the domain, −1 outside.
+
+        Outside: farther than ``margin`` from the box, or a temperature beyond its calibrated
+        range (:func:`outside_domain`).
 
         Parameters
         ----------
@@ -495,7 +591,13 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         -------
         labels : ndarray of shape (n_samples,), dtype=int
         """
-        return np.where(self.decision_function(X) >= 0, 1, -1)
+        X = self._validated(X)
+        outside = outside_domain(
+            box_distance(self.box_, X),
+            temperature_excess(X, self.temperature_columns_, self.data_min_, self.data_max_),
+            self.margin,
+        )
+        return np.where(outside, -1, 1)
 
     def excess(self, X):
         """How far every feature lies beyond its own calibrated range, in its units.
@@ -516,7 +618,10 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         return np.minimum(X - self.data_min_, 0.0) + np.maximum(X - self.data_max_, 0.0)
 
     def project(self, X):
-        """The nearest point of the domain (the box widened by ``margin``) to every row.
+        """The nearest point of the domain to every row (the ``"clip"`` policy).
+
+        The box widened by ``margin`` (:func:`project_to_box`), then every temperature
+        clamped to its calibrated range.
 
         Parameters
         ----------
@@ -527,7 +632,13 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         X_projected : ndarray of shape (n_samples, n_features)
             Rows inside unchanged; rows outside moved onto the domain's edge.
         """
-        return project_to_box(self.box_, self._validated(X), self.margin)
+        projected = project_to_box(self.box_, self._validated(X), self.margin)
+        columns = self.temperature_columns_
+        if columns:
+            projected[:, columns] = np.clip(
+                projected[:, columns], self.data_min_[columns], self.data_max_[columns]
+            )
+        return projected
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

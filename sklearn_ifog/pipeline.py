@@ -19,7 +19,7 @@ from sklearn.preprocessing import StandardScaler
 from sklearn.utils.validation import check_is_fitted
 
 from sklearn_ifog._compat import Interval, StrOptions, _fit_context
-from sklearn_ifog._contract import get_term
+from sklearn_ifog._contract import get_term, sensor_keys
 from sklearn_ifog.domain import (
     CalibrationDomain,
     OutsideCalibrationWarning,
@@ -27,7 +27,8 @@ from sklearn_ifog.domain import (
     check_varies,
     fallback_weight,
     fit_fallback,
-    project_to_box,
+    outside_domain,
+    temperature_excess,
 )
 from sklearn_ifog.features import ThermalFeatures
 from sklearn_ifog.rbf import RBFNetRegressor
@@ -65,7 +66,7 @@ def make_compensation_pipeline(
     run="run",
     terms=None,
     outside="blend",
-    margin=0.1,
+    margin=1.0,
     **feature_params,
 ):
     """Build the drift model ``ThermalFeatures → StandardScaler → regressor``.
@@ -100,7 +101,7 @@ def make_compensation_pipeline(
         (:class:`CompensationPipeline`): ``"blend"`` moves smoothly to a line in T (or a
         constant) as the row lies farther out; ``"clip"`` predicts at the domain's edge;
         ``"none"`` leaves the regressor's extrapolation alone.
-    margin : float, default=0.1
+    margin : float, default=1.0
         Distance outside the calibrated box, in decorrelated standard deviations, that
         still counts as inside (:class:`~sklearn_ifog.domain.CalibrationDomain`).
     **feature_params
@@ -166,12 +167,18 @@ def make_compensation_pipeline(
     )
 
 
-def _temperature_column(features):
-    """Column of the first sensor's T among a fitted ThermalFeatures' outputs, or None."""
+def _temperature_columns(features):
+    """Columns of every sensor's T among a fitted ThermalFeatures' outputs (first sensor
+    first); empty for another first step or without a ``"T"`` term."""
     if not isinstance(features, ThermalFeatures) or "T" not in features.terms_:
-        return None
-    first_sensor_terms = [term for term in features.terms_ if get_term(term).first_sensor]
-    return first_sensor_terms.index("T")
+        return []
+    terms = list(features.terms_)
+    first_sensor_terms = [term for term in terms if get_term(term).first_sensor]
+    n_sensors = len(sensor_keys(features.temperature))
+    later = len(first_sensor_terms) + terms.index("T")
+    return [first_sensor_terms.index("T")] + [
+        later + sensor * len(terms) for sensor in range(n_sensors - 1)
+    ]
 
 
 def _as_rows(values):
@@ -200,7 +207,8 @@ class CompensationPipeline(Pipeline):
     covered) and a conservative fallback (a line in the first sensor's T where its slope
     extrapolates, else the calibration's mean drift: :func:`~sklearn_ifog.domain.fit_fallback`).
     At :meth:`predict`, rows inside the domain get the regressor's prediction unchanged;
-    rows outside follow ``outside``, and an
+    rows outside (farther than ``margin`` from the domain's decorrelated box, or with a
+    temperature beyond its calibrated range) follow ``outside``, and an
     :class:`~sklearn_ifog.domain.OutsideCalibrationWarning` says how many there were and how
     far out. :func:`make_compensation_pipeline` builds one.
 
@@ -214,11 +222,11 @@ class CompensationPipeline(Pipeline):
         ``w`` rising smoothly from 0 at ``margin`` to 1 at ``margin + BLEND_WIDTH``
         (:func:`~sklearn_ifog.domain.fallback_weight`), so far outside the model gives way
         to the line (no step anywhere). ``"clip"``: the model at the nearest point of the
-        domain (the firmware convention of clamping T to its calibrated range, in
-        decorrelated coordinates). ``"none"``: the regressor's own extrapolation (the
+        domain (the box widened by ``margin``, every temperature clamped to its calibrated
+        range: the firmware convention of clamping T to [TMIN, TMAX]). ``"none"``: the regressor's own extrapolation (the
         behaviour before the domain existed). The default is the policy that
         ``benchmarks/bench_extrapolation.py`` measures as never worse than uncompensated.
-    margin : float, default=0.1
+    margin : float, default=1.0
         Distance outside the calibrated box, in decorrelated standard deviations, that still
         counts as inside (the domain's ``margin``).
     transform_input, memory, verbose
@@ -278,7 +286,7 @@ class CompensationPipeline(Pipeline):
         steps,
         *,
         outside="blend",
-        margin=0.1,
+        margin=1.0,
         transform_input=None,
         memory=None,
         verbose=False,
@@ -329,11 +337,21 @@ class CompensationPipeline(Pipeline):
             )
         self.feature_names_out_ = names
         check_varies(raw, names)
-        self.domain_ = CalibrationDomain(margin=self.margin).fit(raw)
-        column = _temperature_column(features)
+        columns = _temperature_columns(features)
+        self.domain_ = CalibrationDomain(margin=self.margin, temperature=columns).fit(raw)
+        column = columns[0] if columns else None
         Y = np.asarray(y, dtype=np.float64).reshape(raw.shape[0], -1)
         self.fallback_ = fit_fallback(None if column is None else raw[:, column], Y, column)
         return self
+
+    def _where(self, rows):
+        """Distance to the box, degrees beyond the calibrated temperatures, outside flag."""
+        domain = self.domain_
+        distance = box_distance(domain.box_, rows)
+        beyond = temperature_excess(
+            rows, domain.temperature_columns_, domain.data_min_, domain.data_max_
+        )
+        return distance, beyond, outside_domain(distance, beyond, self.margin)
 
     def _transform_features(self, X):
         check_is_fitted(self, "domain_")
@@ -348,11 +366,12 @@ class CompensationPipeline(Pipeline):
         return np.asarray(self.steps[-1][1].predict(Xt, **params), dtype=np.float64)
 
     def calibration_distance(self, X):
-        """Distance of every row outside the calibration domain (0 inside the box).
+        """Distance of every row outside the calibration domain's box (0 inside it).
 
         In decorrelated standard deviations
         (:meth:`~sklearn_ifog.domain.CalibrationDomain.distance`); a row is outside when
-        this exceeds ``margin``.
+        this exceeds ``margin`` or when a temperature lies beyond its calibrated range
+        (:meth:`outside_calibration`).
 
         Parameters
         ----------
@@ -368,6 +387,9 @@ class CompensationPipeline(Pipeline):
     def outside_calibration(self, X):
         """Whether every row lies outside the calibration domain.
 
+        Outside: farther than ``margin`` from the decorrelated box, or a temperature beyond
+        its calibrated range (:func:`~sklearn_ifog.domain.outside_domain`).
+
         Parameters
         ----------
         X : iterable
@@ -377,7 +399,7 @@ class CompensationPipeline(Pipeline):
         -------
         outside : ndarray of shape (n_samples,), dtype=bool
         """
-        return self.calibration_distance(X) > self.margin
+        return self._where(_as_rows(self._transform_features(X)))[2]
 
     def predict(self, X, **params):
         """Predict the drift, following ``outside`` for rows outside the domain.
@@ -401,13 +423,12 @@ class CompensationPipeline(Pipeline):
         features = self._transform_features(X)
         rows = _as_rows(features)
         prediction = self._predict_features(features, **params)
-        distance = box_distance(self.domain_.box_, rows)
-        outside = distance > self.margin
+        distance, beyond, outside = self._where(rows)
         if not outside.any():
             return prediction
-        self._warn_outside(rows, distance, outside)
+        self._warn_outside(distance, beyond, outside)
         if self.outside == "clip":
-            projected = project_to_box(self.domain_.box_, rows[outside], self.margin)
+            projected = self.domain_.project(rows[outside])
             prediction[outside] = self._predict_features(_like(features, projected), **params)
         elif self.outside == "blend":
             weight = fallback_weight(distance[outside], self.margin)
@@ -419,23 +440,19 @@ class CompensationPipeline(Pipeline):
             prediction[outside] = (1.0 - weight) * prediction[outside] + weight * fallback
         return prediction
 
-    def _warn_outside(self, rows, distance, outside):
-        share = outside.mean()
+    def _warn_outside(self, distance, beyond, outside):
         message = (
-            f"{outside.sum()} of {rows.shape[0]} rows ({share:.1%}) lie outside the "
+            f"{outside.sum()} of {outside.size} rows ({outside.mean():.1%}) lie outside the "
             f"calibration domain (largest distance {distance.max():.3g} decorrelated "
             "standard deviations"
         )
-        column = self.fallback_.column
-        if column is not None:
+        if beyond.max() > 0:
+            column = self.domain_.temperature_columns_[0]
             low, high = self.domain_.data_min_[column], self.domain_.data_max_[column]
-            temperature = rows[outside, column]
-            beyond = np.maximum(low - temperature, temperature - high).max()
-            if beyond > 0:
-                message += (
-                    f"; up to {beyond:.3g} degC beyond the calibrated temperatures "
-                    f"{low:.4g} to {high:.4g} degC"
-                )
+            message += (
+                f"; up to {beyond.max():.3g} degC beyond the calibrated temperatures "
+                f"{low:.4g} to {high:.4g} degC"
+            )
         message += f"); their predictions follow outside={self.outside!r}."
         warnings.warn(message, OutsideCalibrationWarning, stacklevel=3)
 

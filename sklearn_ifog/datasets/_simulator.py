@@ -39,7 +39,11 @@ from sklearn_ifog.metrics import earth_rate
 
 __all__ = ["make_thermal_campaign", "noise_floor"]
 
-PROFILES = ("paper", "cycle", "staircase")
+# The profiles "mix" draws from (unchanged, so that mixed campaigns stay bit for bit), and
+# every profile: "cooling" is the paper's profile run downwards (an operating profile that
+# a heating-only calibration never showed).
+MIX_PROFILES = ("paper", "cycle", "staircase")
+PROFILES = (*MIX_PROFILES, "cooling")
 PHYSICS = ("lumped", "layered", "layered_glass")
 FRAME_COLUMNS = (
     "unit",
@@ -214,12 +218,15 @@ def _chamber_profile(profile, rng, ramp_rate, temperature_range):
     low_limit, high_limit = temperature_range
     span = high_limit - low_limit
     rate = _draw_ramp_rate(rng, ramp_rate) / _SECONDS_PER_MINUTE  # degC/s
-    if profile == "paper":
-        # Reference paper, section 4: soak 1 h at the low level, ramp up, soak 2 h at the top.
+    if profile in ("paper", "cooling"):
+        # Reference paper, section 4: soak 1 h at the low level, ramp up, soak 2 h at the top;
+        # "cooling" runs the same levels and soaks the other way round.
         low = rng.uniform(low_limit, low_limit + 0.4 * span)
         high = rng.uniform(high_limit - 0.3 * span, high_limit)
         levels = [low, high]
         soaks = [rng.uniform(45.0, 75.0), rng.uniform(100.0, 140.0)]
+        if profile == "cooling":
+            levels, soaks = levels[::-1], soaks[::-1]
     elif profile == "cycle":
         low = rng.uniform(low_limit, low_limit + 0.2 * span)
         high = rng.uniform(high_limit - 0.2 * span, high_limit)
@@ -292,7 +299,7 @@ def _simulate_run(unit_params, chamber_setpoint, sampling_period, reference, noi
 
 def _check_profile(profile):
     if isinstance(profile, str):
-        names = list(PROFILES) if profile == "mix" else [profile]
+        names = list(MIX_PROFILES) if profile == "mix" else [profile]
     else:
         names = list(profile)
         if not names:
@@ -403,14 +410,17 @@ def make_thermal_campaign(
         Azimuths of the sensitive axis from true north, degrees.
     latitude : float, default=45.0
         Latitude of the test site, degrees.
-    profile : {"paper", "cycle", "staircase", "mix"} or list of str, default="paper"
+    profile : {"paper", "cycle", "staircase", "cooling", "mix"} or list of str, \
+default="paper"
         Chamber profile of every run. ``"paper"``: the reference paper's sequence (soak about
-        1 h at a low level, ramp up, soak about 2 h at the top); ``"cycle"``: one or two
-        low-high-low cycles with soaks of 30-60 min; ``"staircase"``: 3-5 equal steps up or
-        down with soaks of 30-60 min. A list draws each run's profile uniformly from the list;
-        ``"mix"`` is the list of all three. Levels are drawn per run inside
-        ``temperature_range``: paper: low in the bottom 40 % of the range, top in the top
-        30 %; cycle and staircase: bottom 20 % and top 20 %.
+        1 h at a low level, ramp up, soak about 2 h at the top: heating only);
+        ``"cooling"``: the same run downwards (soak about 2 h at the top, ramp down, soak
+        about 1 h at the low level: cooling only); ``"cycle"``: one or two low-high-low
+        cycles with soaks of 30-60 min; ``"staircase"``: 3-5 equal steps up or down with
+        soaks of 30-60 min. A list draws each run's profile uniformly from the list;
+        ``"mix"`` is the list of "paper", "cycle" and "staircase". Levels are drawn per run
+        inside ``temperature_range``: paper and cooling: low in the bottom 40 % of the range,
+        top in the top 30 %; cycle and staircase: bottom 20 % and top 20 %.
     sampling_period : float, default=60.0
         Sample spacing, seconds, in [0.1, 600]. One-minute samples are the usual resolution
         of thermal-drift modelling (thermal time constants are tens of minutes; shorter
