@@ -126,7 +126,7 @@ def peers(X_cal, y_cal, X_op):
     for width in SWEEP_WIDTHS:
         weight = fallback_weight(distance, default.margin, width)
         sweep[f"blend width {width:g}"] = (1.0 - weight) * none + weight * fallback
-    return predictions, sweep, default, features, distance
+    return predictions, sweep, default, features
 
 
 def _msd(y, prediction, mask):
@@ -163,7 +163,7 @@ def simulator_case(physics, seed, sampling_period, n_runs):
         X_op, y_op = operation.data, operation.target.to_numpy()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            predictions, sweep, model, features, distance = peers(X_cal, y_cal, X_op)
+            predictions, sweep, model, features = peers(X_cal, y_cal, X_op)
         temperature = X_op["temperature"].to_numpy()
         low, high = X_cal["temperature"].min(), X_cal["temperature"].max()
         outside_t = (temperature < low) | (temperature > high)
@@ -246,7 +246,7 @@ def real_case(split, axis):
     y = table[axis].to_numpy()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        predictions, _, model, _, _ = peers(X[calibrate], y[calibrate], X[~calibrate])
+        predictions, _, model, _ = peers(X[calibrate], y[calibrate], X[~calibrate])
         flags = model.outside_calibration(X[~calibrate])
     held = y[~calibrate]
     everything = np.ones(held.shape[0], dtype=bool)

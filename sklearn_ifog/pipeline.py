@@ -223,9 +223,10 @@ class CompensationPipeline(Pipeline):
         (:func:`~sklearn_ifog.domain.fallback_weight`), so far outside the model gives way
         to the line (no step anywhere). ``"clip"``: the model at the nearest point of the
         domain (the box widened by ``margin``, every temperature clamped to its calibrated
-        range: the firmware convention of clamping T to [TMIN, TMAX]). ``"none"``: the regressor's own extrapolation (the
-        behaviour before the domain existed). The default is the policy that
-        ``benchmarks/bench_extrapolation.py`` measures as never worse than uncompensated.
+        range: the firmware convention of clamping T to [TMIN, TMAX]). ``"none"``: the
+        regressor's own extrapolation (the behaviour before the domain existed). The
+        default is the policy that ``benchmarks/bench_extrapolation.py`` measures as never
+        worse than uncompensated.
     margin : float, default=1.0
         Distance outside the calibrated box, in decorrelated standard deviations, that still
         counts as inside (the domain's ``margin``).
