@@ -63,6 +63,8 @@ _AXIS_FLOOR = 1e-6
 # calibration rows are held out in turn.
 _EXTRAPOLATION_FRACTION = 0.2
 _MIN_FALLBACK_ROWS = 10
+# Rounds of alternating projection (box, temperature ranges) of CalibrationDomain.project.
+_PROJECTION_ROUNDS = 8
 # A slope is real when, at each calibrated extreme, the extrapolated line leaves at most this
 # share of the constant's squared error: a thermal slope explains most of the variation at
 # the calibration's own extremes, while a slope fitted to noise or to a bias that drifted with
@@ -206,10 +208,10 @@ def project_to_box(box, X, margin):
     inside = np.clip(P, box.lower, box.upper)
     distance = np.sqrt(np.square((P - inside) / box.axis_scale).sum(axis=1))
     far = distance > margin
-    shrink = np.ones_like(distance)
-    shrink[far] = margin / distance[far]
-    P = inside + (P - inside) * shrink[:, None]
-    return (P @ box.axes) * box.scale + box.center
+    projected = X.copy()  # rows within the margin stay exactly as they are
+    P_far = inside[far] + (P[far] - inside[far]) * (margin / distance[far])[:, None]
+    projected[far] = (P_far @ box.axes) * box.scale + box.center
+    return projected
 
 
 def temperature_excess(X, columns, low, high):
@@ -620,8 +622,9 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
     def project(self, X):
         """The nearest point of the domain to every row (the ``"clip"`` policy).
 
-        The box widened by ``margin`` (:func:`project_to_box`), then every temperature
-        clamped to its calibrated range.
+        Onto the box widened by ``margin`` (:func:`project_to_box`) and every temperature
+        clamped to its calibrated range, alternately (eight rounds, ending on the clamp), so
+        that the result lies in both up to a small fraction of ``margin``.
 
         Parameters
         ----------
@@ -632,12 +635,18 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         X_projected : ndarray of shape (n_samples, n_features)
             Rows inside unchanged; rows outside moved onto the domain's edge.
         """
-        projected = project_to_box(self.box_, self._validated(X), self.margin)
+        X = self._validated(X)
         columns = self.temperature_columns_
-        if columns:
-            projected[:, columns] = np.clip(
-                projected[:, columns], self.data_min_[columns], self.data_max_[columns]
-            )
+        if not columns:
+            return project_to_box(self.box_, X, self.margin)
+        low, high = self.data_min_[columns], self.data_max_[columns]
+        # Alternating projections onto the widened box and the temperature ranges: both are
+        # convex, so the rows converge into their intersection; ending on the clamp keeps
+        # every temperature exactly inside its range.
+        projected = X.copy()
+        for _ in range(_PROJECTION_ROUNDS):
+            projected = project_to_box(self.box_, projected, self.margin)
+            projected[:, columns] = np.clip(projected[:, columns], low, high)
         return projected
 
     def __sklearn_tags__(self):

@@ -1,0 +1,314 @@
+"""The calibration domain and the CompensationPipeline's behaviour outside it."""
+
+import pickle
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+from sklearn.base import clone
+from sklearn.linear_model import LinearRegression
+from sklearn.model_selection import GridSearchCV, GroupKFold
+
+from sklearn_ifog import (
+    CalibrationDomain,
+    CompensationPipeline,
+    OutsideCalibrationWarning,
+    RBFNetRegressor,
+    make_compensation_pipeline,
+)
+from sklearn_ifog._compat import InvalidParameterError
+from sklearn_ifog.datasets import load_psim_tvc, make_thermal_campaign
+from sklearn_ifog.domain import (
+    BLEND_WIDTH,
+    box_distance,
+    fallback_weight,
+    fit_box,
+    fit_fallback,
+    project_to_box,
+)
+
+SMALL = dict(n_units=1, n_runs=2, azimuths=(0.0,), sampling_period=120.0, random_state=0)
+
+
+@pytest.fixture(scope="module")
+def heating_and_cycling():
+    """A gyro calibrated heating only (10-40 degC), and runs of it cycling down to -10."""
+    calibration = make_thermal_campaign(profile="paper", temperature_range=(10.0, 40.0), **SMALL)
+    operation = make_thermal_campaign(profile="cycle", temperature_range=(-10.0, 40.0), **SMALL)
+    return calibration.data, calibration.target, operation.data, operation.target
+
+
+@pytest.fixture(scope="module")
+def partly_outside(heating_and_cycling):
+    """The calibration runs themselves (inside) and copies of them 15 degC colder."""
+    X, _, _, _ = heating_and_cycling
+    colder = X.assign(temperature=X["temperature"] - 15.0, run=X["run"] + 100)
+    return pd.concat([X, colder], ignore_index=True)
+
+
+@pytest.fixture(scope="module")
+def fitted(heating_and_cycling):
+    X, y, _, _ = heating_and_cycling
+    return make_compensation_pipeline(RBFNetRegressor(random_state=0)).fit(X, y)
+
+
+# -- the domain alone ------------------------------------------------------------------
+
+
+def _curve(n=400):
+    """Rows on a curve in 3-D, as a single run's features lie on its time history."""
+    t = np.linspace(0.0, 1.0, n)
+    return np.column_stack([10.0 + 30.0 * t, np.exp(-3.0 * t), (10.0 + 30.0 * t) ** 2])
+
+
+def test_training_rows_are_inside_and_combinations_outside():
+    X = _curve()
+    domain = CalibrationDomain(margin=0.5).fit(X)
+    assert (domain.predict(X) == 1).all()
+    assert np.all(domain.distance(X) == 0.0)
+    # Every feature inside its own range, but a combination the curve never had (the
+    # second feature at its warm value while the first is cold): a range check misses it.
+    combination = np.array([[12.0, np.exp(-3.0), 144.0]])
+    assert (combination >= X.min(axis=0)).all()
+    assert (combination <= X.max(axis=0)).all()
+    assert domain.predict(combination).tolist() == [-1]
+    assert domain.distance(combination)[0] > 10 * domain.margin
+
+
+def test_distance_is_in_axis_standard_deviations_one_feature():
+    x = np.linspace(0.0, 10.0, 101)[:, None]
+    domain = CalibrationDomain(margin=0.0).fit(x)
+    sd = x.std()
+    assert domain.distance([[10.0 + 2.5 * sd]])[0] == pytest.approx(2.5)
+    assert domain.distance([[-sd]])[0] == pytest.approx(1.0)
+    assert domain.decision_function([[5.0]])[0] == pytest.approx(0.0)
+    assert domain.score_samples([[-sd]])[0] == pytest.approx(-1.0)
+
+
+def test_temperature_beyond_range_is_outside_whatever_the_margin():
+    X = _curve()
+    domain = CalibrationDomain(margin=5.0, temperature=0).fit(X)
+    just_below = X[:1].copy()
+    just_below[0, 0] -= 0.01
+    assert domain.distance(just_below)[0] < domain.margin
+    assert domain.predict(just_below).tolist() == [-1]
+    assert domain.temperature_excess(just_below)[0] == pytest.approx(0.01)
+    assert domain.decision_function(just_below)[0] < 0
+    assert domain.score_samples(just_below)[0] < domain.score_samples(X).min()
+    # Without the temperature rule the same row is inside.
+    assert CalibrationDomain(margin=5.0).fit(X).predict(just_below).tolist() == [1]
+
+
+def test_excess_and_projection():
+    X = _curve()
+    domain = CalibrationDomain(margin=0.5, temperature=0).fit(X)
+    far = np.array([[-20.0, 3.0, 0.0], [25.0, 0.5, 625.0]])
+    excess = domain.excess(far)
+    assert excess[0, 0] == pytest.approx(-30.0)  # degrees below the coldest
+    assert excess[0, 1] == pytest.approx(2.0)  # above the largest second feature
+    projected = domain.project(far)
+    assert np.all(domain.temperature_excess(projected) == 0.0)
+    assert np.all(domain.distance(projected) <= 1.01 * domain.margin)
+    # Projection leaves inside rows alone and is idempotent.
+    np.testing.assert_array_equal(domain.project(X), X)
+    np.testing.assert_allclose(domain.project(projected), projected, rtol=0, atol=1e-9)
+
+
+def test_project_to_box_one_feature_is_a_clamp():
+    x = np.linspace(-5.0, 5.0, 11)[:, None]
+    box = fit_box(x)
+    sd = x.std()
+    clamped = project_to_box(box, [[-50.0], [0.0], [50.0]], margin=1.0)
+    np.testing.assert_allclose(clamped.ravel(), [-5.0 - sd, 0.0, 5.0 + sd])
+    assert box_distance(box, clamped).max() == pytest.approx(1.0)
+
+
+def test_domain_errors_name_the_problem():
+    X = _curve()
+    X[:, 1] = 3.0
+    with pytest.raises(ValueError, match="feature column 1 is constant"):
+        CalibrationDomain().fit(X)
+    with pytest.raises(InvalidParameterError, match="margin"):
+        CalibrationDomain(margin=-1.0).fit(_curve())
+    with pytest.raises(ValueError, match="temperature must name columns 0 to 2"):
+        CalibrationDomain(temperature=[5]).fit(_curve())
+    fitted = CalibrationDomain().fit(_curve())
+    with pytest.raises(ValueError, match="NaN"):
+        fitted.predict([[np.nan, 0.5, 100.0]])
+    with pytest.raises(ValueError, match="3 features"):
+        fitted.predict([[1.0, 2.0]])
+
+
+def test_fallback_weight_is_smooth_and_bounded():
+    distance = np.linspace(0.0, 3 * BLEND_WIDTH, 3001)
+    weight = fallback_weight(distance, margin=1.0)
+    assert weight[distance <= 1.0].max() == 0.0
+    assert weight[distance >= 1.0 + BLEND_WIDTH].min() == 1.0
+    assert np.all(np.diff(weight) >= 0)
+    # No step: the largest change between neighbouring distances is that of a smoothstep.
+    assert np.abs(np.diff(weight)).max() <= 1.5 * (distance[1] - distance[0]) / BLEND_WIDTH
+
+
+# -- the fallback ----------------------------------------------------------------------
+
+
+def test_fallback_keeps_a_real_slope_and_drops_a_spurious_one():
+    rng = np.random.default_rng(0)
+    t = np.linspace(10.0, 22.0, 400)
+    real = 70.0 * t + rng.normal(scale=20.0, size=t.size)
+    noise = rng.normal(scale=20.0, size=t.size)
+    # A bias that wandered with time (and so with the temperature of a monotone run) and
+    # turned back: a line fits its middle and misses both ends.
+    wander = 30.0 * np.sin(np.linspace(0.0, np.pi, t.size)) + rng.normal(size=t.size)
+    fallback = fit_fallback(t, np.column_stack([real, noise, wander]), column=0)
+    assert fallback.slope[0] == pytest.approx(70.0, rel=0.05)
+    assert fallback.slope[1:].tolist() == [0.0, 0.0]
+    np.testing.assert_allclose(fallback.intercept[1:], [noise.mean(), wander.mean()])
+    assert fallback.column == 0
+
+
+def test_fallback_without_temperature_or_rows_is_the_mean():
+    Y = np.arange(30.0)[:, None]
+    assert fit_fallback(None, Y).slope.tolist() == [0.0]
+    assert fit_fallback(np.arange(30.0), Y).slope.tolist() == [0.0]  # 6 rows per end < 10
+    assert fit_fallback(None, Y).predict(np.zeros((2, 3))).ravel().tolist() == [14.5, 14.5]
+
+
+# -- the pipeline --------------------------------------------------------------------
+
+
+def test_default_pipeline_is_a_compensation_pipeline():
+    model = make_compensation_pipeline()
+    assert isinstance(model, CompensationPipeline)
+    assert (model.outside, model.margin) == ("blend", 1.0)
+    assert [name for name, _ in model.steps] == ["features", "scale", "regressor"]
+    assert clone(model).get_params()["outside"] == "blend"
+    assert type(model[:-1]).__name__ == "Pipeline"
+
+
+def test_inside_rows_are_unchanged_and_policies_apply_outside(
+    fitted, heating_and_cycling, partly_outside
+):
+    X, y, _, _ = heating_and_cycling
+    X_op = partly_outside
+    model = clone(fitted).fit(X, y)
+    outside = model.outside_calibration(X_op)
+    assert 0.3 < outside.mean() < 1.0  # the rows leave the domain, partly
+    predictions = {}
+    for policy in ("none", "blend", "clip"):
+        model.set_params(outside=policy)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", OutsideCalibrationWarning)
+            predictions[policy] = model.predict(X_op)
+    for policy in ("blend", "clip"):
+        np.testing.assert_array_equal(predictions[policy][~outside], predictions["none"][~outside])
+    features = model.steps[0][1].transform(X_op)
+    distance = model.calibration_distance(X_op)
+    weight = fallback_weight(distance, model.margin)
+    expected = (1 - weight) * predictions["none"] + weight * model.fallback_.predict(features)[
+        :, 0
+    ]
+    np.testing.assert_allclose(predictions["blend"], expected, rtol=1e-12, atol=1e-12)
+    far = weight == 1.0
+    assert far.any()
+    np.testing.assert_array_equal(
+        predictions["blend"][far], model.fallback_.predict(features[far])[:, 0]
+    )
+    projected = model.domain_.project(features[outside])
+    clipped = model.steps[-1][1].predict(model.steps[1][1].transform(projected))
+    np.testing.assert_allclose(predictions["clip"][outside], clipped, rtol=1e-12)
+
+
+def test_blend_has_no_step_as_a_run_leaves_the_domain(fitted, heating_and_cycling):
+    X, _, _, _ = heating_and_cycling
+    run = X[X["run"] == X["run"].iloc[0]]
+    shifts = np.linspace(0.0, -20.0, 201)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OutsideCalibrationWarning)
+        curves = np.array(
+            [fitted.predict(run.assign(temperature=run["temperature"] + s)) for s in shifts]
+        )
+    steps = np.abs(np.diff(curves, axis=0)).max()
+    span = np.ptp(curves)
+    assert steps < 0.05 * span
+
+
+def test_warning_once_per_call_with_share_and_degrees(fitted, heating_and_cycling):
+    X, _, X_op, _ = heating_and_cycling
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fitted.predict(X)
+    assert not [w for w in caught if w.category is OutsideCalibrationWarning]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fitted.predict(X_op)
+    messages = [str(w.message) for w in caught if w.category is OutsideCalibrationWarning]
+    assert len(messages) == 1
+    share = fitted.outside_calibration(X_op).mean()
+    assert f"({share:.1%})" in messages[0]
+    beyond = X["temperature"].min() - X_op["temperature"].min()
+    assert f"up to {beyond:.3g} degC beyond" in messages[0]
+    assert "outside='blend'" in messages[0]
+
+
+def test_bad_input_is_named(heating_and_cycling, fitted):
+    X, y, X_op, _ = heating_and_cycling
+    with pytest.raises(InvalidParameterError, match="outside"):
+        make_compensation_pipeline(LinearRegression(), outside="hold").fit(X, y)
+    constant = X.assign(temperature=25.0)
+    with pytest.raises(ValueError, match="feature 'T' is constant"):
+        make_compensation_pipeline(LinearRegression()).fit(constant, y)
+    bad = X_op.copy()
+    bad.loc[bad.index[7], "temperature"] = np.nan
+    with pytest.raises(ValueError, match="temperature column 'temperature' contains NaN"):
+        fitted.predict(bad)
+    with pytest.raises(ValueError, match="drift target"):
+        make_compensation_pipeline(LinearRegression()).fit(X)
+
+
+def test_fits_in_grid_search_and_pickles(heating_and_cycling):
+    X, y, X_op, _ = heating_and_cycling
+    search = GridSearchCV(
+        make_compensation_pipeline(LinearRegression()),
+        {"outside": ["blend", "none"]},
+        cv=GroupKFold(n_splits=2),
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OutsideCalibrationWarning)
+        search.fit(X, y, groups=X["run"])
+        again = pickle.loads(pickle.dumps(search.best_estimator_))
+        np.testing.assert_array_equal(again.predict(X_op), search.best_estimator_.predict(X_op))
+    assert again.domain_.margin == 1.0
+
+
+def _real_table():
+    frame = load_psim_tvc(drop_spikes=True).frame
+    frame = frame.assign(second=np.floor(frame["time"].to_numpy()).astype(int))
+    aggregation = {"time": "mean", "burst": "first", "temperature": "mean"}
+    aggregation.update({axis: "mean" for axis in ("gyro_x", "gyro_y", "gyro_z")})
+    return frame.groupby("second", as_index=False).agg(aggregation).assign(run=0)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_real_recording_warm_to_cold_never_worse_than_uncompensated(seed):
+    """The shipped recording, calibrated on its 12 warmer bursts and used on the 13 colder
+    ones: the default is no worse than removing the calibration's mean drift, on every axis,
+    where ``outside="none"`` is thousands of times worse (``bench_extrapolation.py``)."""
+    table = _real_table()
+    warm = (table["burst"] < 12).to_numpy()
+    X = table[["run", "time", "temperature"]]
+    for axis in ("gyro_x", "gyro_y", "gyro_z"):
+        y = table[axis].to_numpy()
+        model = make_compensation_pipeline(RBFNetRegressor(random_state=seed)).fit(
+            X[warm], y[warm]
+        )
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", OutsideCalibrationWarning)
+            default = np.mean((y[~warm] - model.predict(X[~warm])) ** 2)
+            model.set_params(outside="none")
+            free = np.mean((y[~warm] - model.predict(X[~warm])) ** 2)
+        uncompensated = np.mean((y[~warm] - y[warm].mean()) ** 2)
+        assert default <= uncompensated, axis
+        assert free > 10 * uncompensated, axis
+        assert model.outside_calibration(X[~warm]).all()
