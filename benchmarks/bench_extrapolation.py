@@ -40,13 +40,19 @@ Targets (exit 1 when one fails):
 - new rates (case 1): the default's MSD <= 1.2 x the line in T;
 - flags: >= 95 % of the outside-T rows flagged (case 1); in case 2, <= 2 % of the rows
   inside the calibrated temperatures flagged;
+- the first rule, on every group of case 1 outside the calibration (outside T, new rates):
+  the default's MSD <= 1.05 x uncompensated;
 - real recording: warm->cold and cold->warm on x and y, the default <= uncompensated and
   <= 1.5 x the line in T; on z (no thermal drift to speak of) <= uncompensated;
   alternate bursts no worse than ``outside="none"`` (within 5 %).
 
-Tuning and judging are kept apart: the blend width (``sklearn_ifog.domain.BLEND_WIDTH``)
-and the margin were chosen on seeds 0-2 (``--tune`` prints the blend width sweep on the
-seeds given); the verdicts are scored on seeds 3-7, which played no part in the choice.
+Tuning and judging are kept apart: the blend width (``sklearn_ifog.domain.BLEND_WIDTH``,
+1) and the margin (1.5) were chosen on seeds 0-7 (``--tune`` prints the blend width sweep
+on them; the margin is the smallest that leaves at most 2 % of the shared-profile rows
+flagged there); the verdicts are scored on seeds 8-12, which played no part in the choice.
+The width was first chosen as 10 on seeds 0-2, where it met the new-rates target on every
+case; seed 3 then showed it keeping a network 10-16 x worse than the line (a glass
+transition seen heating only), so safety decided for the narrowest width of the sweep.
 
 Run (about 5 min on two cores)::
 
@@ -79,8 +85,8 @@ from _verdict import exit_code, target_line
 
 RESULTS = Path(__file__).resolve().parent / "results"
 PHYSICS = ("lumped", "layered", "layered_glass")
-JUDGED_SEEDS = (3, 4, 5, 6, 7)
-TUNING_SEEDS = (0, 1, 2)
+JUDGED_SEEDS = (8, 9, 10, 11, 12)
+TUNING_SEEDS = (0, 1, 2, 3, 4, 5, 6, 7)
 OPERATING_PROFILES = ("cycle", "cooling")
 REAL_AXES = ("gyro_x", "gyro_y", "gyro_z")
 SWEEP_WIDTHS = (1.0, 3.0, 10.0, 30.0)
@@ -91,6 +97,7 @@ RATE_RATIO = 1.2  # new rates: <= 1.2 x the line
 FLAGGED_OUTSIDE = 0.95
 FLAGGED_SHARED = 0.02
 INTERLEAVED_RATIO = 1.05
+NEVER_WORSE = 1.05  # the first rule, within the noise of a held-out MSD
 
 
 def _network(**params):
@@ -287,6 +294,15 @@ def checks(simulated, shared, real):
                     flagged >= FLAGGED_OUTSIDE,
                     f"{name}: outside-T rows flagged >= {FLAGGED_OUTSIDE:.0%} ({flagged:.3f})",
                 )
+            for group in ("outside T", "new rates"):
+                scores = cell["scores"][group]
+                if scores["rows"]:
+                    ratio = scores["default"] / scores["uncompensated"]
+                    add(
+                        ratio <= NEVER_WORSE,
+                        f"{name}, {group}: never worse than uncompensated, default <= "
+                        f"{NEVER_WORSE:g} x uncompensated ({ratio:.3f})",
+                    )
             rates = cell["scores"]["new rates"]
             if rates["rows"]:
                 ratio = rates["default"] / rates["line in T"]
@@ -295,10 +311,11 @@ def checks(simulated, shared, real):
                     f"{name}, new rates: default <= {RATE_RATIO:g} x line ({ratio:.3f})",
                 )
     for (physics, seed), cell in shared.items():
+        share = cell["flagged inside T"]
         add(
-            cell["flagged"] <= FLAGGED_SHARED,
-            f"{physics} seed {seed}, leave one azimuth out: "
-            f"flagged <= {FLAGGED_SHARED:.0%} ({cell['flagged']:.4f})",
+            share <= FLAGGED_SHARED,
+            f"{physics} seed {seed}, leave one azimuth out: rows inside the calibrated "
+            f"temperatures flagged <= {FLAGGED_SHARED:.0%} ({share:.4f})",
         )
     for (split, axis), cell in real.items():
         scores = cell["scores"]
@@ -413,7 +430,7 @@ def markdown(simulated, shared, real, sweep_only, lines, command, seconds):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="CI mode: small and fast")
-    parser.add_argument("--seeds", type=int, nargs="+", help="seeds (default 3 4 5 6 7)")
+    parser.add_argument("--seeds", type=int, nargs="+", help="seeds (default 8 to 12)")
     parser.add_argument("--physics", nargs="+", choices=PHYSICS, help="presets (default all)")
     parser.add_argument(
         "--tune",
@@ -424,7 +441,7 @@ def main(argv=None):
     parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
     args = parser.parse_args(argv)
     quick = args.quick
-    seeds = args.seeds or ([3] if quick else list(TUNING_SEEDS if args.tune else JUDGED_SEEDS))
+    seeds = args.seeds or ([8] if quick else list(TUNING_SEEDS if args.tune else JUDGED_SEEDS))
     physics_list = args.physics or (["lumped", "layered_glass"] if quick else list(PHYSICS))
     period, n_runs = (120.0, 2) if quick else (60.0, 3)
     command = "python benchmarks/bench_extrapolation.py " + " ".join(

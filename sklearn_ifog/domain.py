@@ -52,7 +52,7 @@ __all__ = [
 #: Distance (in decorrelated standard deviations beyond the domain's margin) over which the
 #: ``"blend"`` policy moves from the model to its fallback (a smoothstep: no step at the
 #: edge, and none at the end).
-BLEND_WIDTH = 10.0
+BLEND_WIDTH = 1.0
 
 # Axes whose spread is below this fraction of the widest axis's are numerically degenerate
 # (an exact linear relation between features, e.g. a duplicated column); their scale is
@@ -371,7 +371,7 @@ def fallback_weight(distance, margin, width=BLEND_WIDTH):
 
     Examples
     --------
-    >>> fallback_weight([0.0, 1.0, 6.0, 11.0, 50.0], margin=1.0).tolist()
+    >>> fallback_weight([0.0, 1.5, 2.0, 2.5, 50.0], margin=1.5).tolist()
     [0.0, 0.0, 0.5, 1.0, 1.0]
     """
     s = np.clip((np.asarray(distance, dtype=np.float64) - margin) / width, 0.0, 1.0)
@@ -392,7 +392,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
 
     Parameters
     ----------
-    margin : float, default=1.0
+    margin : float, default=1.5
         Distance, in decorrelated standard deviations, that still counts as inside: the
         noise by which a new run of a calibrated profile steps past the calibration's
         extremes along the decorrelated axes (see :ref:`outside_calibration` for how it was
@@ -451,7 +451,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         "temperature": [Interval(Integral, 0, None, closed="left"), list, None],
     }
 
-    def __init__(self, *, margin=1.0, temperature=None):
+    def __init__(self, *, margin=1.5, temperature=None):
         self.margin = margin
         self.temperature = temperature
 

@@ -66,7 +66,7 @@ def make_compensation_pipeline(
     run="run",
     terms=None,
     outside="blend",
-    margin=1.0,
+    margin=1.5,
     **feature_params,
 ):
     """Build the drift model ``ThermalFeatures → StandardScaler → regressor``.
@@ -101,7 +101,7 @@ def make_compensation_pipeline(
         (:class:`CompensationPipeline`): ``"blend"`` moves smoothly to a line in T (or a
         constant) as the row lies farther out; ``"clip"`` predicts at the domain's edge;
         ``"none"`` leaves the regressor's extrapolation alone.
-    margin : float, default=1.0
+    margin : float, default=1.5
         Distance outside the calibrated box, in decorrelated standard deviations, that
         still counts as inside (:class:`~sklearn_ifog.domain.CalibrationDomain`).
     **feature_params
@@ -227,7 +227,7 @@ class CompensationPipeline(Pipeline):
         regressor's own extrapolation (the behaviour before the domain existed). The
         default is the policy that ``benchmarks/bench_extrapolation.py`` measures as never
         worse than uncompensated.
-    margin : float, default=1.0
+    margin : float, default=1.5
         Distance outside the calibrated box, in decorrelated standard deviations, that still
         counts as inside (the domain's ``margin``).
     transform_input, memory, verbose
@@ -287,7 +287,7 @@ class CompensationPipeline(Pipeline):
         steps,
         *,
         outside="blend",
-        margin=1.0,
+        margin=1.5,
         transform_input=None,
         memory=None,
         verbose=False,

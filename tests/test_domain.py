@@ -181,7 +181,7 @@ def test_fallback_without_temperature_or_rows_is_the_mean():
 def test_default_pipeline_is_a_compensation_pipeline():
     model = make_compensation_pipeline()
     assert isinstance(model, CompensationPipeline)
-    assert (model.outside, model.margin) == ("blend", 1.0)
+    assert (model.outside, model.margin) == ("blend", 1.5)
     assert [name for name, _ in model.steps] == ["features", "scale", "regressor"]
     assert clone(model).get_params()["outside"] == "blend"
     assert type(model[:-1]).__name__ == "Pipeline"
@@ -221,17 +221,31 @@ def test_inside_rows_are_unchanged_and_policies_apply_outside(
 
 
 def test_blend_has_no_step_as_a_run_leaves_the_domain(fitted, heating_and_cycling):
+    """Shift a calibration run colder and colder, and bisect towards where the prediction
+    changes most: a step would keep its full size however small the interval gets."""
     X, _, _, _ = heating_and_cycling
     run = X[X["run"] == X["run"].iloc[0]]
-    shifts = np.linspace(0.0, -20.0, 201)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", OutsideCalibrationWarning)
-        curves = np.array(
-            [fitted.predict(run.assign(temperature=run["temperature"] + s)) for s in shifts]
-        )
-    steps = np.abs(np.diff(curves, axis=0)).max()
-    span = np.ptp(curves)
-    assert steps < 0.05 * span
+
+    def predict(shift):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", OutsideCalibrationWarning)
+            return fitted.predict(run.assign(temperature=run["temperature"] + shift))
+
+    shifts = np.linspace(0.0, -20.0, 81)
+    curves = np.array([predict(shift) for shift in shifts])
+    assert fitted.outside_calibration(run.assign(temperature=run["temperature"] - 20)).all()
+    worst = int(np.abs(np.diff(curves, axis=0)).max(axis=1).argmax())
+    low, high = shifts[worst + 1], shifts[worst]
+    values = {low: curves[worst + 1], high: curves[worst]}
+    first = np.abs(values[high] - values[low]).max()
+    for _ in range(12):
+        middle = 0.5 * (low + high)
+        values[middle] = predict(middle)
+        left = np.abs(values[middle] - values[low]).max()
+        right = np.abs(values[high] - values[middle]).max()
+        low, high = (low, middle) if left >= right else (middle, high)
+    assert first > 0
+    assert np.abs(values[high] - values[low]).max() < 0.01 * first
 
 
 def test_warning_once_per_call_with_share_and_degrees(fitted, heating_and_cycling):
@@ -279,7 +293,7 @@ def test_fits_in_grid_search_and_pickles(heating_and_cycling):
         search.fit(X, y, groups=X["run"])
         again = pickle.loads(pickle.dumps(search.best_estimator_))
         np.testing.assert_array_equal(again.predict(X_op), search.best_estimator_.predict(X_op))
-    assert again.domain_.margin == 1.0
+    assert again.domain_.margin == again.margin == 1.5
 
 
 def _real_table():
