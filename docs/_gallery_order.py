@@ -12,6 +12,7 @@ READING_ORDER = (
     "plot_allan_deviation.py",
     "plot_conformal_intervals.py",
     "plot_production_lot.py",
+    "plot_outside_calibration.py",
     "plot_paper_experiments.py",
     "plot_recalibration.py",
     "plot_real_recording.py",

@@ -10,13 +10,27 @@ design* (the columns its prediction is linear in: the Gaussian activations, the 
 of the RBF network; the inputs and 1 of a linear model) and its weights, for online
 recalibration. A Pipeline with a step this module does not know is not compiled
 (:func:`compile_steps` returns None) and the caller keeps scikit-learn's path.
+
+:func:`compile_domain` does the same for the calibration domain of a
+:class:`~sklearn_ifog.pipeline.CompensationPipeline`: a :class:`CompiledDomain` holds its
+box, margin, ``outside`` policy and fallback, and applies the policy with the plain
+functions of :mod:`sklearn_ifog.domain` (a block of rows exactly as ``predict`` does), and
+tests one row with a single small matrix-vector product.
 """
+
+import math
 
 import numpy as np
 
+from sklearn_ifog.domain import (
+    box_distance,
+    fallback_weight,
+    outside_domain,
+    temperature_excess,
+)
 from sklearn_ifog.rbf._basis import predict_network, tail_features
 
-__all__ = ["CompiledSteps", "FastRow", "compile_steps"]
+__all__ = ["CompiledDomain", "CompiledSteps", "FastRow", "compile_domain", "compile_steps"]
 
 
 def _center_scale(spec):
@@ -340,3 +354,193 @@ class FastRow:
         phi = r[:K]
         np.exp(phi, out=phi)
         return float(self.coef @ phi + augmented @ r[K:])
+
+
+class CompiledDomain:
+    """A CompensationPipeline's calibration domain and ``outside`` policy, for streaming.
+
+    Built by :func:`compile_domain` from the fitted pipeline's ``domain_`` (a
+    :class:`~sklearn_ifog.domain.CalibrationDomain`), ``margin``, ``outside`` and
+    ``fallback_``, read once (a later ``set_params`` of the pipeline does not reach it). A
+    block of feature rows goes through the operations of
+    :meth:`~sklearn_ifog.pipeline.CompensationPipeline.predict`: the plain functions
+    :func:`~sklearn_ifog.domain.box_distance`,
+    :func:`~sklearn_ifog.domain.temperature_excess` and
+    :func:`~sklearn_ifog.domain.outside_domain` say which rows are outside; ``"blend"``
+    weighs the fallback by :func:`~sklearn_ifog.domain.fallback_weight`, ``"clip"``
+    evaluates the model at :meth:`CalibrationDomain.project
+    <sklearn_ifog.domain.CalibrationDomain.project>`. :meth:`row_where` is the same test
+    for one row without any validation: one small matrix-vector product and a comparison
+    per temperature (the online step's hot path).
+
+    Parameters
+    ----------
+    domain : CalibrationDomain
+        Fitted.
+    margin : float
+        Distance that still counts as inside (the pipeline's ``margin``).
+    outside : {"blend", "clip", "none"}
+        The policy for the rows outside.
+    fallback : Fallback
+        The conservative model of the ``"blend"`` policy.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn_ifog.domain import CalibrationDomain, Fallback
+    >>> from sklearn_ifog._compiled import CompiledDomain
+    >>> t = np.linspace(10.0, 40.0, 31)
+    >>> fitted = CalibrationDomain(margin=1.0, temperature=0).fit(np.column_stack([t, t**2]))
+    >>> fallback = Fallback(np.array([1.0]), np.array([0.0]), 0)
+    >>> domain = CompiledDomain(fitted, 1.0, "blend", fallback)
+    >>> features = np.array([[25.0, 625.0], [9.0, 81.0], [-60.0, 3600.0]])
+    >>> distance, outside = domain.where(features)
+    >>> outside.tolist()  # 9 degC is below the calibrated 10 degC: outside at any distance
+    [False, True, True]
+    >>> row_distance, row_outside = domain.row_where([9.0, 81.0])
+    >>> bool(np.isclose(row_distance, distance[1], rtol=1e-12, atol=1e-12)), row_outside
+    (True, True)
+    >>> prediction = np.full((3, 1), 7.0)
+    >>> domain.apply(features, prediction, distance, outside).round(6).tolist()  # far: 1
+    [[7.0], [7.0], [1.0]]
+    """
+
+    def __init__(self, domain, margin, outside, fallback):
+        self.domain = domain
+        self.box = domain.box_
+        self.margin = float(margin)
+        self.policy = outside
+        self.fallback = fallback
+        self.temperature_columns = list(domain.temperature_columns_)
+        self.data_min, self.data_max = domain.data_min_, domain.data_max_
+        box = self.box
+        # One row's scaled excesses as one product with [x, 1]: the standardisation, the
+        # rotation and the division by the axis scale folded into one matrix, stacked with
+        # its negative, the bounds (and the centre) in the last column, give
+        # (p - upper) / s above (lower - p) / s; the positive entries are the excesses.
+        along = box.axes / box.axis_scale[:, None]
+        stacked = np.vstack([along, -along])
+        bounds = np.concatenate([box.upper / box.axis_scale, -box.lower / box.axis_scale])
+        offset = bounds + stacked @ (box.center / box.scale)
+        self._excess_matrix = np.hstack([stacked / box.scale, -offset[:, None]])
+        self._temperature_bounds = [
+            (column, float(self.data_min[column]), float(self.data_max[column]))
+            for column in self.temperature_columns
+        ]
+
+    def where(self, features):
+        """Distance of every feature row outside the box, and whether it is outside.
+
+        Parameters
+        ----------
+        features : ndarray of shape (n_samples, n_features)
+
+        Returns
+        -------
+        distance : ndarray of shape (n_samples,)
+            In decorrelated standard deviations (0 inside the box).
+        outside : ndarray of shape (n_samples,), dtype=bool
+            Farther than ``margin``, or a temperature beyond its calibrated range.
+        """
+        distance = box_distance(self.box, features)
+        beyond = temperature_excess(
+            features, self.temperature_columns, self.data_min, self.data_max
+        )
+        return distance, outside_domain(distance, beyond, self.margin)
+
+    def row_where(self, row):
+        """:meth:`where` of one row (a sequence of floats): ``(distance, outside)``.
+
+        Python float and bool. The distance's terms are grouped differently from
+        :func:`~sklearn_ifog.domain.box_distance` (equal to 1e-12 relative, with an absolute
+        floor of rounding at the box's scale); the temperature test is exact.
+        """
+        # Python floats after the one product: cheaper than numpy calls on 2 n_features
+        # values.
+        squares = 0.0
+        for excess in (self._excess_matrix @ np.array([*row, 1.0])).tolist():
+            if excess > 0.0:
+                squares += excess * excess
+        distance = math.sqrt(squares)
+        # outside_domain: beyond the margin, or any temperature beyond its range.
+        outside = distance > self.margin
+        for column, low, high in self._temperature_bounds:
+            value = row[column]
+            outside = outside or value < low or value > high
+        return distance, bool(outside)
+
+    def apply(self, features, prediction, distance, outside, evaluate=None):
+        """The prediction of every row under the policy (rows inside unchanged).
+
+        Parameters
+        ----------
+        features : ndarray of shape (n_samples, n_features)
+            The thermal feature rows.
+        prediction : ndarray of shape (n_samples, n_outputs)
+            The model's prediction of those rows (not modified).
+        distance, outside : ndarray of shape (n_samples,)
+            Their :meth:`where`.
+        evaluate : callable, default=None
+            ``evaluate(rows) -> (n_rows, n_outputs)``: the model's prediction of feature
+            rows, for ``"clip"`` (unused by the other policies).
+
+        Returns
+        -------
+        prediction : ndarray of shape (n_samples, n_outputs)
+            A new array when a row is outside and the policy changes it, else
+            ``prediction`` itself.
+        """
+        if self.policy == "none" or not outside.any():
+            return prediction
+        prediction = prediction.copy()
+        if self.policy == "clip":
+            prediction[outside] = evaluate(self.project(features[outside]))
+        else:
+            weight = fallback_weight(distance[outside], self.margin)[:, None]
+            fallback = self.fallback.predict(features[outside])
+            prediction[outside] = (1.0 - weight) * prediction[outside] + weight * fallback
+        return prediction
+
+    def project(self, features):
+        """Feature rows moved onto the domain (the ``"clip"`` policy's inputs).
+
+        The domain's own :meth:`~sklearn_ifog.domain.CalibrationDomain.project`, as the
+        batch ``predict`` calls it.
+        """
+        return self.domain.project(features)
+
+
+def compile_domain(pipeline):
+    """The calibration domain of a fitted CompensationPipeline, or None for another model.
+
+    Parameters
+    ----------
+    pipeline : estimator
+        A fitted :class:`~sklearn_ifog.pipeline.CompensationPipeline` (anything else, e.g. a
+        plain scikit-learn Pipeline, has no calibration domain).
+
+    Returns
+    -------
+    domain : CompiledDomain or None
+
+    Examples
+    --------
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn_ifog import make_compensation_pipeline
+    >>> from sklearn_ifog._compiled import compile_domain
+    >>> from sklearn_ifog.datasets import make_thermal_campaign
+    >>> X, y = make_thermal_campaign(
+    ...     n_units=1, n_runs=1, sampling_period=300.0, random_state=0, return_X_y=True
+    ... )
+    >>> model = make_compensation_pipeline(LinearRegression()).fit(X, y)
+    >>> domain = compile_domain(model)
+    >>> domain.policy, domain.margin == model.margin, domain.temperature_columns
+    ('blend', True, [0])
+    >>> compile_domain(model[:]) is None  # a plain Pipeline of the same steps
+    True
+    """
+    from sklearn_ifog.pipeline import CompensationPipeline
+
+    if not isinstance(pipeline, CompensationPipeline):
+        return None
+    return CompiledDomain(pipeline.domain_, pipeline.margin, pipeline.outside, pipeline.fallback_)

@@ -7,7 +7,10 @@ last time stamp, the deficit of every first-order lag (per sensor and per time c
 lag terms and the smoothing, :class:`sklearn_ifog._lags.LagState`) and a first-row flag,
 computes the features of a chunk with the same plain functions as the batch transformer,
 started from that state, and hands the rows to the fitted steps after ThermalFeatures
-unchanged. Its output is the batch Pipeline's, whatever the chunking.
+unchanged. Its output is the batch Pipeline's, whatever the chunking. A
+:class:`~sklearn_ifog.pipeline.CompensationPipeline` also brings its calibration domain:
+the same distance of every feature row and the same ``outside`` policy as its ``predict``
+(:class:`sklearn_ifog._compiled.CompiledDomain`), and a flag per row instead of a warning.
 """
 
 import copy
@@ -19,7 +22,7 @@ from sklearn.pipeline import Pipeline
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from sklearn_ifog import _table
-from sklearn_ifog._compiled import FastRow, compile_steps
+from sklearn_ifog._compiled import FastRow, compile_domain, compile_steps
 from sklearn_ifog._contract import (
     check_needs_time,
     get_term,
@@ -29,6 +32,7 @@ from sklearn_ifog._contract import (
 )
 from sklearn_ifog._lags import LagState, lag_deficit
 from sklearn_ifog._rls import initial_covariance, rls_sequence, rls_step
+from sklearn_ifog.domain import fallback_weight
 from sklearn_ifog.features import (
     ThermalFeatures,
     assemble_terms,
@@ -181,16 +185,46 @@ class StreamingCompensator:
     Without a ``run`` column, call :meth:`reset` at the start of every run. Time must
     increase strictly within a run, across chunks too.
 
+    Calibration domain: built from a
+    :class:`~sklearn_ifog.pipeline.CompensationPipeline` (what
+    :func:`~sklearn_ifog.make_compensation_pipeline` returns, also as a ConformalRegressor's
+    ``estimator_``), the compensator tests every sample against the pipeline's calibration
+    domain and applies its ``outside`` policy (``"blend"``, ``"clip"`` or ``"none"``, with
+    its ``margin``, both read here, at construction) exactly as the batch ``predict`` does,
+    so the output stays the batch one for rows outside too. A row is outside, as in batch,
+    when it lies farther than ``margin`` from the domain's decorrelated box or a
+    temperature lies beyond its calibrated range; one row's test is one small
+    matrix-vector product on the domain's arrays and a comparison per temperature
+    (:meth:`sklearn_ifog._compiled.CompiledDomain.row_where`: the distance equal to the
+    batch one to 1e-12 relative, the temperature test exact). :attr:`last_outside` and
+    :attr:`last_distance` give, for the rows of the last call, whether they were outside
+    and how far. No :class:`~sklearn_ifog.domain.OutsideCalibrationWarning` is emitted by
+    :meth:`step` or :meth:`update`: a warning per call would flood a firmware-like loop of
+    single steps, so the flag is the signal (the batch ``predict`` warns once per call). A
+    plain scikit-learn Pipeline has no domain: its predictions are left alone and both
+    attributes stay None.
+
+    With ``adapt``, a sample outside the domain is compensated by the policy and does *not*
+    update the recalibration even when it has a reference: its features are ones the
+    calibration never covered, and an output layer taught there would move the
+    compensation inside the domain too (each sample is tested as :meth:`step` tests it, so
+    that which references teach is the same whatever the chunking). ``"bias"`` adds its
+    offset after the policy (to the blended, clipped or raw drift); ``"output"`` applies
+    the policy to the recalibrated network (``"clip"``: the recalibrated network at the
+    domain's edge; ``"blend"``: the recalibrated network blended with the fallback line).
+
     A call that raises (bad input) leaves the state exactly as it was.
 
     Parameters
     ----------
     pipeline : sklearn.pipeline.Pipeline or ConformalRegressor
         Fitted; its first step is a :class:`~sklearn_ifog.ThermalFeatures`, the later steps
-        act row by row (scalers, polynomial features, regressors). A fitted
-        :class:`~sklearn_ifog.ConformalRegressor` around such a pipeline also carries the
-        band: after every :meth:`step` or :meth:`update`, :attr:`last_interval` holds the
-        drift bounds of its rows, equal to the batch ``predict_interval``.
+        act row by row (scalers, polynomial features, regressors). A
+        :class:`~sklearn_ifog.pipeline.CompensationPipeline` brings its calibration domain
+        (see above). A fitted :class:`~sklearn_ifog.ConformalRegressor` around such a
+        pipeline also carries the band: after every :meth:`step` or :meth:`update`,
+        :attr:`last_interval` holds the drift bounds of its rows, equal to the batch
+        ``predict_interval`` (each fold model with its own domain and policy, as there).
     adapt : {None, "bias", "output"}, default=None
         Online recalibration from the samples given a ``reference`` (None: none). Not with
         a :class:`~sklearn_ifog.ConformalRegressor` (a ``ValueError``): its band is
@@ -206,6 +240,15 @@ class StreamingCompensator:
     last_interval : ndarray of shape (n_samples, 2) or None
         Lower and upper drift bound (deg/h) of the rows of the last :meth:`step` (one row)
         or :meth:`update`; None when built from a plain Pipeline.
+    last_outside : ndarray of shape (n_samples,), dtype=bool, or None
+        Whether each row of the last :meth:`step` (one row) or :meth:`update` lay outside
+        the calibration domain (farther than ``margin`` from its box, or a temperature
+        beyond its calibrated range): what ``pipeline.outside_calibration`` gives for those
+        rows. None before the first call, and always for a Pipeline without a domain (not a
+        CompensationPipeline).
+    last_distance : ndarray of shape (n_samples,) or None
+        The distance of those rows outside the domain, in decorrelated standard deviations
+        (0 inside the box): ``pipeline.calibration_distance``. None as ``last_outside``.
     n_sensors : int
         Temperature sensors per sample.
     n_outputs : int
@@ -249,6 +292,35 @@ class StreamingCompensator:
     >>> rate = 0.5 * 23.6 + 2.3  # a later sample, true rate 0, not known to the gyro
     >>> round(fixed.step(6.0, 23.6, rate)[0], 3), round(adaptive.step(6.0, 23.6, rate)[0], 3)
     (0.3, 0.0)
+
+    Calibration domain: a model calibrated from 10 to 40 deg C, streamed on the same run
+    30 deg C colder. Every row is outside; the drift is the batch ``predict``'s (its
+    ``"blend"`` policy), and a flag per row replaces the batch warning.
+
+    >>> import warnings
+    >>> from sklearn_ifog import make_compensation_pipeline
+    >>> from sklearn_ifog.datasets import make_thermal_campaign
+    >>> X, y = make_thermal_campaign(
+    ...     n_units=1,
+    ...     n_runs=1,
+    ...     sampling_period=300.0,
+    ...     temperature_range=(10.0, 40.0),
+    ...     random_state=0,
+    ...     return_X_y=True,
+    ... )
+    >>> model = make_compensation_pipeline(LinearRegression()).fit(X, y)
+    >>> cold = X.assign(temperature=X["temperature"] - 30.0)
+    >>> compensator = StreamingCompensator(model)
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("error")  # streaming never warns
+    ...     _, drift = compensator.update(cold)
+    >>> bool(compensator.last_outside.all())
+    True
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore")  # the batch predict warns once
+    ...     batch = model.predict(cold)
+    >>> bool(np.allclose(drift, batch, rtol=1e-12, atol=1e-12))
+    True
     """
 
     def __init__(self, pipeline, *, adapt=None, forgetting=0.999):
@@ -264,6 +336,9 @@ class StreamingCompensator:
             raise ValueError(f"forgetting must be a number in (0, 1], got {forgetting!r}.")
         self.conformal = None
         self.last_interval = None
+        # The last call's domain test: arrays from update, Python scalars from step (made
+        # arrays when read, so that a step does not pay for them).
+        self._last_where = (None, None)
         if isinstance(pipeline, ConformalRegressor):
             if adapt is not None:
                 raise ValueError(
@@ -331,7 +406,13 @@ class StreamingCompensator:
         self._names_in = getattr(self._first_later_step(), "feature_names_in_", None)
         self._compiled = compile_steps(pipeline)
         self.compiled = self._compiled is not None
+        # The calibration domain and outside policy (None for a plain Pipeline); each fold
+        # model of a ConformalRegressor has its own, as its predict applies it.
+        self._domain = compile_domain(pipeline)
         self._fold_compiled = None
+        self._fold_domains = None
+        if self.conformal is not None:
+            self._fold_domains = [compile_domain(m) for m in self.conformal.estimators_]
         if self.conformal is not None and self.compiled:
             folds = [compile_steps(model) for model in self.conformal.estimators_]
             if all(fold is not None for fold in folds):
@@ -368,6 +449,18 @@ class StreamingCompensator:
             bias_index = self._compiled.final.bias_index
         covariance = initial_covariance(weights, bias_index=bias_index)
         return {"weights": weights, "covariance": covariance, "trace": float(np.trace(covariance))}
+
+    @property
+    def last_outside(self):
+        """Whether the rows of the last call lay outside the domain (see the class)."""
+        outside = self._last_where[0]
+        return np.array([outside]) if isinstance(outside, bool) else outside
+
+    @property
+    def last_distance(self):
+        """Distance of the rows of the last call outside the domain (see the class)."""
+        distance = self._last_where[1]
+        return np.array([distance]) if isinstance(distance, float) else distance
 
     def _first_later_step(self):
         for _, step in self._rest.steps:
@@ -439,8 +532,8 @@ class StreamingCompensator:
             constant: ``T - lag_tau(T)`` after the last sample; None without lags),
             ``finished_runs``, ``adapt`` and ``rls`` (None without ``adapt``; else
             ``weights``, ``(n_weights, n_outputs)`` nested lists, ``covariance``,
-            ``(n_weights, n_weights)``, ``n_updates`` the references used and ``n_resets``
-            the covariance resets).
+            ``(n_weights, n_weights)``, ``n_updates`` the references used (those of samples
+            inside the calibration domain) and ``n_resets`` the covariance resets).
         """
         state = {key: value for key, value in self.state.items() if key != "rls"}
         state = copy.deepcopy(state)
@@ -560,7 +653,8 @@ class StreamingCompensator:
         reference : float or sequence of float, default=None
             The true rate of the sample, deg/h (one per output), when it is known (at rest,
             on a turntable): with ``adapt``, the recalibration learns from
-            ``rate - reference`` after compensating the sample. Needs ``rate``.
+            ``rate - reference`` after compensating the sample, unless the sample lies
+            outside the calibration domain. Needs ``rate``.
 
         Returns
         -------
@@ -568,7 +662,10 @@ class StreamingCompensator:
             ``rate - drift`` (None when ``rate`` is None); a Python float for a single
             output.
         drift : float or ndarray of shape (n_outputs,)
-            Predicted drift, deg/h (before this sample's own update).
+            Predicted drift, deg/h (before this sample's own update; outside the
+            calibration domain, under the pipeline's ``outside`` policy). Sets
+            :attr:`last_outside` and :attr:`last_distance` (one row) for a pipeline with a
+            domain; never warns.
         """
         if not self.compiled:
             return self._step_slow(time, temperature, rate, run, reference)
@@ -606,18 +703,18 @@ class StreamingCompensator:
         rls = state["rls"]
         adapt = self.adapt
         fast = self._fast
-        if adapt == "output":
-            if fast is not None:
-                drift = fast(row)
-            else:
-                drift = self._compiled.design(np.array([row]))[0] @ rls["weights"]
-        else:
-            drift = fast(row) if fast is not None else self._compiled.predict_row(np.array(row))
-            if adapt == "bias":
-                base = drift
-                bias = rls["weights"][0]
-                drift = base + (float(bias[0]) if single else bias)
-        if references is not None and adapt is not None:
+        drift = self._row_drift(row, rls, fast)
+        domain = self._domain
+        outside = False
+        if domain is not None:
+            distance, outside = domain.row_where(row)
+            if outside and domain.policy != "none":
+                drift = self._row_policy(row, drift, distance, rls, fast)
+        if adapt == "bias":
+            base = drift
+            bias = rls["weights"][0]
+            drift = base + (float(bias[0]) if single else bias)
+        if references is not None and adapt is not None and not outside:
             if adapt == "bias":
                 phi = _ONE
                 target = rates - references - base
@@ -643,7 +740,13 @@ class StreamingCompensator:
                 fast = FastRow(self._compiled, weights)
         compensated = None if rates is None else rates - drift
         if self.conformal is not None:
-            self.last_interval = self._interval(np.array([row], dtype=np.float64), drift)
+            self.last_interval = self._interval(
+                np.array([row], dtype=np.float64),
+                drift,
+                None if domain is None else np.array([distance]),
+            )
+        if domain is not None:
+            self._last_where = (outside, distance)
         self.state = {**state, **feature_state, "rls": rls}
         self._fast = fast
         if single:
@@ -652,6 +755,31 @@ class StreamingCompensator:
                 compensated = None if rates is None else rates - drift
             return compensated, drift
         return compensated, np.asarray(drift, dtype=np.float64).reshape(self.n_outputs)
+
+    def _row_drift(self, row, rls, fast):
+        """The model's drift of one feature row (recalibrated with ``adapt="output"``).
+
+        A float from the one-row evaluator ``fast`` when there is one, else an array of
+        shape ``(n_outputs,)``; without the domain's policy and the ``"bias"`` offset.
+        """
+        if fast is not None:
+            return fast(row)
+        if self.adapt == "output":
+            return self._compiled.design(np.array([row]))[0] @ rls["weights"]
+        return self._compiled.predict_row(np.array(row))
+
+    def _row_policy(self, row, drift, distance, rls, fast):
+        """The drift of one row outside the domain under its policy (as ``_row_drift``)."""
+
+        def evaluate(rows):
+            return np.array([np.atleast_1d(self._row_drift(r, rls, fast)) for r in rows.tolist()])
+
+        prediction = np.reshape(np.asarray(drift, dtype=np.float64), (1, -1))
+        features = np.array([row], dtype=np.float64)
+        result = self._domain.apply(
+            features, prediction, np.array([distance]), np.array([True]), evaluate
+        )[0]
+        return float(result[0]) if isinstance(drift, float) else result
 
     def _row_values(self, values, label):
         """The sample's values, finite: a float for one output, else shape (n_outputs,)."""
@@ -723,15 +851,18 @@ class StreamingCompensator:
             True rate of the samples, deg/h, where known: ``None`` entries (an object
             sequence) or masked entries (a ``numpy.ma`` array) mark the samples without one.
             With ``adapt``, every sample with a reference updates the recalibration after it
-            is compensated, in order. Needs ``rate``.
+            is compensated, in order, except the samples outside the calibration domain.
+            Needs ``rate``.
 
         Returns
         -------
         compensated : ndarray or None
             ``rate - drift`` (None when ``rate`` is None).
         drift : ndarray of shape (n_samples,) or (n_samples, n_outputs)
-            Predicted drift, deg/h, as ``pipeline.predict`` gives it (each sample's before
-            its own update).
+            Predicted drift, deg/h, as ``pipeline.predict`` gives it, its ``outside``
+            policy included (each sample's before its own update). Sets
+            :attr:`last_outside` and :attr:`last_distance` for a pipeline with a domain;
+            never warns.
         """
         # The batch transformer's own validation and column reading: same columns, same
         # errors as ``pipeline.predict``.
@@ -812,15 +943,31 @@ class StreamingCompensator:
             state.update(feature_state)
             blocks.append(block)
         features = np.concatenate(blocks)
+        domain = self._domain
+        distance = outside = None
+        if domain is not None and self.adapt is None:
+            distance, outside = domain.where(features)
+        elif domain is not None:
+            # Only the rows inside teach the recalibration: each row is tested as step tests
+            # it (the features are already made sample by sample here), so that which
+            # references teach, and so the recursion, is the same whatever the chunking.
+            tested = [domain.row_where(row) for row in features.tolist()]
+            distance = np.array([row_distance for row_distance, _ in tested], dtype=np.float64)
+            outside = np.array([row_outside for _, row_outside in tested], dtype=bool)
         if self.adapt == "output":
             design = self._compiled.design(features)
+            if domain is not None and domain.policy == "clip" and outside.any():
+                # Outside rows never update, so their design row only predicts: the
+                # recalibrated network at the domain's edge, with the weights of its time.
+                design[outside] = self._compiled.design(domain.project(features[outside]))
         else:
             design = np.ones((n_samples, 1)) if self.adapt == "bias" else None
-            if self.compiled:
-                base = self._compiled.predict(features)
-            else:
-                base = np.asarray(self._rest.predict(self._frame(features)))
-            base = base.reshape(n_samples, -1)
+            evaluate = (
+                self._compiled.predict if self.compiled else self._sklearn_evaluator(self._rest)
+            )
+            base = evaluate(features).reshape(n_samples, -1)
+            if domain is not None:
+                base = domain.apply(features, base, distance, outside, evaluate)
         rls = state["rls"]
         if self.adapt is None:
             drift = base
@@ -832,20 +979,28 @@ class StreamingCompensator:
                 target = (rate - reference).reshape(n_samples, -1)
                 if self.adapt == "bias":
                     target = target - base
+            # A reference outside the domain teaches nothing: the features there were never
+            # calibrated, and the policy, not the output layer, answers for them.
+            learns = has_reference if outside is None else has_reference & ~outside
             prediction, weights, covariance, resets = rls_sequence(
                 rls["weights"],
                 rls["covariance"],
                 design,
                 target,
-                has_reference,
+                learns,
                 self.forgetting,
                 self._prior["covariance"],
             )
-            drift = prediction if self.adapt == "output" else base + prediction
+            if self.adapt == "output":
+                drift = prediction
+                if domain is not None and domain.policy == "blend":
+                    drift = domain.apply(features, prediction, distance, outside)
+            else:
+                drift = base + prediction
             rls = {
                 "weights": weights,
                 "covariance": covariance,
-                "n_updates": rls["n_updates"] + int(has_reference.sum()),
+                "n_updates": rls["n_updates"] + int(learns.sum()),
                 "n_resets": rls["n_resets"] + resets,
             }
         if self._single_output:
@@ -856,38 +1011,39 @@ class StreamingCompensator:
                 f"{drift.shape[1:]} (one rate per output)."
             )
         compensated = None if rate is None else rate - drift
-        interval = None if self.conformal is None else self._interval(features, drift)
+        interval = None
+        if self.conformal is not None:
+            interval = self._interval(features, drift, distance)
         state["rls"] = rls
         self.state = state
         self.last_interval = interval
+        self._last_where = (outside, distance)
         if self.adapt == "output" and has_reference is not None and has_reference.any():
             self._refresh_fast()
         return compensated, drift
 
-    def _interval(self, features, drift):
+    def _interval(self, features, drift, distance=None):
         """The band of the rows with thermal ``features``, as predict_interval gives it.
 
         The fold models and the difficulty model's inputs (the features through the steps
         before the regressor) are evaluated compiled when every fold model compiles, else by
-        scikit-learn.
+        scikit-learn. ``distance``: the rows' distance outside the full model's domain (None
+        without one), for the band's share of the fallback where the model blends to it.
         """
         conformal = self.conformal
         n_samples = features.shape[0]
         if self._fold_compiled is not None:
-            predictions = np.stack(
-                [
-                    compiled.predict(features).reshape(n_samples, -1)[:, 0]
-                    for compiled in self._fold_compiled
-                ]
-            )
+            evaluators = [compiled.predict for compiled in self._fold_compiled]
         else:
-            frame = self._frame(features)
-            predictions = np.stack(
-                [
-                    np.asarray(model[1:].predict(frame), dtype=float).reshape(n_samples)
-                    for model in conformal.estimators_
-                ]
-            )
+            evaluators = [self._sklearn_evaluator(model[1:]) for model in conformal.estimators_]
+        predictions = []
+        for evaluate, fold_domain in zip(evaluators, self._fold_domains, strict=True):
+            prediction = evaluate(features).reshape(n_samples, -1)
+            if fold_domain is not None:
+                fold_where = fold_domain.where(features)
+                prediction = fold_domain.apply(features, prediction, *fold_where, evaluate)
+            predictions.append(prediction[:, 0])
+        predictions = np.stack(predictions)
         raw = None
         if conformal.adaptive:
             if len(self._rest.steps) == 1:
@@ -898,6 +1054,10 @@ class StreamingCompensator:
                 raw = self._rest[:-1].transform(self._frame(features))
             raw = np.asarray(raw, dtype=float)
         centre = np.asarray(drift, dtype=float).reshape(n_samples)
+        if distance is not None and getattr(conformal, "fallback_scores_", None) is not None:
+            # As ConformalRegressor._fallback_share: the full model's fallback weight.
+            share = fallback_weight(distance, self._domain.margin)
+            return conformal._bounds(centre, predictions, raw, fallback_share=share)
         return conformal._bounds(centre, predictions, raw)
 
     def _sequential_features(self, temperature, time, state):
@@ -939,6 +1099,15 @@ class StreamingCompensator:
             "deficit": None,
             "finished_runs": finished,
         }
+
+    def _sklearn_evaluator(self, rest):
+        """``evaluate(features) -> (n, n_outputs)`` of the steps ``rest`` by scikit-learn."""
+
+        def evaluate(features):
+            prediction = np.asarray(rest.predict(self._frame(features)), dtype=np.float64)
+            return prediction.reshape(features.shape[0], -1)
+
+        return evaluate
 
     def _frame(self, features):
         if self._names_in is None:
