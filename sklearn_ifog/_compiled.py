@@ -543,4 +543,5 @@ def compile_domain(pipeline):
 
     if not isinstance(pipeline, CompensationPipeline):
         return None
-    return CompiledDomain(pipeline.domain_, pipeline.margin, pipeline.outside, pipeline.fallback_)
+    domain = pipeline.domain_
+    return CompiledDomain(domain, domain.margin, pipeline.outside, pipeline.fallback_)

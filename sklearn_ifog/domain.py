@@ -36,6 +36,7 @@ from sklearn_ifog.rbf._ols import within_one_standard_error
 
 __all__ = [
     "BLEND_WIDTH",
+    "PROJECTION_ROUNDS",
     "CalibrationDomain",
     "Fallback",
     "OutsideCalibrationWarning",
@@ -63,8 +64,9 @@ _AXIS_FLOOR = 1e-6
 # calibration rows are held out in turn.
 _EXTRAPOLATION_FRACTION = 0.2
 _MIN_FALLBACK_ROWS = 10
-# Rounds of alternating projection (box, temperature ranges) of CalibrationDomain.project.
-_PROJECTION_ROUNDS = 8
+#: Rounds of alternating projection (box, then temperature ranges) of
+#: :meth:`CalibrationDomain.project`, the ``"clip"`` policy (the exports repeat them).
+PROJECTION_ROUNDS = 8
 # A slope is real when, at each calibrated extreme, the extrapolated line leaves at most this
 # share of the constant's squared error: a thermal slope explains most of the variation at
 # the calibration's own extremes, while a slope fitted to noise or to a bias that drifted with
@@ -79,7 +81,20 @@ class OutsideCalibrationWarning(UserWarning):
 
     Given once per ``predict`` call, with the share of rows outside, the largest distance
     and the largest temperature excess in degrees; the predictions themselves follow the
-    model's ``outside`` policy.
+    model's ``outside`` policy. The flags per row are
+    :meth:`~sklearn_ifog.CompensationPipeline.outside_calibration`.
+
+    Examples
+    --------
+    Silence it where the flags are read instead:
+
+    >>> import warnings
+    >>> from sklearn_ifog import OutsideCalibrationWarning
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore", OutsideCalibrationWarning)
+    ...     warnings.warn("outside", OutsideCalibrationWarning)
+    >>> issubclass(OutsideCalibrationWarning, UserWarning)
+    True
     """
 
 
@@ -152,8 +167,22 @@ def check_varies(X, names=None):
     Parameters
     ----------
     X : ndarray of shape (n_samples, n_features)
+        Calibration rows.
     names : sequence of str, default=None
         Feature names for the message (positions without them).
+
+    Raises
+    ------
+    ValueError
+        If a column of ``X`` takes one value only.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> check_varies(np.array([[1.0, 2.0], [1.0, 3.0]]), ["T", "dT"])
+    Traceback (most recent call last):
+    ...
+    ValueError: Cannot fit a calibration domain: feature 'T' is constant (1.0) ...
     """
     constant = np.flatnonzero(np.ptp(X, axis=0) == 0)
     if constant.size:
@@ -177,6 +206,18 @@ def box_distance(box, X):
     ``sqrt(sum_k (excess_k / axis_scale_k)²)`` with ``excess_k`` the row's coordinate
     beyond ``[lower_k, upper_k]`` along axis ``k`` (0 inside the range).
 
+    Parameters
+    ----------
+    box : Box
+        The fitted box (:func:`fit_box`).
+    X : array-like of shape (n_samples, n_features)
+        Feature rows.
+
+    Returns
+    -------
+    distance : ndarray of shape (n_samples,)
+        0 inside the box.
+
     Examples
     --------
     >>> import numpy as np
@@ -195,6 +236,20 @@ def project_to_box(box, X, margin):
     Rows within ``margin`` of the box are returned unchanged; a row farther out moves along
     its excess towards the box until its distance is ``margin``. For one feature this is
     clamping to ``[min - margin·sd, max + margin·sd]``.
+
+    Parameters
+    ----------
+    box : Box
+        The fitted box (:func:`fit_box`).
+    X : array-like of shape (n_samples, n_features)
+        Feature rows.
+    margin : float
+        Distance of the widened box's edge, in decorrelated standard deviations.
+
+    Returns
+    -------
+    projected : ndarray of shape (n_samples, n_features)
+        A copy of ``X`` with the rows beyond ``margin`` moved onto the widened box.
 
     Examples
     --------
@@ -220,6 +275,7 @@ def temperature_excess(X, columns, low, high):
     Parameters
     ----------
     X : ndarray of shape (n_samples, n_features)
+        Feature rows.
     columns : sequence of int
         The temperature columns (one per sensor); empty: no temperature rule.
     low, high : ndarray of shape (n_features,)
@@ -250,6 +306,19 @@ def outside_domain(distance, temperature_beyond, margin):
     or when a temperature lies beyond its calibrated range (by any amount: the firmware
     convention of a calibrated [TMIN, TMAX]).
 
+    Parameters
+    ----------
+    distance : array-like of shape (n_samples,)
+        Distance to the box (:func:`box_distance`).
+    temperature_beyond : array-like of shape (n_samples,)
+        Degrees beyond the calibrated temperatures (:func:`temperature_excess`).
+    margin : float
+        Distance that still counts as inside.
+
+    Returns
+    -------
+    outside : ndarray of shape (n_samples,), dtype=bool
+
     Examples
     --------
     >>> outside_domain([0.0, 2.0, 0.0], [0.0, 0.0, 0.5], margin=1.0).tolist()
@@ -264,12 +333,21 @@ class Fallback(NamedTuple):
     ``prediction = intercept + T * slope`` (one column per output); ``slope`` is 0 for the
     outputs whose slope did not extrapolate better than a constant (:func:`fit_fallback`).
 
-    Attributes
+    Parameters
     ----------
     intercept : ndarray of shape (n_outputs,)
+        Drift at T = 0 (the mean drift where the slope is 0).
     slope : ndarray of shape (n_outputs,)
+        Drift per degree.
     column : int or None
         Column of the features that holds T (None: no temperature column, a constant).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> fallback = Fallback(np.array([1.0]), np.array([0.5]), 0)
+    >>> fallback.predict(np.array([[10.0, 3.0]])).tolist()
+    [[6.0]]
     """
 
     intercept: np.ndarray
@@ -277,7 +355,17 @@ class Fallback(NamedTuple):
     column: int | None
 
     def predict(self, features):
-        """Fallback predictions, shape (n_samples, n_outputs)."""
+        """Fallback predictions.
+
+        Parameters
+        ----------
+        features : array-like of shape (n_samples, n_features)
+            Feature rows (T in column ``column``).
+
+        Returns
+        -------
+        prediction : ndarray of shape (n_samples, n_outputs)
+        """
         features = np.asarray(features, dtype=np.float64)
         if self.column is None:
             return np.broadcast_to(self.intercept, (features.shape[0], self.intercept.size))
@@ -368,6 +456,20 @@ def fallback_weight(distance, margin, width=BLEND_WIDTH):
 
     A smoothstep ``s² (3 - 2 s)`` of ``s = (distance - margin) / width`` clipped to [0, 1]:
     continuous with a continuous slope, so the prediction has no step at the edge.
+
+    Parameters
+    ----------
+    distance : array-like of shape (n_samples,)
+        Distance to the box (:func:`box_distance`).
+    margin : float
+        Distance at which the fallback starts to weigh in.
+    width : float, default=BLEND_WIDTH
+        Distance beyond ``margin`` at which the fallback has taken over.
+
+    Returns
+    -------
+    weight : ndarray of shape (n_samples,)
+        In [0, 1].
 
     Examples
     --------
@@ -519,6 +621,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         Parameters
         ----------
         X : array-like of shape (n_samples, n_features)
+            Rows of the features the domain was fitted on.
 
         Returns
         -------
@@ -532,6 +635,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         Parameters
         ----------
         X : array-like of shape (n_samples, n_features)
+            Rows of the features the domain was fitted on.
 
         Returns
         -------
@@ -552,6 +656,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         Parameters
         ----------
         X : array-like of shape (n_samples, n_features)
+            Rows of the features the domain was fitted on.
 
         Returns
         -------
@@ -572,6 +677,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         Parameters
         ----------
         X : array-like of shape (n_samples, n_features)
+            Rows of the features the domain was fitted on.
 
         Returns
         -------
@@ -588,6 +694,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         Parameters
         ----------
         X : array-like of shape (n_samples, n_features)
+            Rows of the features the domain was fitted on.
 
         Returns
         -------
@@ -611,6 +718,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         Parameters
         ----------
         X : array-like of shape (n_samples, n_features)
+            Rows of the features the domain was fitted on.
 
         Returns
         -------
@@ -629,6 +737,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         Parameters
         ----------
         X : array-like of shape (n_samples, n_features)
+            Rows of the features the domain was fitted on.
 
         Returns
         -------
@@ -644,7 +753,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         # convex, so the rows converge into their intersection; ending on the clamp keeps
         # every temperature exactly inside its range.
         projected = X.copy()
-        for _ in range(_PROJECTION_ROUNDS):
+        for _ in range(PROJECTION_ROUNDS):
             projected = project_to_box(self.box_, projected, self.margin)
             projected[:, columns] = np.clip(projected[:, columns], low, high)
         return projected

@@ -229,7 +229,8 @@ class CompensationPipeline(Pipeline):
         worse than uncompensated.
     margin : float, default=1.5
         Distance outside the calibrated box, in decorrelated standard deviations, that still
-        counts as inside (the domain's ``margin``).
+        counts as inside (the domain's ``margin``). Learnt into ``domain_`` at :meth:`fit`:
+        changing it takes a refit (``outside`` takes effect at once).
     transform_input, memory, verbose
         As for :class:`~sklearn.pipeline.Pipeline`.
 
@@ -352,7 +353,7 @@ class CompensationPipeline(Pipeline):
         beyond = temperature_excess(
             rows, domain.temperature_columns_, domain.data_min_, domain.data_max_
         )
-        return distance, beyond, outside_domain(distance, beyond, self.margin)
+        return distance, beyond, outside_domain(distance, beyond, domain.margin)
 
     def _transform_features(self, X):
         check_is_fitted(self, "domain_")
@@ -432,7 +433,7 @@ class CompensationPipeline(Pipeline):
             projected = self.domain_.project(rows[outside])
             prediction[outside] = self._predict_features(_like(features, projected), **params)
         elif self.outside == "blend":
-            weight = fallback_weight(distance[outside], self.margin)
+            weight = fallback_weight(distance[outside], self.domain_.margin)
             fallback = self.fallback_.predict(rows[outside])
             if prediction.ndim == 1:
                 fallback = fallback[:, 0]

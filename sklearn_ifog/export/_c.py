@@ -8,7 +8,26 @@ import numpy as np
 from sklearn_ifog._contract import get_term, uses_rate
 from sklearn_ifog._io import write_text_files
 from sklearn_ifog.export._spec import describe_pipeline
-from sklearn_ifog.export._templates import HEADER, SOURCE
+from sklearn_ifog.export._templates import (
+    ADAPT_FUNCTIONS,
+    BLEND_FUNCTION,
+    CLIP_ONCE,
+    CLIP_ROUNDS,
+    DOMAIN_BEYOND,
+    DOMAIN_BOX,
+    DOMAIN_COMMENT,
+    DOMAIN_DEFINE,
+    DOMAIN_FIELDS,
+    DOMAIN_FLAG,
+    DOMAIN_GUARDED,
+    DOMAIN_PRECISION,
+    DOMAIN_PROJECT,
+    DOMAIN_PROTOTYPES,
+    HEADER,
+    POLICY_TEXT,
+    SOURCE,
+    TEMPERATURE_DEFINE,
+)
 
 _IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 _VALUES_PER_LINE = 4
@@ -102,11 +121,13 @@ class _Writer:
         self.names = set()
         self.lines = []
 
-    def array(self, name, values, index_type=None):
+    def array(self, name, values, index_type=None, double=False):
+        """A parameter array (``double``: in double whatever the precision)."""
         full = f"{self.prefix}_{name}"
         if full not in self.names:  # a second function reading the same parameters
             self.names.add(full)
-            self.parameters.append(_array(full, values, self.real, self.precision, index_type))
+            real, precision = ("double", "double") if double else (self.real, self.precision)
+            self.parameters.append(_array(full, values, real, precision, index_type))
         return full
 
     def literal(self, value):
@@ -116,7 +137,7 @@ class _Writer:
         self.lines.extend(lines)
 
 
-def _features_body(features, prefix, real):
+def _features_body(features, prefix):
     """ThermalFeatures' causal step in C: differences, exact lags, then the terms."""
     terms = features["terms"]
     taus = features["time_constants"]
@@ -188,7 +209,7 @@ def _features_body(features, prefix, real):
         expression = term.c_expression
         if term.time_constant is not None:
             expression = expression.format(lag=taus.index(term.time_constant))
-        assignment = f"features[column++] = ({real})({expression});"
+        assignment = f"features[column++] = ({expression});"
         if not term.first_sensor:
             # The first sensor has no column of this term (e.g. its gradient is zero).
             lines += ["        if (sensor > 0) {", f"            {assignment}", "        }"]
@@ -412,56 +433,33 @@ def _linear_design(writer, tag, spec, source, degree):
 _DESIGNS = {"rbf_network": _rbf_design, "linear": _linear_design}
 
 
-def _adaptation_parts(writer, spec, prefix, adapt, forgetting, prior, degree):
-    """Fields, prototypes and functions of the RLS recalibration (empty without ``adapt``)."""
+def _drift_lines(prefix, adapt, domain):
+    """The body of the recalibrated ``{prefix}_drift``: the model, then the domain's policy.
+
+    ``"output"``: the recalibrated output layer at the row the policy evaluates (``"clip"``:
+    the domain's edge), then ``"blend"``'s fallback; ``"bias"``: the fitted model under the
+    policy, then the offset (added after the policy).
+    """
     upper = prefix.upper()
-    if adapt is None:
-        return {
-            "adapt_define": "",
-            "adapt_fields": "",
-            "adapt_prototypes": "",
-            "adapt_init": "",
-            "adapt_functions": "",
-            "step_drift": f"    {prefix}_predict_features(features, drift);\n",
-        }
-    weights = np.asarray(prior["weights"], dtype=np.float64)
-    covariance = np.asarray(prior["covariance"], dtype=np.float64)
-    n_weights = weights.shape[0]
-    parameters = [
-        "/* Recalibration (RLS): initial output-layer weights and covariance. */\n"
-        + _array(f"{prefix}_initial_weights", weights, "double", "double"),
-        _array(f"{prefix}_initial_covariance", covariance, "double", "double"),
-    ]
-    parameters.append(
-        f"static void {prefix}_drift(\n"
-        f"    const {prefix}_state *state, const {prefix}_real features[{upper}_N_FEATURES],\n"
-        f"    double phi_out[{upper}_N_WEIGHTS], {prefix}_real base[{upper}_N_OUTPUTS],\n"
-        f"    {prefix}_real drift[{upper}_N_OUTPUTS]);\n"
-    )
-    writer.parameters.extend(parameters)
-    trace0 = format_c_literal(float(np.trace(covariance)))
-    lam = format_c_literal(forgetting)
-    design_lines = []
-    if adapt == "output":
-        saved, writer.lines = writer.lines, []
-        steps = spec["steps"]
-        for k, step in enumerate(steps[:-1], start=1):
-            writer.emit(f"    {writer.real} x{k}[{step['n_outputs']}];")
-        buffers = ["features"] + [f"x{k}" for k in range(1, len(steps))]
-        for k, step in enumerate(steps[:-1]):
-            _RENDERERS[step["op"]](writer, f"step{k}", step, buffers[k], buffers[k + 1])
-        last = steps[-1]
-        _DESIGNS[last["op"]](writer, f"step{len(steps) - 1}", last, buffers[-1], degree)
-        design_lines = ["    int i;", "    int j;", *writer.lines, "    (void)i;", "    (void)j;"]
-        writer.lines = saved
-    drift_lines = [
+    lines = [
         f"    double phi[{upper}_N_WEIGHTS];",
         "    int i;",
         "    int k;",
+        "    int outside = 0;",
     ]
     if adapt == "output":
-        drift_lines += [
-            f"    {prefix}_design(features, phi);",
+        if domain is None:
+            lines += [
+                "    *distance = 0.0;",
+                f"    {prefix}_design(features, phi);",
+            ]
+        else:
+            lines[:0] = [f"    double evaluated[{upper}_N_FEATURES];"]
+            lines += [
+                f"    outside = {prefix}_domain(features, evaluated, distance);",
+                f"    {prefix}_design(evaluated, phi);",
+            ]
+        lines += [
             f"    for (k = 0; k < {upper}_N_OUTPUTS; ++k) {{",
             "        double total = 0.0;",
             f"        for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{",
@@ -471,160 +469,91 @@ def _adaptation_parts(writer, spec, prefix, adapt, forgetting, prior, degree):
             f"        drift[k] = ({prefix}_real)total;",
             "    }",
         ]
-    else:
-        drift_lines += [
-            "    phi[0] = 1.0;",
-            "    (void)i;",
-            f"    {prefix}_predict_features(features, base);",
-            f"    for (k = 0; k < {upper}_N_OUTPUTS; ++k) {{",
-            f"        drift[k] = ({prefix}_real)(base[k] + state->weights[0][k]);",
-            "    }",
+        if domain is not None and domain["outside"] == "blend":
+            lines += [
+                "    if (outside) {",
+                f"        {prefix}_blend(features, *distance, drift);",
+                "    }",
+            ]
+        return lines
+    lines += ["    phi[0] = 1.0;", "    (void)i;"]
+    if domain is None:
+        lines += [
+            "    *distance = 0.0;",
+            f"    {prefix}_evaluate(features, base);",
         ]
+    else:
+        lines.append(f"    outside = {prefix}_guarded(features, base, distance);")
+    return [
+        *lines,
+        f"    for (k = 0; k < {upper}_N_OUTPUTS; ++k) {{",
+        f"        drift[k] = ({prefix}_real)(base[k] + state->weights[0][k]);",
+        "    }",
+    ]
+
+
+def _record_domain(domain, call):
+    """Lines that store a sample's distance and flag in the state (``call``: the flag)."""
+    if domain is None:
+        return f"    (void){call};\n"
+    return f"    state->last_outside = {call};\n    state->last_distance = distance;\n"
+
+
+def _adaptation_parts(writer, spec, prefix, adapt, forgetting, prior, degree):
+    """Fields, prototypes and functions of the RLS recalibration (empty without ``adapt``)."""
+    upper = prefix.upper()
+    domain = spec.get("domain")
+    if adapt is None:
+        if domain is None:
+            step_drift = f"    {prefix}_evaluate(features, drift);\n"
+        else:
+            step_drift = "    double distance;\n" + _record_domain(
+                domain, f"{prefix}_guarded(features, drift, &distance)"
+            )
+        return {
+            "adapt_define": "",
+            "adapt_fields": "",
+            "adapt_prototypes": "",
+            "adapt_init": "",
+            "adapt_functions": "",
+            "step_drift": step_drift,
+        }
+    weights = np.asarray(prior["weights"], dtype=np.float64)
+    covariance = np.asarray(prior["covariance"], dtype=np.float64)
+    n_weights = weights.shape[0]
+    writer.parameters += [
+        "/* Recalibration (RLS): initial output-layer weights and covariance. */\n"
+        + _array(f"{prefix}_initial_weights", weights, "double", "double"),
+        _array(f"{prefix}_initial_covariance", covariance, "double", "double"),
+        f"static int {prefix}_drift(\n"
+        f"    const {prefix}_state *state, const double features[{upper}_N_FEATURES],\n"
+        f"    double phi_out[{upper}_N_WEIGHTS], {prefix}_real base[{upper}_N_OUTPUTS],\n"
+        f"    {prefix}_real drift[{upper}_N_OUTPUTS], double *distance);\n",
+    ]
+    lam = format_c_literal(forgetting)
     functions = []
     if adapt == "output":
-        functions.append(
-            "\n/* The final regressor's output layer: the row its drift is linear in. */\n"
-            f"static void {prefix}_design(\n"
-            f"    const {prefix}_real features[{upper}_N_FEATURES],\n"
-            f"    double phi[{upper}_N_WEIGHTS])\n"
-            "{\n" + "\n".join(design_lines) + "\n}\n"
-        )
+        functions.append(_design_function(writer, spec, prefix, degree))
     functions.append(
-        f"""
-/* Drift of one sample's features with the current (recalibrated) weights; phi: the
- * output-layer row, base: the fitted model's drift before the bias ("bias" mode). */
-static void {prefix}_drift(
-    const {prefix}_state *state, const {prefix}_real features[{upper}_N_FEATURES],
-    double phi_out[{upper}_N_WEIGHTS], {prefix}_real base[{upper}_N_OUTPUTS],
-    {prefix}_real drift[{upper}_N_OUTPUTS])
-{{
-{chr(10).join(drift_lines)}
-    for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
-        phi_out[i] = phi[i];
-    }}
-}}
-
-void {prefix}_reset_adaptation({prefix}_state *state)
-{{
-    int i;
-    int j;
-    for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
-        for (j = 0; j < {upper}_N_OUTPUTS; ++j) {{
-            state->weights[i][j] = {prefix}_initial_weights[i][j];
-        }}
-        for (j = 0; j < {upper}_N_WEIGHTS; ++j) {{
-            state->covariance[i][j] = {prefix}_initial_covariance[i][j];
-        }}
-    }}
-    state->n_updates = 0;
-    state->n_resets = 0;
-}}
-
-/* One recursive-least-squares update with forgetting (see {prefix}.h). */
-static void {prefix}_rls(
-    {prefix}_state *state, const double phi[{upper}_N_WEIGHTS],
-    const double target[{upper}_N_OUTPUTS])
-{{
-    double p_phi[{upper}_N_WEIGHTS];
-    double gain[{upper}_N_WEIGHTS];
-    double error[{upper}_N_OUTPUTS];
-    double quadratic = 0.0;
-    double trace = 0.0;
-    int positive = 1;
-    int i;
-    int j;
-    for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
-        double total = 0.0;
-        for (j = 0; j < {upper}_N_WEIGHTS; ++j) {{
-            total += state->covariance[i][j] * phi[j];
-        }}
-        p_phi[i] = total;
-        quadratic += phi[i] * total;
-    }}
-    if (!isfinite(quadratic) || quadratic < 0.0) {{
-        /* Not positive definite: back to the initial covariance. */
-        quadratic = 0.0;
-        for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
-            double total = 0.0;
-            for (j = 0; j < {upper}_N_WEIGHTS; ++j) {{
-                state->covariance[i][j] = {prefix}_initial_covariance[i][j];
-                total += state->covariance[i][j] * phi[j];
-            }}
-            p_phi[i] = total;
-            quadratic += phi[i] * total;
-        }}
-        state->n_resets += 1;
-    }}
-    for (j = 0; j < {upper}_N_OUTPUTS; ++j) {{
-        double total = 0.0;
-        for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
-            total += phi[i] * state->weights[i][j];
-        }}
-        error[j] = target[j] - total;
-    }}
-    for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
-        gain[i] = p_phi[i] / ({lam} + quadratic);
-        for (j = 0; j < {upper}_N_OUTPUTS; ++j) {{
-            state->weights[i][j] += gain[i] * error[j];
-        }}
-    }}
-    for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
-        for (j = 0; j < {upper}_N_WEIGHTS; ++j) {{
-            state->covariance[i][j] = (state->covariance[i][j] - gain[i] * p_phi[j]) / {lam};
-        }}
-    }}
-    for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
-        for (j = i + 1; j < {upper}_N_WEIGHTS; ++j) {{
-            const double mean = 0.5 * (state->covariance[i][j] + state->covariance[j][i]);
-            state->covariance[i][j] = mean;
-            state->covariance[j][i] = mean;
-        }}
-        if (!(state->covariance[i][i] > 0.0) || !isfinite(state->covariance[i][i])) {{
-            positive = 0;
-        }}
-        trace += state->covariance[i][i];
-    }}
-    if (!positive) {{
-        for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
-            for (j = 0; j < {upper}_N_WEIGHTS; ++j) {{
-                state->covariance[i][j] = {prefix}_initial_covariance[i][j];
-            }}
-        }}
-        state->n_resets += 1;
-    }} else if (trace > {trace0}) {{
-        const double shrink = {trace0} / trace;
-        for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{
-            for (j = 0; j < {upper}_N_WEIGHTS; ++j) {{
-                state->covariance[i][j] *= shrink;
-            }}
-        }}
-    }}
-    state->n_updates += 1;
-}}
-
-void {prefix}_adapt(
-    {prefix}_state *state, double time, const double temperature[{upper}_N_SENSORS],
-    const {prefix}_real rate[{upper}_N_OUTPUTS], const double reference[{upper}_N_OUTPUTS],
-    {prefix}_real drift[{upper}_N_OUTPUTS])
-{{
-    {prefix}_real features[{upper}_N_FEATURES];
-    {prefix}_real base[{upper}_N_OUTPUTS];
-    double phi[{upper}_N_WEIGHTS];
-    double target[{upper}_N_OUTPUTS];
-    int k;
-    {prefix}_features(state, time, temperature, features);
-    {prefix}_drift(state, features, phi, base, drift);
-    for (k = 0; k < {upper}_N_OUTPUTS; ++k) {{
-        target[k] = ((double)rate[k] - reference[k]) - (double)base[k];
-    }}
-    {prefix}_rls(state, phi, target);
-}}
-"""
+        ADAPT_FUNCTIONS.substitute(
+            prefix=prefix,
+            PREFIX=upper,
+            lam=lam,
+            trace0=format_c_literal(float(np.trace(covariance))),
+            drift_lines="\n".join(_drift_lines(prefix, adapt, domain)),
+            record_domain="" if domain is None else _record_domain(domain, "outside"),
+        )
     )
     step_drift = (
         f"    {prefix}_real base[{upper}_N_OUTPUTS];\n"
         f"    double phi[{upper}_N_WEIGHTS];\n"
-        f"    {prefix}_drift(state, features, phi, base, drift);\n"
+        "    double distance;\n"
+    ) + _record_domain(domain, f"{prefix}_drift(state, features, phi, base, drift, &distance)")
+    outside_rule = (
+        ""
+        if domain is None
+        else "\n * A sample outside the calibration domain is compensated by its policy and not\n"
+        ' * learnt from (state.last_outside is 1; the "bias" offset is added after the policy).'
     )
     return {
         "adapt_define": (
@@ -645,7 +574,8 @@ void {prefix}_adapt(
             "/* Return the recalibration to the fitted model (init does it; reset does not). */\n"
             f"void {prefix}_reset_adaptation({prefix}_state *state);\n\n"
             "/* One sample whose true rate is known: write its drift (as step does), then learn\n"
-            " * from rate - reference (recursive least squares with forgetting). */\n"
+            " * from rate - reference (recursive least squares with forgetting)."
+            f"{outside_rule} */\n"
             f"void {prefix}_adapt(\n"
             f"    {prefix}_state *state, double time,\n"
             f"    const double temperature[{upper}_N_SENSORS],\n"
@@ -656,6 +586,131 @@ void {prefix}_adapt(
         "adapt_init": f"    {prefix}_reset_adaptation(state);\n",
         "adapt_functions": "".join(functions),
         "step_drift": step_drift,
+    }
+
+
+def _design_function(writer, spec, prefix, degree):
+    """``{prefix}_design``: the final regressor's output-layer row of a row of features."""
+    upper = prefix.upper()
+    saved, writer.lines = writer.lines, []
+    steps = spec["steps"]
+    for k, step in enumerate(steps[:-1], start=1):
+        writer.emit(f"    {writer.real} x{k}[{step['n_outputs']}];")
+    buffers = ["features"] + [f"x{k}" for k in range(1, len(steps))]
+    for k, step in enumerate(steps[:-1]):
+        _RENDERERS[step["op"]](writer, f"step{k}", step, buffers[k], buffers[k + 1])
+    last = steps[-1]
+    _DESIGNS[last["op"]](writer, f"step{len(steps) - 1}", last, buffers[-1], degree)
+    design_lines = ["    int i;", "    int j;", *writer.lines, "    (void)i;", "    (void)j;"]
+    writer.lines = saved
+    return (
+        "\n/* The final regressor's output layer: the row its drift is linear in. */\n"
+        f"static void {prefix}_design(\n"
+        f"    const double features[{upper}_N_FEATURES],\n"
+        f"    double phi[{upper}_N_WEIGHTS])\n"
+        "{\n" + "\n".join(design_lines) + "\n}\n"
+    )
+
+
+def _fallback_text(domain, feature_names):
+    """The "blend" fallback in words, for the header comment."""
+    fallback = domain["fallback"]
+    if fallback["column"] is None or not any(fallback["slope"]):
+        return "a constant, the calibration's mean drift"
+    name = _comment(feature_names[fallback["column"]])
+    return f"a line in the feature {name}"
+
+
+def _domain_functions(writer, domain, prefix):
+    """The C functions of the calibration domain, for its policy (see _templates)."""
+    names = {"prefix": prefix, "PREFIX": prefix.upper()}
+    policy = domain["outside"]
+    for key in ("center", "scale", "axes", "axis_scale", "lower", "upper"):
+        writer.array(f"domain_{key}", domain[key], double=True)
+    parts = [DOMAIN_BOX.substitute(names)]
+    beyond_test, clip_block, blend_call = "", "", ""
+    if domain["temperature_columns"]:
+        writer.array("temperature_columns", domain["temperature_columns"], index_type="int")
+        writer.array("temperature_low", domain["temperature_low"], double=True)
+        writer.array("temperature_high", domain["temperature_high"], double=True)
+        parts.append(DOMAIN_BEYOND.substitute(names))
+        beyond_test = f" && !{prefix}_beyond(features)"
+    if policy == "clip":
+        parts.append(DOMAIN_PROJECT.substitute(names))
+        rounds = CLIP_ROUNDS if domain["temperature_columns"] else CLIP_ONCE
+        clip_block = rounds.substitute(names)
+    parts.append(DOMAIN_FLAG.substitute(names, beyond_test=beyond_test, clip_block=clip_block))
+    if policy == "blend":
+        fallback = domain["fallback"]
+        intercept = writer.array("fallback_intercept", fallback["intercept"], double=True)
+        expression, unused = f"{intercept}[k]", "    (void)features;\n"
+        if fallback["column"] is not None:
+            slope = writer.array("fallback_slope", fallback["slope"], double=True)
+            expression += f" + features[{fallback['column']}] * {slope}[k]"
+            unused = ""
+        parts.append(BLEND_FUNCTION.substitute(names, fallback=expression, unused=unused))
+        blend_call = (
+            f"    if (outside) {{\n        {prefix}_blend(features, *distance, drift);\n    }}\n"
+        )
+    parts.append(DOMAIN_GUARDED.substitute(names, blend_call=blend_call))
+    return "".join(parts)
+
+
+def _domain_parts(writer, spec, prefix, adapt):
+    """Header text, state fields and functions of the calibration domain.
+
+    Without a domain (a plain Pipeline) only ``{PREFIX}_HAS_DOMAIN 0`` is written.
+    """
+    upper = prefix.upper()
+    domain = spec.get("domain")
+    if domain is None:
+        empty = ("domain_comment", "domain_fields", "domain_reset", "domain_prototypes")
+        return {
+            **dict.fromkeys(empty, ""),
+            "domain_define": f"#define {upper}_HAS_DOMAIN 0\n",
+            "domain_functions": "",
+            "domain_precision": "",
+            "predict_features_body": f"    {prefix}_evaluate(row, drift);\n",
+            "policy_note": "",
+        }
+    names = {"prefix": prefix, "PREFIX": upper, "policy": domain["outside"]}
+    feature_names = spec["features"]["feature_names"]
+    temperatures = domain["temperature_columns"]
+    temperature_define = temperature_note = ""
+    if temperatures:
+        temperature_define = TEMPERATURE_DEFINE.substitute(
+            names, n_temperatures=len(temperatures), rounds=domain["projection_rounds"]
+        )
+        listed = _comment(", ".join(feature_names[column] for column in temperatures))
+        temperature_note = (
+            f",\n * or when a temperature ({listed}) lies beyond its calibrated range (by any\n"
+            " * amount)"
+        )
+    description = POLICY_TEXT[domain["outside"]].substitute(
+        PREFIX=upper, fallback=_fallback_text(domain, feature_names)
+    )
+    return {
+        "domain_define": DOMAIN_DEFINE.substitute(
+            names,
+            margin=format_c_literal(domain["margin"]),
+            blend_width=format_c_literal(domain["blend_width"]),
+            temperature_define=temperature_define,
+        ),
+        "domain_comment": DOMAIN_COMMENT.substitute(
+            names,
+            description=description,
+            temperature_note=temperature_note,
+            adapt_note="" if adapt is None else f" (or {prefix}_adapt)",
+        ),
+        "domain_fields": DOMAIN_FIELDS.substitute(names),
+        "domain_reset": "    state->last_distance = 0.0;\n    state->last_outside = 0;\n",
+        "domain_prototypes": DOMAIN_PROTOTYPES.substitute(names),
+        "domain_functions": _domain_functions(writer, domain, prefix),
+        "domain_precision": DOMAIN_PRECISION,
+        "predict_features_body": (
+            f"    double distance;\n    (void){prefix}_guarded(row, drift, &distance);\n"
+        ),
+        "policy_note": ", then the calibration domain's policy",
     }
 
 
@@ -710,6 +765,7 @@ def render_c(
     ]
     time_column = features["time"]
     lag_define, lag_field, lag_reset, lag_table = _state_parts(features, prefix)
+    domain = _domain_parts(writer, spec, prefix, adapt)
     adaptation = _adaptation_parts(writer, spec, prefix, adapt, forgetting, prior, degree)
     fields = {
         "prefix": prefix,
@@ -735,12 +791,13 @@ def render_c(
         "lag_define": lag_define,
         "lag_field": lag_field,
         "lag_reset": lag_reset,
-        "features_body": _features_body(features, prefix, writer.real),
+        "features_body": _features_body(features, prefix),
         "predict_body": "\n".join(predict_lines),
         "batch_time": "0.0" if time_column is None else "time[sample]",
         "batch_prelude": "    (void)time; /* the model differences per sample */\n"
         if time_column is None
         else "",
+        **domain,
         **adaptation,
     }
     return HEADER.substitute(fields), SOURCE.substitute(fields)
@@ -769,9 +826,23 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
     ``precision="float"``: differencing 0.01 °C steps of a 30 °C reading in single precision
     would alone cost about 1e-4 relative.
 
+    A :class:`~sklearn_ifog.pipeline.CompensationPipeline` also brings its calibration domain
+    and ``outside`` policy (``{PREFIX}_HAS_DOMAIN`` is 1; 0 for a plain Pipeline): every
+    sample's distance outside the domain and its flag, as ``calibration_distance`` and
+    ``outside_calibration`` give them, and its drift under the same policy as ``predict``
+    (``"blend"``, ``"clip"`` or ``"none"``, with the pipeline's ``margin`` and the current
+    :data:`~sklearn_ifog.domain.BLEND_WIDTH`). After ``{prefix}_step``,
+    ``{prefix}_compensate`` or ``{prefix}_adapt``, ``state.last_distance`` and
+    ``state.last_outside`` hold the sample's distance and flag;
+    ``{prefix}_calibration_distance(features)`` is the stateless distance and
+    ``{prefix}_predict_features`` applies the policy. The domain is computed in double
+    whatever the precision. With ``adapt``, a sample outside the domain is compensated by
+    the policy and does not update the recalibration, and the ``"bias"`` offset is added
+    after the policy (the rule of :class:`~sklearn_ifog.streaming.StreamingCompensator`).
+
     Parameters
     ----------
-    pipeline : sklearn.pipeline.Pipeline
+    pipeline : sklearn.pipeline.Pipeline or CompensationPipeline
         Fitted: :class:`~sklearn_ifog.ThermalFeatures`, then any of StandardScaler,
         RobustScaler, MaxAbsScaler, MinMaxScaler, PolynomialFeatures (or "passthrough"), then
         a :class:`~sklearn_ifog.RBFNetRegressor` or a linear regressor (LinearRegression,
@@ -799,8 +870,9 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
     TypeError
         If a step is of a type the exporter does not know (the message names the step).
     ValueError
-        On a bad ``precision`` or ``prefix``, a first step that is not ThermalFeatures, or a
-        parameter that is not finite.
+        On a bad ``precision`` or ``prefix``, a first step that is not ThermalFeatures, a
+        parameter that is not finite, or a CompensationPipeline whose ``outside`` or
+        ``margin`` is not one it could predict with.
 
     Examples
     --------
@@ -817,6 +889,17 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
     ...     header, source = to_c(model, directory)
     ...     print(header.name, source.name, "ifog_step" in source.read_text())
     ifog.h ifog.c True
+
+    A CompensationPipeline brings its calibration domain, its flag and its policy:
+
+    >>> from sklearn_ifog import make_compensation_pipeline
+    >>> model = make_compensation_pipeline(
+    ...     LinearRegression(), temperature=1, time=0, run=None, terms=("T", "dT"), outside="clip"
+    ... ).fit(X, X[:, 1] / 100)
+    >>> with tempfile.TemporaryDirectory() as directory:
+    ...     text = to_c(model, directory)[0].read_text()
+    >>> "#define IFOG_HAS_DOMAIN 1" in text, "int last_outside;" in text
+    (True, True)
     """
     if precision not in ("double", "float"):
         raise ValueError(f"precision must be 'double' or 'float', got {precision!r}.")
@@ -869,7 +952,11 @@ def to_c_units(model, directory, precision="double", prefix="ifog"):
     One header and one source per unit, each exactly what :func:`to_c` writes for that
     unit's model, with the prefix ``{prefix}_unit_{unit}`` (characters of the unit label
     that cannot be in a C identifier become ``_``). Firmware flashes one gyro's pair; every
-    unit keeps its own state and functions, so several can be linked together.
+    unit keeps its own state and functions, so several can be linked together. A unit whose
+    model is a :class:`~sklearn_ifog.pipeline.CompensationPipeline` carries that model's
+    own calibration domain, fallback and ``outside`` policy, the ones its ``predict`` uses
+    (:class:`~sklearn_ifog.UnitwiseRegressor` says which rows each unit's domain is fitted
+    on).
 
     Parameters
     ----------

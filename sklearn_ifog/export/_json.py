@@ -14,7 +14,9 @@ def to_json(pipeline, path):
     languages: the ThermalFeatures rules (sensor columns, time column, terms, the smoothing
     and the lags' time constants in seconds, time unit), then every step in order with its
     operation and parameters, under a ``"schema"`` name and a ``"schema_version"``
-    (currently 2). Per sensor and per time constant ``tau`` of ``time_constants``, the
+    (currently 3), and for a :class:`~sklearn_ifog.pipeline.CompensationPipeline` its
+    calibration domain and ``outside`` policy (``"domain"``; null for a plain Pipeline).
+    Per sensor and per time constant ``tau`` of ``time_constants``, the
     deficit ``e`` of the temperature ``u`` behind its first-order lag is 0 at a run's first
     row, then ``x = (t - t_prev) / tau``, ``a = exp(-x)``, ``g = -expm1(-x) / x`` (1 when
     ``x == 0``), ``e = a * e + g * (u - u_prev)``; a ``"T_lag<tau>s"`` term is that ``e``,
@@ -31,6 +33,17 @@ def to_json(pipeline, path):
       ``y = coef @ exp(-||z - centers||^2 / (2 widths^2)) + tail_coef @ t(z) + intercept``,
       with ``t(z)`` the polynomial tail of degree ``tail_degree`` (``z``, then for degree 2
       the monomials ``z[i] * z[j]``, ``i <= j``, in ``PolynomialFeatures`` order).
+
+    The ``"domain"`` entry holds the box in decorrelated coordinates (``center``, ``scale``,
+    ``axes`` one per row, ``axis_scale``, ``lower``, ``upper``), ``margin``, ``blend_width``,
+    the temperature columns and their calibrated ranges (``temperature_columns``,
+    ``temperature_low``, ``temperature_high``), ``projection_rounds``, the policy
+    ``outside`` and the ``fallback`` (``intercept``, ``slope``, ``column``): a row's distance
+    is ``sqrt(sum_k (e_k / axis_scale_k)^2)`` with ``e_k`` the excess of its coordinate
+    ``(axes @ ((x - center) / scale))_k`` beyond ``[lower_k, upper_k]``; it is outside above
+    ``margin`` or with a temperature beyond its range; the policies are those of
+    :meth:`~sklearn_ifog.pipeline.CompensationPipeline.predict`, written out in
+    ``sklearn_ifog/export/_spec.py``.
 
     Parameters
     ----------
@@ -68,8 +81,25 @@ def to_json(pipeline, path):
     >>> model = model.fit(X, X[:, 1] / 100)
     >>> with tempfile.TemporaryDirectory() as directory:
     ...     spec = json.loads(to_json(model, Path(directory) / "model.json").read_text())
-    >>> spec["schema_version"], [step["op"] for step in spec["steps"]]
-    (2, ['linear'])
+    >>> spec["schema_version"], [step["op"] for step in spec["steps"]], spec["domain"]
+    (3, ['linear'], None)
+
+    A CompensationPipeline also writes where it was calibrated:
+
+    >>> from sklearn_ifog import make_compensation_pipeline
+    >>> model = make_compensation_pipeline(
+    ...     LinearRegression(), temperature=1, time=0, run=None, terms=("T", "dT"), margin=0.5
+    ... ).fit(X, X[:, 1] / 100)
+    >>> with tempfile.TemporaryDirectory() as directory:
+    ...     spec = json.loads(to_json(model, Path(directory) / "model.json").read_text())
+    >>> domain = spec["domain"]
+    >>> (
+    ...     domain["outside"],
+    ...     domain["margin"],
+    ...     domain["temperature_high"],
+    ...     domain["fallback"]["column"],
+    ... )
+    ('blend', 0.5, [22.5], 0)
     """
     from sklearn_ifog.unitwise import UnitwiseRegressor
 

@@ -6,11 +6,12 @@ carry exactly the same numbers. Every float goes through ``float(...)`` of a flo
 ``json`` (which writes ``repr``) and the C generator (``repr`` / ``%.9g``) keep round-trip
 precision.
 
-Schema (version 2; version 1 had an EMA ``smoothing`` in samples and its ``alpha``)::
+Schema (version 3; version 2 had no ``"domain"``, version 1 an EMA ``smoothing`` in samples
+and its ``alpha``)::
 
     {
       "schema": "sklearn-ifog-pipeline",
-      "schema_version": 2,
+      "schema_version": 3,
       "generator": "sklearn-ifog <version>",
       "features": {
         "op": "thermal_features",
@@ -28,7 +29,9 @@ Schema (version 2; version 1 had an EMA ``smoothing`` in samples and its ``alpha
       "steps": [ <step>, ... ],      # after the features, applied in order, row by row
       "n_features": int,             # features entering the first step
       "n_outputs": int,
-      "single_output": bool          # the Pipeline predicts a 1-D array
+      "single_output": bool,         # the Pipeline predicts a 1-D array
+      "domain": <domain> | null      # a CompensationPipeline's calibration domain and
+                                     # outside policy; null for a plain Pipeline
     }
 
 Each step is ``{"name", "class", "op", "n_inputs", "n_outputs", ...}`` with ``op``:
@@ -49,6 +52,43 @@ Each step is ``{"name", "class", "op", "n_inputs", "n_outputs", ...}`` with ``op
   the monomials ``z[i] * z[j]`` for ``i <= j``, row-major (``z0², z0 z1, ..., z1², ...``,
   the order of scikit-learn's ``PolynomialFeatures(degree=2, include_bias=False)``;
   ``n_tail = n_inputs + n_inputs (n_inputs + 1) / 2``).
+
+The domain (:mod:`sklearn_ifog.domain`; arrays of ``n_features`` entries, the features as
+ThermalFeatures outputs them, before any later step)::
+
+    {
+      "center": [...], "scale": [...],       # standardisation of the features
+      "axes": [[...], ...],                  # principal axes, one per row (row-major)
+      "axis_scale": [...],                   # the calibration's standard deviation per axis
+      "lower": [...], "upper": [...],        # the calibration's range along each axis
+      "margin": <float>,                     # distance that still counts as inside
+      "blend_width": <float>,                # width of the "blend" policy's smoothstep
+      "temperature_columns": [<int>, ...],   # features holding a temperature (T of each
+                                             # sensor): their range admits no margin
+      "temperature_low": [...], "temperature_high": [...],   # their calibrated ranges
+      "projection_rounds": <int>,            # rounds of "clip" with temperature columns
+      "outside": "blend" | "clip" | "none",  # the policy outside the domain
+      "fallback": {"intercept": [...], "slope": [...],   # n_outputs each
+                   "column": <int> | null}   # the feature holding T; null: a constant
+    }
+
+A row ``x`` of features has the coordinates ``p = axes @ ((x - center) / scale)``; along
+axis ``k`` its excess ``e_k`` is ``lower_k - p_k`` below the range, ``p_k - upper_k``
+above it, 0 inside; its distance is ``d = sqrt(sum_k (e_k / axis_scale_k)^2)``. It is
+outside when ``d > margin`` or when a temperature column ``x[c]`` lies outside
+``[temperature_low, temperature_high]`` (by any amount). Rows inside get the steps'
+prediction ``y``; rows outside follow ``outside``:
+
+- ``"blend"``: ``(1 - w) y + w f`` with ``s = clip((d - margin) / blend_width, 0, 1)``,
+  ``w = s^2 (3 - 2 s)`` (0 for a row outside by a temperature alone) and the fallback
+  ``f = intercept + x[column] * slope`` (``f = intercept`` when ``column`` is null).
+- ``"clip"``: the steps' prediction at the row projected onto the domain. One projection
+  ``P(x)``: a row with ``d <= margin`` is unchanged; else, with ``c`` its coordinates
+  clamped to ``[lower, upper]`` and ``q = c + (p - c) * (margin / d)``, it becomes
+  ``(axes^T @ q) * scale + center``. Without temperature columns the projected row is
+  ``P(x)``; with them, ``projection_rounds`` times: ``x = P(x)``, then every temperature
+  column clamped to its range.
+- ``"none"``: ``y``.
 
 The feature rules are those of :class:`sklearn_ifog.ThermalFeatures`. Per sensor and per
 time constant ``tau`` of ``time_constants``, a deficit ``e`` (the temperature minus its
@@ -76,6 +116,7 @@ from sklearn.pipeline import Pipeline
 from sklearn.utils.validation import check_is_fitted
 
 import sklearn_ifog
+from sklearn_ifog import domain as _domain
 from sklearn_ifog._contract import (
     get_term,
     seconds_per_unit,
@@ -87,7 +128,7 @@ from sklearn_ifog.features import ThermalFeatures
 from sklearn_ifog.rbf import RBFNetRegressor
 
 SCHEMA_NAME = "sklearn-ifog-pipeline"
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 
 # Regressors whose predict is exactly ``X @ coef_.T + intercept_``.
 LINEAR_REGRESSORS = (
@@ -264,7 +305,9 @@ def describe_pipeline(pipeline):
     Returns
     -------
     spec : dict
-        JSON-able description (see the module docstring for the schema).
+        JSON-able description (see the module docstring for the schema); its ``"domain"``
+        holds a :class:`~sklearn_ifog.pipeline.CompensationPipeline`'s calibration domain,
+        fallback and ``outside`` policy, None for a plain Pipeline.
 
     Raises
     ------
@@ -338,6 +381,7 @@ def describe_pipeline(pipeline):
         "n_features": n_features,
         "n_outputs": n_outputs,
         "single_output": single_output,
+        "domain": describe_domain(pipeline, n_features, n_outputs),
     }
 
 
@@ -348,3 +392,96 @@ def _check_chain(name, step, width):
             f"Cannot export {_step_label(name, step)}: it was fitted on {expected} features "
             f"but the previous step gives {width}."
         )
+
+
+def describe_domain(pipeline, n_features, n_outputs):
+    """The ``"domain"`` entry of the schema: None unless ``pipeline`` has a domain.
+
+    Parameters
+    ----------
+    pipeline : sklearn.pipeline.Pipeline
+        Fitted; a :class:`~sklearn_ifog.pipeline.CompensationPipeline` carries a domain.
+    n_features, n_outputs : int
+        Widths of the features and of the prediction, to check the domain against.
+
+    Returns
+    -------
+    domain : dict or None
+        See the module docstring.
+
+    Raises
+    ------
+    ValueError
+        If the pipeline's ``outside`` or ``margin`` is not one it could predict with, or the
+        domain's shapes do not match the features (both name the parameter).
+
+    Examples
+    --------
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn_ifog import make_compensation_pipeline
+    >>> from sklearn_ifog.datasets import make_thermal_campaign
+    >>> X, y = make_thermal_campaign(
+    ...     n_units=1, n_runs=1, sampling_period=120.0, random_state=0, return_X_y=True
+    ... )
+    >>> model = make_compensation_pipeline(
+    ...     LinearRegression(), terms=("T", "dT"), outside="clip", margin=0.5
+    ... ).fit(X, y)
+    >>> domain = describe_domain(model, n_features=2, n_outputs=1)
+    >>> domain["outside"], domain["margin"], len(domain["axes"]), domain["temperature_columns"]
+    ('clip', 0.5, 2, [0])
+    """
+    from sklearn_ifog.pipeline import OUTSIDE_POLICIES, CompensationPipeline
+
+    if not isinstance(pipeline, CompensationPipeline):
+        return None
+    check_is_fitted(pipeline, "domain_")
+    outside, margin = pipeline.outside, pipeline.domain_.margin
+    if outside not in OUTSIDE_POLICIES:
+        raise ValueError(
+            f"Cannot export the calibration domain: outside must be one of "
+            f"{list(OUTSIDE_POLICIES)}, got {outside!r}."
+        )
+    if (
+        isinstance(margin, bool)
+        or not isinstance(margin, numbers.Real)
+        or not np.isfinite(margin)
+        or margin < 0
+    ):
+        raise ValueError(
+            f"Cannot export the calibration domain: margin must be a finite number >= 0, "
+            f"got {margin!r}."
+        )
+    box, fallback = pipeline.domain_.box_, pipeline.fallback_
+    columns = [int(column) for column in pipeline.domain_.temperature_columns_]
+    if box.center.shape != (n_features,) or fallback.intercept.shape != (n_outputs,):
+        raise ValueError(
+            f"Cannot export the calibration domain: it was fitted on {box.center.shape[0]} "
+            f"features and {fallback.intercept.shape[0]} output(s), but the pipeline gives "
+            f"{n_features} features and predicts {n_outputs} output(s); refit it."
+        )
+    spec = {
+        "center": _floats(box.center),
+        "scale": _floats(box.scale),
+        "axes": _floats(box.axes),
+        "axis_scale": _floats(box.axis_scale),
+        "lower": _floats(box.lower),
+        "upper": _floats(box.upper),
+        "margin": float(margin),
+        "blend_width": float(_domain.BLEND_WIDTH),
+        "temperature_columns": columns,
+        "temperature_low": _floats(pipeline.domain_.data_min_[columns]),
+        "temperature_high": _floats(pipeline.domain_.data_max_[columns]),
+        "projection_rounds": int(_domain.PROJECTION_ROUNDS),
+        "outside": outside,
+        "fallback": {
+            "intercept": _floats(fallback.intercept),
+            "slope": _floats(fallback.slope),
+            "column": None if fallback.column is None else int(fallback.column),
+        },
+    }
+    numbers_only = {
+        key: value for key, value in spec.items() if key not in ("outside", "fallback")
+    }
+    _check_finite(numbers_only, "the calibration domain")
+    _check_finite({**spec["fallback"], "column": None}, "the calibration domain's fallback")
+    return spec
