@@ -1,7 +1,8 @@
 """Plots a gyro engineer reads after a thermal test.
 
 - :func:`plot_compensation`: the raw and compensated rate against time, with the coil
-  temperature on a second axis (the reference paper's Figs. 10 and 12);
+  temperature on a second axis (the reference paper's Figs. 10 and 12), the stretches outside
+  the model's calibration domain shaded;
 - :func:`plot_allan_deviation`: Allan deviation curves, e.g. before and after compensation;
 - :func:`plot_msd_by_model`: mean squared deviation per model on a log scale.
 
@@ -23,6 +24,7 @@ from sklearn_ifog._io import atomic_path
 
 __all__ = [
     "new_figure",
+    "outside_stretches",
     "plot_allan_deviation",
     "plot_compensation",
     "plot_msd_by_model",
@@ -32,6 +34,11 @@ __all__ = [
 _RAW_COLOR = "0.55"
 _TEMPERATURE_COLOR = "tab:red"
 _SERIES_COLORS = ("tab:blue", "tab:green", "tab:purple", "tab:orange", "tab:brown")
+# Stretches outside the calibration domain: a light amber behind the curves, a colour none
+# of the curves use.
+_OUTSIDE_COLOR = "#f0a830"
+_OUTSIDE_ALPHA = 0.22
+_OUTSIDE_LABEL = "outside calibration"
 
 
 def _matplotlib():
@@ -86,6 +93,88 @@ def _as_series_mapping(values, default_label):
     return {default_label: np.asarray(values, dtype=float)}
 
 
+def outside_stretches(outside):
+    """First and last row of every stretch of consecutive True values of a mask.
+
+    Parameters
+    ----------
+    outside : array-like of bool, shape (n_samples,)
+        E.g. :meth:`~sklearn_ifog.CompensationPipeline.outside_calibration` of a run.
+
+    Returns
+    -------
+    first, last : ndarray of int
+        Row of the first and of the last True value of every stretch, in order.
+
+    Examples
+    --------
+    >>> from sklearn_ifog.plotting import outside_stretches
+    >>> first, last = outside_stretches([True, False, False, True, True, False, True])
+    >>> first.tolist(), last.tolist()
+    ([0, 3, 6], [0, 4, 6])
+    """
+    edges = np.diff(np.concatenate([[0], np.asarray(outside, dtype=np.int8), [0]]))
+    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+
+
+def _stretch_extents(x, first, last):
+    """(start, end) on the axis ``x`` of the stretches: half-way to the neighbouring samples.
+
+    Each sample owns the interval half-way to its neighbours (the first and last sample end
+    at their own time), so a single sample outside still shows and the shaded stretches
+    and the unshaded ones tile the time axis.
+    """
+    middle = (x[1:] + x[:-1]) / 2.0
+    return np.concatenate([x[:1], middle])[first], np.concatenate([middle, x[-1:]])[last]
+
+
+def _check_outside(outside, series, shape):
+    """{series label or None: boolean mask}; a TypeError/ValueError naming what is wrong."""
+    masks = outside if isinstance(outside, Mapping) else {None: outside}
+    unknown = [label for label in masks if label is not None and str(label) not in series]
+    if unknown:
+        raise ValueError(
+            f"outside names series {unknown} that compensated does not have; its series are "
+            f"{list(series)}."
+        )
+    checked = {}
+    for label, mask in masks.items():
+        name = "outside" if label is None else f"outside[{str(label)!r}]"
+        mask = np.asarray(mask)
+        if mask.dtype != bool:
+            raise TypeError(
+                f"{name} must be a boolean mask (True where a row lies outside the "
+                f"calibration domain), got dtype {mask.dtype}."
+            )
+        if mask.shape != shape:
+            raise ValueError(
+                f"{name} has shape {mask.shape} but time has shape {shape}; give one flag "
+                "per sample."
+            )
+        checked[None if label is None else str(label)] = mask
+    return checked
+
+
+def _shade_outside(ax, x, masks, series_colors):
+    """axvspan over every stretch of every mask; one legend entry per mask."""
+    for label, mask in masks.items():
+        first, last = outside_stretches(mask)
+        color = _OUTSIDE_COLOR if label is None else series_colors[label]
+        legend = _OUTSIDE_LABEL if label is None else f"{_OUTSIDE_LABEL} ({label})"
+        for number, (start, end) in enumerate(zip(*_stretch_extents(x, first, last), strict=True)):
+            ax.axvspan(
+                start,
+                end,
+                facecolor=color,
+                alpha=_OUTSIDE_ALPHA,
+                linewidth=0,
+                zorder=0,
+                # one legend entry per mask; every span findable by its gid
+                label=legend if number == 0 else "_nolegend_",
+                gid=legend,
+            )
+
+
 def plot_compensation(
     time,
     rate,
@@ -94,6 +183,7 @@ def plot_compensation(
     *,
     reference=None,
     interval=None,
+    outside=None,
     time_unit="h",
     ax=None,
     title=None,
@@ -122,6 +212,13 @@ def plot_compensation(
         :meth:`~sklearn_ifog.ConformalRegressor.predict_interval`; the band where the true
         input rate should lie, ``[rate - upper, rate - lower]``, is shaded around the
         compensated output (label ``"band"``).
+    outside : array-like of bool of shape (n_samples,) or dict of str to it, default=None
+        True where a row lies outside the model's calibration domain, e.g.
+        :meth:`~sklearn_ifog.CompensationPipeline.outside_calibration`; every stretch of
+        consecutive such rows is shaded over the full height (:meth:`~matplotlib.axes.Axes.
+        axvspan`, from half-way to the previous sample to half-way to the next; legend
+        ``"outside calibration"``). A dict gives one mask per compensated series (its keys
+        among ``compensated``'s), shaded in that series' colour.
     time_unit : {"s", "min", "h"}, default="h"
         Unit of the time axis.
     ax : matplotlib.axes.Axes, default=None
@@ -139,7 +236,10 @@ def plot_compensation(
     Raises
     ------
     ValueError
-        If the arrays differ in length or ``time_unit`` is unknown.
+        If the arrays differ in length, ``time_unit`` is unknown or ``outside`` names a
+        series ``compensated`` does not have.
+    TypeError
+        If ``outside`` is not boolean.
 
     Examples
     --------
@@ -158,6 +258,10 @@ def plot_compensation(
     >>> ax, _ = plot_compensation(time, rate, rate - drift, interval=band)
     >>> [patch.get_label() for patch in ax.collections]
     ['band']
+    >>> outside = temperature < 12.0  # the first stretch, colder than the calibration
+    >>> ax, _ = plot_compensation(time, rate, rate - drift, temperature, outside=outside)
+    >>> [text.get_text() for text in ax.get_legend().get_texts()]
+    ['raw', 'compensated', 'outside calibration', 'temperature']
     """
     if time_unit not in SECONDS_PER_UNIT:
         raise ValueError(
@@ -183,6 +287,8 @@ def plot_compensation(
                 f"{name} has shape {values.shape} but time has shape {time.shape}; "
                 "give one value per sample."
             )
+    if outside is not None:
+        outside = _check_outside(outside, series, time.shape)
     if ax is None:
         ax = _new_axes((8.0, 4.0))
     hours = time / SECONDS_PER_UNIT[time_unit]
@@ -197,8 +303,11 @@ def plot_compensation(
             linewidth=0,
             label="band",
         )
-    for (label, values), color in zip(series.items(), _SERIES_COLORS * 4, strict=False):
-        ax.plot(hours, values, color=color, linewidth=0.8, label=label)
+    series_colors = dict(zip(series, _SERIES_COLORS * 4, strict=False))
+    for label, values in series.items():
+        ax.plot(hours, values, color=series_colors[label], linewidth=0.8, label=label)
+    if outside is not None and time.size:
+        _shade_outside(ax, hours, outside, series_colors)
     if reference is not None:
         ax.plot(
             hours,

@@ -4,15 +4,19 @@
 Markdown (figures linked, for a repository or a wiki) and as one self-contained HTML file
 (figures embedded, to hand on). :func:`compensation_report` builds the report a gyro engineer
 hands on after a thermal test: MSD and bias stability before and after compensation per run,
-the raw and compensated rate with the temperature, and the Allan deviation before and after.
+the raw and compensated rate with the temperature, the Allan deviation before and after, and,
+for a model that knows its calibration domain, which rows lay outside it and what the model
+did there (:func:`calibration_status`, :func:`per_run_calibration`).
 """
 
 import base64
+import copy
 import datetime
 import html
 import mimetypes
 import numbers
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +25,12 @@ from sklearn_ifog import _table
 from sklearn_ifog._io import atomic_path
 from sklearn_ifog.metrics import _ALL_RUNS
 
-__all__ = ["Report", "compensation_report"]
+__all__ = [
+    "Report",
+    "calibration_status",
+    "compensation_report",
+    "per_run_calibration",
+]
 
 
 def _format_cell(value, float_format):
@@ -297,6 +306,8 @@ def compensation_report(
     report=None,
     heading="Compensation",
     interval=None,
+    model=None,
+    X=None,
 ):
     """Measure a compensation and write its report (Markdown and HTML) with figures.
 
@@ -306,7 +317,12 @@ def compensation_report(
     IEEE Std 952 practice; n/a where the run is too short or not uniformly sampled); the raw
     and compensated rate with the temperature for the first ``max_runs`` runs; and the Allan
     deviation of the error (output minus reference) before and after compensation, for the
-    longest run.
+    longest run. Given the ``model`` and the rows ``X`` it predicted ``drift`` from, and
+    when that model knows its calibration domain (a
+    :class:`~sklearn_ifog.CompensationPipeline`, or a meta-estimator around them), a
+    "Calibration domain" section says whether rows lay outside it and what the model's
+    ``outside`` policy did there, with a table per run (:func:`per_run_calibration`), and
+    the figures shade the stretches outside.
 
     Parameters
     ----------
@@ -345,6 +361,12 @@ def compensation_report(
         columns ``coverage`` (fraction of the run's samples whose measured drift,
         ``rate - reference``, lies inside) and ``width`` (mean width, deg/h), and the
         figures shade the band.
+    model : estimator, default=None
+        The fitted drift model that predicted ``drift`` (with ``X``): its calibration
+        domain is read by :func:`calibration_status`. A model without one gets a line
+        saying so.
+    X : array-like or DataFrame of shape (n_samples, n_columns), default=None
+        The rows ``model`` predicted ``drift`` from, in the order of ``rate``.
 
     Returns
     -------
@@ -352,7 +374,16 @@ def compensation_report(
         ``report`` (the :class:`Report`), ``table`` (DataFrame indexed by run, with a last
         row ``"(all runs)"`` for all rows together; without ``run``, that row only),
         ``unit_table`` (DataFrame indexed by unit, or None without ``unit``), ``figures``
-        (list of Path) and ``paths`` (``{"markdown": Path, "html": Path}``).
+        (list of Path), ``paths`` (``{"markdown": Path, "html": Path}``), and with a
+        model that has a calibration domain ``calibration`` (the per-row
+        :func:`calibration_status`) and ``calibration_table``
+        (:func:`per_run_calibration`, indexed like ``table``); both None otherwise.
+
+    Raises
+    ------
+    ValueError
+        If the arrays differ in length, ``model`` is given without ``X`` (or the
+        reverse), or ``X`` does not have one row per sample.
 
     Examples
     --------
@@ -377,6 +408,41 @@ def compensation_report(
     ['report.html', 'report.md']
     >>> bool(result.table.loc["(all runs)", "reduction"] > 100)
     True
+
+    With the model and the rows it predicted from, the report says where the model was
+    outside its calibration (here a cold test, the model calibrated between 10 and 40 °C):
+
+    >>> import warnings
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn_ifog import OutsideCalibrationWarning, make_compensation_pipeline
+    >>> from sklearn_ifog.datasets import make_thermal_campaign
+    >>> def campaign(temperature_range, seed):
+    ...     return make_thermal_campaign(
+    ...         n_units=1,
+    ...         n_runs=2,
+    ...         azimuths=[0.0],
+    ...         sampling_period=120.0,
+    ...         temperature_range=temperature_range,
+    ...         random_state=seed,
+    ...     )
+    >>> warm, cold = campaign((10.0, 40.0), 0), campaign((-20.0, 5.0), 1)
+    >>> model = make_compensation_pipeline(LinearRegression()).fit(warm.data, warm.target)
+    >>> frame = cold.frame
+    >>> with warnings.catch_warnings(), tempfile.TemporaryDirectory() as directory:
+    ...     warnings.simplefilter("ignore", OutsideCalibrationWarning)  # the report says it
+    ...     result = compensation_report(
+    ...         directory,
+    ...         rate=frame["rate"],
+    ...         drift=model.predict(cold.data),
+    ...         reference=frame["reference"],
+    ...         temperature=frame["temperature"],
+    ...         time=frame["time"],
+    ...         run=frame["run"],
+    ...         model=model,
+    ...         X=cold.data,
+    ...     )
+    >>> result.calibration_table["outside_share"].tolist()
+    [1.0, 1.0, 1.0]
     """
     from sklearn.utils import Bunch
 
@@ -408,6 +474,7 @@ def compensation_report(
         },
         has_runs=run is not None,
         interval=None,
+        outside=None,
     )
     if interval is not None:
         from sklearn_ifog.metrics import interval_coverage, mean_interval_width
@@ -429,16 +496,43 @@ def compensation_report(
             width[_ALL_RUNS] = mean_interval_width(interval)
         table["coverage"] = table.index.map(coverage)
         table["width"] = table.index.map(width)
+    status = calibration_table = None
+    if (model is None) != (X is None):
+        given, missing = ("model", "X") if X is None else ("X", "model")
+        raise ValueError(
+            f"{given} was given without {missing}: the calibration domain needs both, the "
+            "model and the rows X it predicted drift from (or neither)."
+        )
+    if model is not None:
+        status = calibration_status(model, X)
+        if status is not None:
+            if status.distance.shape[0] != rate.shape[0]:
+                raise ValueError(
+                    f"X has {status.distance.shape[0]} rows, rate has {rate.shape[0]}; give "
+                    "the rows the model predicted drift from, one per sample."
+                )
+            calibration_table = per_run_calibration(status, run)
+    data.outside = None if status is None else status.outside
     unit_table = None if unit is None else per_unit_table(rate, drift, reference, unit, run)
     if report is None:
         report = Report(title)
     _add_summary(report, heading, data, table, data_name, bias_window, time is None, unit_table)
+    if model is not None:
+        _add_calibration(report, data, status, calibration_table)
     figures = _add_compensation_figures(report, directory, data, max_runs)
     figures += _add_allan_deviation(report, directory, data)
     if model_metadata:
         _add_model(report, model_metadata)
     paths = report.write(directory)
-    return Bunch(report=report, table=table, unit_table=unit_table, figures=figures, paths=paths)
+    return Bunch(
+        report=report,
+        table=table,
+        unit_table=unit_table,
+        figures=figures,
+        paths=paths,
+        calibration=status,
+        calibration_table=calibration_table,
+    )
 
 
 def per_unit_table(rate, drift, reference, unit, run=None):
@@ -497,6 +591,245 @@ def per_unit_table(rate, drift, reference, unit, run=None):
     return table
 
 
+# -- the calibration domain --------------------------------------------------------------------
+
+
+def _domain_pipelines(model, X, rows):
+    """(pipeline, X of its rows, positions of those rows) for every model behind ``model``.
+
+    None when one of them has no calibration domain. Follows how each meta-estimator
+    predicts: a ConformalRegressor with its estimator fitted on all rows; a
+    UnitwiseRegressor with each unit's model on the unit's rows (without the unit column),
+    or its lot model on all rows when every unit present uses it (``pooling="full"``).
+    """
+    from sklearn.utils import _safe_indexing
+
+    from sklearn_ifog.conformal import ConformalRegressor
+    from sklearn_ifog.pipeline import CompensationPipeline
+    from sklearn_ifog.unitwise import UnitwiseRegressor, _label
+
+    if isinstance(model, CompensationPipeline):
+        return [(model, X, rows)] if hasattr(model, "domain_") else None
+    if isinstance(model, ConformalRegressor) and hasattr(model, "estimator_"):
+        return _domain_pipelines(model.estimator_, X, rows)
+    if not (isinstance(model, UnitwiseRegressor) and hasattr(model, "estimators_")):
+        return None
+    X_inner, units, _ = model._split_unit(X, reset=False)
+    present = [_label(unit) for unit in np.unique(units)]
+    unknown = [label for label in present if label not in model.estimators_]
+    if unknown:
+        raise ValueError(
+            f"unit {unknown[0]!r} (column {model.unit!r} of X) was not seen in fit; the "
+            f"fitted units are {[_label(unit) for unit in model.units_[:10]]}."
+        )
+    lot = model.lot_estimator_
+    if lot is not None and all(model.estimators_[label] is lot for label in present):
+        return _domain_pipelines(lot, X_inner, rows)
+    parts = []
+    for label in present:
+        index = np.flatnonzero(units == label)
+        found = _domain_pipelines(
+            model.estimators_[label], _safe_indexing(X_inner, index), rows[index]
+        )
+        if found is None:
+            return None
+        parts += found
+    return parts
+
+
+def _adjusted_rows(pipeline, X):
+    """Rows whose prediction the ``outside`` policy changed from the regressor's own."""
+    if pipeline.outside == "none":
+        return np.zeros(_table.as_table(X).shape[0], dtype=bool)
+    free = copy.copy(pipeline).set_params(outside="none")  # the fitted steps are shared
+    with_policy = np.asarray(pipeline.predict(X), dtype=np.float64)
+    without = np.asarray(free.predict(X), dtype=np.float64)
+    changed = with_policy != without
+    return changed.reshape(changed.shape[0], -1).any(axis=1)
+
+
+def calibration_status(model, X):
+    """Where every row of ``X`` lies with respect to the calibration domain of ``model``.
+
+    For a :class:`~sklearn_ifog.CompensationPipeline`, or a
+    :class:`~sklearn_ifog.UnitwiseRegressor` or :class:`~sklearn_ifog.ConformalRegressor`
+    around them (each row is then measured by the model that predicts it): the flag and
+    the distance of :meth:`~sklearn_ifog.CompensationPipeline.outside_calibration` and
+    :meth:`~sklearn_ifog.CompensationPipeline.calibration_distance`, how far the
+    temperature lies beyond the calibrated range (:meth:`~sklearn_ifog.CalibrationDomain.
+    excess` of the T feature, ``fallback_.column``), and whether the model's ``outside``
+    policy changed the row's prediction.
+
+    Parameters
+    ----------
+    model : estimator
+        A fitted drift model.
+    X : array-like or DataFrame of shape (n_samples, n_columns)
+        The rows the model predicts, in the layout of its ``fit``.
+
+    Returns
+    -------
+    status : sklearn.utils.Bunch or None
+        None when the model has no calibration domain (another estimator, or a model
+        saved before the domain existed); else, one value per row:
+
+        - ``outside``: bool, :meth:`~sklearn_ifog.CompensationPipeline.outside_calibration`;
+        - ``distance``: float, :meth:`~sklearn_ifog.CompensationPipeline.calibration_distance`
+          (decorrelated standard deviations, 0 inside the box);
+        - ``temperature_excess``: float, degrees C below the coldest (negative) or above
+          the warmest (positive) calibrated temperature, 0 inside that range; NaN for a
+          model without a T feature;
+        - ``temperature_min``, ``temperature_max``: float, the calibrated temperature
+          range of the row's model (NaN without a T feature);
+        - ``policy``: str, the ``outside`` policy of the row's model;
+        - ``fallback``: str, ``"line"`` (a line in T) or ``"constant"`` (the
+          calibration's mean drift), what ``"blend"`` falls back towards;
+        - ``adjusted``: bool, whether the policy changed the row's prediction from the
+          regressor's own (the model predicted again with ``outside="none"``).
+
+    Raises
+    ------
+    ValueError
+        If X is not what the model reads (as its ``predict`` raises), or holds a unit a
+        UnitwiseRegressor was not fitted on.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn_ifog import make_compensation_pipeline
+    >>> from sklearn_ifog.datasets import make_thermal_campaign
+    >>> from sklearn_ifog.report import calibration_status
+    >>> X, y = make_thermal_campaign(
+    ...     n_units=1,
+    ...     n_runs=2,
+    ...     azimuths=[0.0],
+    ...     sampling_period=120.0,
+    ...     temperature_range=(10.0, 40.0),
+    ...     random_state=0,
+    ...     return_X_y=True,
+    ... )
+    >>> model = make_compensation_pipeline(LinearRegression()).fit(X, y)
+    >>> cold = X.assign(temperature=X["temperature"] - 30.0)
+    >>> status = calibration_status(model, cold)
+    >>> bool(np.array_equal(status.outside, model.outside_calibration(cold)))
+    True
+    >>> coldest = X["temperature"].min()
+    >>> bool(np.isclose(status.temperature_excess.min(), cold["temperature"].min() - coldest))
+    True
+    >>> calibration_status(LinearRegression().fit([[0.0], [1.0]], [0.0, 1.0]), [[2.0]]) is None
+    True
+    """
+    from sklearn.utils import Bunch
+
+    from sklearn_ifog.domain import OutsideCalibrationWarning
+    from sklearn_ifog.pipeline import _as_rows
+
+    X = _table.as_table(X)
+    n_samples = X.shape[0]
+    parts = _domain_pipelines(model, X, np.arange(n_samples))
+    if parts is None:
+        return None
+    status = Bunch(
+        outside=np.empty(n_samples, dtype=bool),
+        distance=np.empty(n_samples),
+        temperature_excess=np.full(n_samples, np.nan),
+        temperature_min=np.full(n_samples, np.nan),
+        temperature_max=np.full(n_samples, np.nan),
+        policy=np.empty(n_samples, dtype=object),
+        fallback=np.empty(n_samples, dtype=object),
+        adjusted=np.empty(n_samples, dtype=bool),
+    )
+    for pipeline, X_part, rows in parts:
+        status.outside[rows] = pipeline.outside_calibration(X_part)
+        status.distance[rows] = pipeline.calibration_distance(X_part)
+        status.policy[rows] = pipeline.outside
+        fallback = pipeline.fallback_
+        status.fallback[rows] = "line" if np.any(fallback.slope != 0) else "constant"
+        with warnings.catch_warnings():
+            # the caller was warned when it predicted; this only measures what changed
+            warnings.simplefilter("ignore", OutsideCalibrationWarning)
+            status.adjusted[rows] = _adjusted_rows(pipeline, X_part)
+        column = fallback.column
+        if column is not None:
+            features = _as_rows(pipeline.steps[0][1].transform(X_part))
+            status.temperature_excess[rows] = pipeline.domain_.excess(features)[:, column]
+            status.temperature_min[rows] = pipeline.domain_.data_min_[column]
+            status.temperature_max[rows] = pipeline.domain_.data_max_[column]
+    return status
+
+
+def per_run_calibration(status, run=None):
+    """Rows outside the calibration domain, run by run.
+
+    Parameters
+    ----------
+    status : sklearn.utils.Bunch
+        The per-row result of :func:`calibration_status`.
+    run : array-like of shape (n_samples,), default=None
+        Run label of every row; None means one run.
+
+    Returns
+    -------
+    table : pandas.DataFrame
+        Indexed by ``run`` (in order of first appearance; with ``run``, a last row
+        ``"(all runs)"``; without, that row only), with columns ``samples``,
+        ``rows_outside``, ``outside_share`` (their fraction), ``max_distance`` (the
+        largest distance, decorrelated standard deviations), ``degC_below`` and
+        ``degC_above`` (how far the temperature went below the coldest and above the
+        warmest calibrated temperature, 0 if it never did; NaN for a model without a T
+        feature).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.utils import Bunch
+    >>> from sklearn_ifog.report import per_run_calibration
+    >>> status = Bunch(
+    ...     distance=np.array([0.0, 0.5, 2.0, 0.0]),
+    ...     outside=np.array([False, True, True, False]),
+    ...     temperature_excess=np.array([0.0, -1.5, -4.0, 2.0]),
+    ... )
+    >>> table = per_run_calibration(status, run=["a", "a", "a", "b"])
+    >>> table[["rows_outside", "outside_share", "max_distance", "degC_below", "degC_above"]]
+                rows_outside  outside_share  max_distance  degC_below  degC_above
+    run
+    a                      2       0.666667           2.0         4.0         0.0
+    b                      0       0.000000           0.0         0.0         2.0
+    (all runs)             2       0.500000           2.0         4.0         2.0
+    """
+    import pandas as pd
+
+    distance = np.asarray(status.distance, dtype=np.float64)
+    outside = np.asarray(status.outside, dtype=bool)
+    excess = np.asarray(status.temperature_excess, dtype=np.float64)
+    n_samples = distance.shape[0]
+    if run is not None and len(run) != n_samples:
+        raise ValueError(f"run has {len(run)} labels; the status has {n_samples} rows.")
+
+    def measures(rows):
+        return {
+            "samples": int(rows.size),
+            "rows_outside": int(outside[rows].sum()),
+            "outside_share": float(outside[rows].mean()),
+            "max_distance": float(distance[rows].max()),
+            # NaN (no T feature) stays NaN: max of NaN is NaN
+            "degC_below": float(np.maximum(-excess[rows], 0.0).max()),
+            "degC_above": float(np.maximum(excess[rows], 0.0).max()),
+        }
+
+    segments = _table.run_segments(run, n_samples)
+    table = pd.DataFrame(
+        [
+            {"run": _ALL_RUNS if label is None else label, **measures(rows)}
+            for label, rows in segments
+        ]
+    ).set_index("run")
+    if run is not None:
+        table.loc[_ALL_RUNS] = measures(np.arange(n_samples))
+    return table.astype({"samples": int, "rows_outside": int})
+
+
 # -- the sections of compensation_report -----------------------------------------------------
 
 
@@ -532,6 +865,119 @@ def _add_summary(report, heading, data, table, data_name, bias_window, no_time, 
     report.add_table(table, caption="Per-run MSD and bias stability, before and after.")
 
 
+def _policy_actions(status):
+    """What the ``outside`` policies did to the rows outside, one clause per policy."""
+    outside = status.outside
+    clauses = []
+    pairs = np.column_stack([status.policy[outside], status.fallback[outside]]).astype(str)
+    for policy, fallback in np.unique(pairs, axis=0).tolist():
+        rows = outside & (status.policy == policy) & (status.fallback == fallback)
+        total = int(rows.sum())
+        kept = int((rows & ~status.adjusted).sum())
+        if policy == "none":
+            clauses.append(
+                "the model extrapolated freely, nothing bounding its error (outside='none')"
+            )
+            continue
+        if policy == "clip":
+            clause = (
+                "the model was held at the domain's edge, its prediction at the nearest "
+                "calibrated point (outside='clip')"
+            )
+        else:
+            towards = (
+                "a line in T fitted on the calibration"
+                if fallback == "line"
+                else "the calibration's mean drift (a constant: no slope in T extrapolated better)"
+            )
+            if kept == total:
+                clauses.append(
+                    f"each of these {total} rows kept the model's own prediction: "
+                    f"outside='blend' gives way to its fallback, {towards}, only farther "
+                    "from the calibrated combinations than these rows lie"
+                )
+                continue
+            clause = (
+                f"the model fell back towards {towards}, the farther out the more "
+                "(outside='blend')"
+            )
+        if kept:
+            clause += (
+                f", for {total - kept} of these {total} rows; the other {kept} kept the "
+                "model's own prediction"
+            )
+        clauses.append(clause)
+    return clauses
+
+
+def _number(value):
+    """Three significant digits, without an exponent below 100 000."""
+    return f"{value:.3g}" if abs(value) < 1000 else f"{value:.0f}"
+
+
+def _temperature_clause(table):
+    """How far the temperature went beyond the calibrated range (all runs), as a clause."""
+    below, above = table.loc[_ALL_RUNS, ["degC_below", "degC_above"]]
+    if np.isnan(below):  # a model without a temperature feature
+        return ""
+    beyond = []
+    if below > 0:
+        beyond.append(f"down to {below:.3g} °C below the coldest")
+    if above > 0:
+        beyond.append(f"up to {above:.3g} °C above the warmest")
+    if not beyond:
+        return (
+            " The temperature itself stayed within the calibrated range: the rates or the "
+            "thermal states (lags), or their combination with the temperature, are what the "
+            "calibration never saw."
+        )
+    return f" The coil temperature went {' and '.join(beyond)} calibrated temperature."
+
+
+def _add_calibration(report, data, status, table):
+    """Whether rows lay outside the model's calibration domain, and what the model did."""
+    report.add_heading("Calibration domain", level=3)
+    if status is None:
+        report.add_paragraph(
+            "The model carries no calibration domain (it is not a compensation pipeline, or "
+            "was saved before the domain existed): rows outside its calibration cannot be "
+            "flagged."
+        )
+        return
+    ranges = np.unique(np.column_stack([status.temperature_min, status.temperature_max]), axis=0)
+    # one model's (or every unit's same) calibrated temperatures, said in the text
+    calibrated = inside_range = ""
+    if ranges.shape[0] == 1 and not np.isnan(ranges[0, 0]):
+        calibrated = f"; its temperatures from {ranges[0, 0]:.4g} to {ranges[0, 1]:.4g} °C"
+        inside_range = f" (calibrated from {ranges[0, 0]:.4g} to {ranges[0, 1]:.4g} °C)"
+    n_samples, n_outside = status.outside.size, int(status.outside.sum())
+    if n_outside == 0:
+        report.add_paragraph(
+            f"All {n_samples} rows lie inside the model's calibration domain{inside_range}: "
+            "every prediction is the model's own."
+        )
+        return
+    runs_outside = sum(bool(status.outside[rows].any()) for rows in data.segments.values())
+    report.add_paragraph(
+        f"{n_outside} of {n_samples} rows ({n_outside / n_samples:.1%}), in "
+        f"{runs_outside} of {len(data.segments)} run(s), lie outside the model's calibration "
+        f"domain (the temperatures, rates and thermal states it was calibrated on"
+        f"{calibrated}), up to {_number(table.loc[_ALL_RUNS, 'max_distance'])} decorrelated "
+        f"standard deviations out.{_temperature_clause(table)} There, "
+        f"{'; '.join(_policy_actions(status))}. The figures shade these stretches: their "
+        "compensation is an extrapolation, not a calibrated one; calibrate over the "
+        "conditions these runs reach to trust it."
+    )
+    report.add_table(
+        table,
+        caption="Rows outside the calibration domain per run: their share, the largest "
+        "distance from the calibrated box (decorrelated standard deviations; a row is "
+        "outside beyond the model's margin, or with its temperature beyond the calibrated "
+        "range) and how far the temperature went below the coldest and above the warmest "
+        "calibrated temperature, °C.",
+    )
+
+
 def _add_compensation_figures(report, directory, data, max_runs):
     """Raw and compensated output of the first ``max_runs`` runs; the figures' paths."""
     from sklearn_ifog.plotting import plot_compensation, save_figure
@@ -544,6 +990,7 @@ def _add_compensation_figures(report, directory, data, max_runs):
         report.add_paragraph(f"The first {len(shown)} of {len(labels)} runs are drawn.")
     for index, label in enumerate(shown):
         rows_of_run = data.segments[label]
+        outside = None if data.outside is None else data.outside[rows_of_run]
         ax, _ = plot_compensation(
             data.time[rows_of_run] - data.time[rows_of_run][0],
             data.rate[rows_of_run],
@@ -551,15 +998,19 @@ def _add_compensation_figures(report, directory, data, max_runs):
             data.temperature[rows_of_run],
             reference=data.reference[rows_of_run],
             interval=None if data.interval is None else data.interval[rows_of_run],
+            outside=outside,
             title=f"run {label}" if data.has_runs else None,
         )
         path = save_figure(ax, Path(directory) / f"compensation_{index + 1}.png")
         figures.append(path)
         band = "" if data.interval is None else ", the band where the true rate should lie"
+        shaded = ""
+        if outside is not None and outside.any():
+            shaded = "; shaded where the rows lie outside the calibration domain"
         report.add_figure(
             path,
             f"Run {label}: raw (grey) and compensated output{band}, reference (dashed) and "
-            "temperature (red, right axis).",
+            f"temperature (red, right axis){shaded}.",
         )
     return figures
 

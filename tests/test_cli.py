@@ -10,11 +10,13 @@ import time
 import numpy as np
 import pandas as pd
 import pytest
-from sklearn.pipeline import Pipeline
-from sklearn.preprocessing import StandardScaler
 
 import sklearn_ifog
-from sklearn_ifog import RBFNetRegressor, ThermalFeatures
+from sklearn_ifog import (
+    CompensationPipeline,
+    RBFNetRegressor,
+    make_compensation_pipeline,
+)
 from sklearn_ifog.cli import main
 from sklearn_ifog.cli._progress import Progress
 from sklearn_ifog.datasets import make_thermal_campaign
@@ -47,12 +49,8 @@ def fitted_model(campaign_csv, tmp_path_factory):
 
 def _python_api_pipeline(frame):
     """What the CLI's fit promises to be: the documented pipeline, on rate - reference."""
-    pipeline = Pipeline(
-        [
-            ("features", ThermalFeatures(temperature="temperature", time="time", run="run")),
-            ("scale", StandardScaler()),
-            ("regressor", RBFNetRegressor(random_state=0)),
-        ]
+    pipeline = make_compensation_pipeline(
+        RBFNetRegressor(random_state=0), temperature="temperature", time="time", run="run"
     )
     return pipeline.fit(frame[INPUT_COLUMNS], frame["rate"] - frame["reference"])
 
@@ -72,7 +70,13 @@ def test_fit_compensate_report_round_trip(campaign_csv, fitted_model, tmp_path, 
     result = _read(out_csv)
 
     # every input column and row kept, in order, plus the two new columns
-    assert list(result.columns) == [*frame.columns, "drift", "compensated"]
+    assert list(result.columns) == [
+        *frame.columns,
+        "drift",
+        "compensated",
+        "outside_calibration",
+        "calibration_distance",
+    ]
     pd.testing.assert_frame_equal(result[frame.columns], frame)
     expected_drift = _python_api_pipeline(frame).predict(frame[INPUT_COLUMNS])
     np.testing.assert_allclose(result["drift"], expected_drift, rtol=0, atol=1e-12)
@@ -245,7 +249,7 @@ def test_export_writes_c_and_json(fitted_model, tmp_path):
     pytest.importorskip("sklearn_ifog.export")
     assert main(["export", str(fitted_model), "--json", str(tmp_path / "model.json")]) == 0
     spec = json.loads((tmp_path / "model.json").read_text())
-    assert spec["schema_version"] == 2
+    assert spec["schema_version"] == 3
     assert main(["export", str(fitted_model), "--c", str(tmp_path / "c")]) == 0
     assert _listing(tmp_path / "c") == ["ifog.c", "ifog.h"]
     assert main(["export", str(fitted_model)]) == 2  # --c or --json is required
@@ -376,10 +380,10 @@ def test_compensate_writes_input_columns_back_verbatim(campaign_csv, fitted_mode
     output_lines = out.read_text().splitlines()
     assert len(output_lines) == len(source_lines)
     for source, output in zip(source_lines, output_lines, strict=True):
-        kept, added = output.rsplit(",", 2)[0], output.rsplit(",", 2)[1:]
+        kept, added = output.rsplit(",", 4)[0], output.rsplit(",", 4)[1:]
         assert kept == source
-        assert len(added) == 2
-    assert output_lines[0].endswith(",drift,compensated")
+        assert len(added) == 4
+    assert output_lines[0].endswith(",drift,compensated,outside_calibration,calibration_distance")
 
 
 def test_interleaved_runs_are_accepted_and_compensated_row_by_row(
@@ -417,7 +421,7 @@ def test_internal_error_exits_1_and_debug_reraises(
 ):
     out = tmp_path / "out.csv"
     argv = ["compensate", str(fitted_model), str(campaign_csv), "-o", str(out)]
-    monkeypatch.setattr(Pipeline, "predict", _raise(RuntimeError("boom")))
+    monkeypatch.setattr(CompensationPipeline, "predict", _raise(RuntimeError("boom")))
     assert main(argv) == 1
     message = capsys.readouterr().err
     assert message.count("\n") == 1, message
@@ -432,7 +436,7 @@ def test_interrupt_exits_130_and_writes_nothing(
     campaign_csv, fitted_model, tmp_path, monkeypatch, capsys
 ):
     out = tmp_path / "out.csv"
-    monkeypatch.setattr(Pipeline, "predict", _raise(KeyboardInterrupt()))
+    monkeypatch.setattr(CompensationPipeline, "predict", _raise(KeyboardInterrupt()))
     assert main(["compensate", str(fitted_model), str(campaign_csv), "-o", str(out)]) == 130
     assert capsys.readouterr().err == "sklearn-ifog compensate: interrupted\n"
     assert _listing(tmp_path) == []

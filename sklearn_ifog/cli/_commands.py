@@ -2,9 +2,12 @@
 
 Each ``command_*`` function takes the parsed arguments, validates the user's input (an
 :class:`~sklearn_ifog.cli._common.InputError` for anything the user can fix), calls the
-library and prints one summary; it returns the exit status.
+library and prints one summary; it returns the exit status. ``compensate`` and ``report``
+say, run by run, which rows lay outside the model's calibration domain (instead of the
+model's :class:`~sklearn_ifog.OutsideCalibrationWarning`, one per prediction call).
 """
 
+import contextlib
 import pickle
 import sys
 import warnings
@@ -74,12 +77,110 @@ def load_model(path):
     return model, metadata
 
 
+#: The columns ``compensate`` adds for a model with a calibration domain.
+OUTSIDE_COLUMN = "outside_calibration"
+DISTANCE_COLUMN = "calibration_distance"
+
+
+@contextlib.contextmanager
+def _outside_reported_per_run():
+    """Silence OutsideCalibrationWarning: the command reports those rows run by run."""
+    from sklearn_ifog.domain import OutsideCalibrationWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OutsideCalibrationWarning)
+        yield
+
+
+@contextlib.contextmanager
+def _held_out_outside_counted():
+    """Count, instead of printing, the OutsideCalibrationWarnings of cross-validation.
+
+    Yields a list that holds, after the block, one entry per prediction call that warned
+    (those of parallel workers are not seen: they stay in the workers).
+    """
+    from sklearn_ifog.domain import OutsideCalibrationWarning
+
+    counted = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", OutsideCalibrationWarning)
+        yield counted
+    for record in caught:
+        if issubclass(record.category, OutsideCalibrationWarning):
+            counted.append(record)
+        else:
+            warnings.warn_explicit(record.message, record.category, record.filename, record.lineno)
+
+
+def _print_held_out_outside(counted, n_folds):
+    if counted:
+        print(
+            f"In {len(counted)} of the {n_folds} folds, held-out rows lay outside the "
+            "calibration domain of the model fitted without them: their cross-validated MSD "
+            "includes the model's outside policy."
+        )
+
+
 def _predict(model, X, path):
     try:
-        prediction = np.asarray(model.predict(X), dtype=np.float64)
+        with _outside_reported_per_run():
+            prediction = np.asarray(model.predict(X), dtype=np.float64)
     except (ValueError, TypeError) as error:
         raise InputError(f"{path}: {one_line(error)}") from None
     return prediction.reshape(X.shape[0])
+
+
+def _calibration_status(model, X, path):
+    """The model's calibration status of every row of X (None: the model has no domain)."""
+    from sklearn_ifog.report import calibration_status
+
+    try:
+        return calibration_status(model, X)
+    except (ValueError, TypeError) as error:
+        raise InputError(f"{path}: {one_line(error)}") from None
+
+
+def _outside_lines(status, runs, run_name, units=None, unit_name=None):
+    """One line per run with rows outside the calibration domain, after a heading (a run
+    of a lot named with its unit)."""
+    from sklearn_ifog._table import run_segments
+    from sklearn_ifog.report import _number, _policy_actions, per_run_calibration
+
+    n_outside = int(status.outside.sum())
+    if n_outside == 0:
+        return [f"All {status.outside.size} rows lie inside the calibration domain of the model."]
+    lines = [
+        f"{n_outside} of {status.outside.size} rows lie outside the calibration domain of the "
+        f"model; there {'; '.join(_policy_actions(status))}:"
+    ]
+    table = per_run_calibration(status, runs)
+    # per_run_calibration's rows are the runs in run_segments' order, then "(all runs)"
+    for (label, rows), run in zip(
+        run_segments(runs, status.outside.size), table.itertuples(), strict=False
+    ):
+        if run.rows_outside == 0:
+            continue
+        what = "all rows" if runs is None else f"{run_name} {label}"
+        if units is not None:
+            what = f"{unit_name} {units[rows[0]]}, {what}"
+        line = (
+            f"  {what}: {run.rows_outside} of {run.samples} rows ({run.outside_share:.1%}) "
+            f"outside, largest distance {_number(run.max_distance)} sd"
+        )
+        beyond = []
+        if run.degC_below > 0:
+            beyond.append(f"{run.degC_below:.3g} degC below the coldest")
+        if run.degC_above > 0:
+            beyond.append(f"{run.degC_above:.3g} degC above the warmest")
+        if beyond:
+            coldest = np.nanmin(status.temperature_min[rows])
+            warmest = np.nanmax(status.temperature_max[rows])
+            line += (
+                f", temperature up to {' and '.join(beyond)} calibrated temperature "
+                f"({coldest:.4g} to {warmest:.4g} degC)"
+            )
+        lines.append(line)
+    return lines
 
 
 def _cv_splitter(args, frame, columns, path):
@@ -218,15 +319,16 @@ def _unit_cross_validation(args, model, X, target, frame, columns, path):
         f"{args.model} ({args.pooling})": model,
     }
     try:
-        summary = compare_regressors(
-            X,
-            target,
-            regressors=candidates,
-            cv=LeaveOneGroupOut(),
-            groups=runs,
-            n_jobs=args.n_jobs,
-            by=columns.unit,
-        )
+        with _held_out_outside_counted() as outside:
+            summary = compare_regressors(
+                X,
+                target,
+                regressors=candidates,
+                cv=LeaveOneGroupOut(),
+                groups=runs,
+                n_jobs=args.n_jobs,
+                by=columns.unit,
+            )
     except (ValueError, TypeError) as error:
         raise InputError(f"{path}: cross-validation failed: {one_line(error)}") from None
     print_table(
@@ -239,6 +341,7 @@ def _unit_cross_validation(args, model, X, target, frame, columns, path):
         .reset_index()
         .set_index([columns.unit, "model"]),
     )
+    _print_held_out_outside(outside, np.unique(runs).size)
     row = summary.xs(f"{args.model} ({args.pooling})", level="model")
     return {
         "kind": "run, per unit",
@@ -265,9 +368,10 @@ def _cross_validate(args, pipeline, X, target, splitter, groups, path):
         args.model: pipeline,
     }
     try:
-        summary = compare_regressors(
-            X, target, regressors=candidates, cv=splitter, groups=groups, n_jobs=args.n_jobs
-        )
+        with _held_out_outside_counted() as outside:
+            summary = compare_regressors(
+                X, target, regressors=candidates, cv=splitter, groups=groups, n_jobs=args.n_jobs
+            )
     except (ValueError, TypeError) as error:
         raise InputError(f"{path}: cross-validation failed: {one_line(error)}") from None
     print_table(
@@ -276,6 +380,7 @@ def _cross_validate(args, pipeline, X, target, splitter, groups, path):
         summary[["msd_before", "msd_after", "reduction", "n_folds"]],
     )
     row = summary.loc[args.model]
+    _print_held_out_outside(outside, int(row["n_folds"]))
     return {
         "kind": args.cv or "groups",
         "msd_before": float(row["msd_before"]),
@@ -368,13 +473,13 @@ def _conformal(args, pipeline, frame, columns, path):
 
 
 def _compensate_frame(model, metadata, model_path, data_path):
-    """(frame, columns, rate, drift) for a model and a CSV, everything validated."""
+    """(frame, columns, X, rate, drift) for a model and a CSV, everything validated."""
     columns = Columns.from_metadata(metadata, model_path)
     frame = read_csv(data_path)
     X, _ = model_input(frame, columns, data_path)
     rate = read_rate(frame, columns, data_path)
     drift = _predict(model, X, data_path)
-    return frame, columns, rate, drift
+    return frame, columns, X, rate, drift
 
 
 def command_compensate(args):
@@ -384,7 +489,7 @@ def command_compensate(args):
     model_path, data_path = Path(args.model), Path(args.data)
     check_output_parent(args.output)
     model, metadata = load_model(model_path)
-    frame, _, rate, drift = _compensate_frame(model, metadata, model_path, data_path)
+    frame, columns, X, rate, drift = _compensate_frame(model, metadata, model_path, data_path)
     for option, name in (
         ("--drift-column", args.drift_column),
         ("--compensated-column", args.compensated_column),
@@ -395,6 +500,23 @@ def command_compensate(args):
             )
     if args.drift_column == args.compensated_column:
         raise InputError("--drift-column and --compensated-column must differ")
+    status = _calibration_status(model, X, data_path)
+    if status is not None:
+        for name in (OUTSIDE_COLUMN, DISTANCE_COLUMN):
+            if name in frame.columns:
+                raise InputError(
+                    f"{data_path} already has a column {name!r}, where compensate writes the "
+                    "model's calibration-domain flag and distance; rename that column"
+                )
+            for option, given in (
+                ("--drift-column", args.drift_column),
+                ("--compensated-column", args.compensated_column),
+            ):
+                if given == name:
+                    raise InputError(
+                        f"{option} cannot be {name!r}: compensate writes the model's "
+                        "calibration-domain flag and distance in that column"
+                    )
     bounds = None
     if args.interval is not None:
         _check_coverage(args.interval)
@@ -403,8 +525,8 @@ def command_compensate(args):
                 f"{model_path}: the model has no intervals; fit it with "
                 "'sklearn-ifog fit ... --interval 0.9'"
             )
-        X, _ = model_input(frame, Columns.from_metadata(metadata, model_path), data_path)
-        bounds = model.predict_interval(X, coverage=args.interval)
+        with _outside_reported_per_run():
+            bounds = model.predict_interval(X, coverage=args.interval)
         for suffix in ("_lower", "_upper"):
             if args.drift_column + suffix in frame.columns:
                 raise InputError(
@@ -420,12 +542,20 @@ def command_compensate(args):
         output[args.drift_column + "_lower"] = bounds[:, 0]
         output[args.drift_column + "_upper"] = bounds[:, 1]
         added += [args.drift_column + "_lower", args.drift_column + "_upper"]
+    if status is not None:
+        output[OUTSIDE_COLUMN] = status.outside
+        output[DISTANCE_COLUMN] = status.distance
+        added += [OUTSIDE_COLUMN, DISTANCE_COLUMN]
     with atomic_path(args.output) as temporary:
         output.to_csv(temporary, index=False)
     print(
         f"Compensated {len(output)} rows of {data_path}; wrote {args.output} with columns "
         f"{', '.join(repr(name) for name in added)} added."
     )
+    if status is not None:
+        runs = None if columns.run is None else frame[columns.run].to_numpy()
+        units = None if columns.unit is None else frame[columns.unit].to_numpy()
+        print("\n".join(_outside_lines(status, runs, columns.run, units, columns.unit)))
     return EXIT_OK
 
 
@@ -437,7 +567,7 @@ def command_report(args):
     model_path, data_path = Path(args.model), Path(args.data)
     check_output_directory(args.out)
     model, metadata = load_model(model_path)
-    frame, columns, rate, drift = _compensate_frame(model, metadata, model_path, data_path)
+    frame, columns, X, rate, drift = _compensate_frame(model, metadata, model_path, data_path)
     if not columns.has_reference():
         raise InputError(f"{model_path}: the model has no reference column to measure against")
     reference = read_reference(frame, columns, data_path)
@@ -445,8 +575,8 @@ def command_report(args):
     runs = None if columns.run is None else frame[columns.run].to_numpy()
     interval = None
     if hasattr(model, "predict_interval"):  # fitted with 'fit --interval': show the band
-        X, _ = model_input(frame, columns, data_path)
-        interval = model.predict_interval(X)
+        with _outside_reported_per_run():
+            interval = model.predict_interval(X)
     units = None if columns.unit is None else frame[columns.unit].to_numpy()
     with staged_directory(args.out) as staging:
         written = compensation_report(
@@ -462,10 +592,18 @@ def command_report(args):
             model_metadata=metadata,
             data_name=str(data_path),
             interval=interval,
+            model=model,
+            X=X,
         )
     if written.unit_table is not None:
         print_table("MSD per unit ((deg/h)^2):", written.unit_table)
     print_table("MSD per run ((deg/h)^2):", written.table)
+    if written.calibration_table is not None:
+        print_table(
+            "Rows outside the calibration domain per run (distance in decorrelated standard "
+            "deviations; degC below the coldest / above the warmest calibrated temperature):",
+            written.calibration_table,
+        )
     print(
         f"\nWrote the report to {Path(args.out) / written.paths['html'].name} (HTML) and "
         f"{Path(args.out) / written.paths['markdown'].name} (Markdown), with "

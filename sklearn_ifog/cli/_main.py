@@ -144,7 +144,15 @@ def _build_parser():
     fit.set_defaults(handler=command_fit)
 
     compensate = commands.add_parser(
-        "compensate", help="add the predicted drift and the compensated rate to a CSV"
+        "compensate",
+        help="add the predicted drift and the compensated rate to a CSV",
+        description="Add the predicted drift and the compensated rate (rate - drift) to a "
+        "CSV. For a model that knows its calibration domain (any model fitted by this "
+        "version), also add 'outside_calibration' (True where the row lies outside the "
+        "temperatures, rates and thermal states the model was calibrated on; its "
+        "prediction there follows the model's outside policy) and 'calibration_distance' "
+        "(decorrelated standard deviations from the calibrated box), and print one line "
+        "per run with rows outside.",
     )
     compensate.add_argument("model", metavar="MODEL")
     compensate.add_argument("data", metavar="DATA.csv")
@@ -162,7 +170,14 @@ def _build_parser():
     compensate.set_defaults(handler=command_compensate)
 
     report = commands.add_parser(
-        "report", help="MSD, bias stability, Allan deviation and plots of a compensation"
+        "report",
+        help="MSD, bias stability, Allan deviation and plots of a compensation",
+        description="Write a report (HTML and Markdown, with PNG figures) of a model's "
+        "compensation of a CSV: MSD and bias stability per run before and after, the raw "
+        "and compensated output with the temperature, the Allan deviation; for a model "
+        "that knows its calibration domain, the rows outside it per run (share, largest "
+        "distance, degrees C beyond the calibrated temperatures), what the model did there, "
+        "and those stretches shaded in the figures.",
     )
     report.add_argument("model", metavar="MODEL")
     report.add_argument("data", metavar="DATA.csv")
