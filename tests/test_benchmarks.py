@@ -104,6 +104,11 @@ QUICK_RUNS = {
         ["unitwise_selection_quick.md", "unitwise_selection_quick.json"],
         False,
     ),
+    "bench_extrapolation": (
+        ["--quick", "--out", "{out}", "--n-jobs", "1"],
+        ["extrapolation_quick.md", "extrapolation_quick.json"],
+        True,
+    ),
     "simulator_compensation_check": (
         ["--quick", "--out", "{out}"],
         ["simulator_compensation_quick.md"],
