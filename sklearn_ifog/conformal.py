@@ -26,6 +26,21 @@ only on average over all rows. Three things differ from row-wise conformal predi
    (:func:`extrapolation_variance`) is added to the band in quadrature. Under the calibrated
    conditions the out-of-fold residuals hold that variance already, and the band is the
    CV+ band alone.
+4. **Outside the calibration domain the band holds the fallback and the extrapolation.**
+   Around a :class:`~sklearn_ifog.pipeline.CompensationPipeline` the fold models are clones
+   with its ``outside`` policy, so their out-of-fold residuals measure the model as it
+   predicts. With ``outside="blend"`` the prediction moves, beyond the domain, to a
+   fallback (a line in T or a constant) that every fold model shares, so the fold models
+   agree there and the jackknife term sees nothing. Two terms replace it, both zero inside
+   the domain: the fallback's own out-of-fold error quantile (each fold model's fallback on
+   the runs it did not see, calibrated run-wise like the scores), times the fallback's share
+   of the prediction, joins the band in quadrature; and since the calibration cannot say
+   whether the fallback or the regressor's own extrapolation holds out there, the band is
+   stretched to hold both (``_cover_both``). ``python benchmarks/bench_conformal.py
+   --quick`` (one campaign; ``benchmarks/results/conformal_quick.md``) covers 0.938-1.000
+   of the rows outside the domain on its four splits, calibrate-warm / predict-cold and
+   predict-cycle included, at 3.5-6.3 times the width inside; the constant band
+   (``adaptive=False``, without them) and MAPIE's cover 0.064-0.815 of the same rows.
 
 Why this difficulty. On the nine campaigns of ``benchmarks/bench_conformal.py`` (three
 physics presets x seeds 0-2, 36 held-out folds) and on seeds 3-4 that were not looked at
@@ -52,6 +67,7 @@ peer it is measured against.
 """
 
 import numbers
+import warnings
 from typing import ClassVar
 
 import numpy as np
@@ -72,6 +88,8 @@ from sklearn.utils.validation import (
 
 from sklearn_ifog import _table
 from sklearn_ifog._compat import HasMethods, Interval, StrOptions, _fit_context, _safe_indexing
+from sklearn_ifog.domain import OutsideCalibrationWarning, fallback_weight
+from sklearn_ifog.pipeline import CompensationPipeline
 
 __all__ = [
     "ConformalRegressor",
@@ -305,6 +323,44 @@ def _widen(bounds, variance, coverage):
     return np.column_stack([middle - half, middle + half])
 
 
+def _cover_both(bounds, centre, extrapolation):
+    """``bounds`` stretched to hold the band moved onto ``extrapolation`` as well.
+
+    Outside the calibration domain the prediction (``centre``) is the regressor's
+    extrapolation moved towards the fallback; which of the two holds out there the
+    calibration cannot say, so the band spans both: its hull with itself shifted by
+    ``extrapolation - centre`` (unchanged where they are equal, e.g. inside the domain).
+    """
+    shift = np.asarray(extrapolation, dtype=float).reshape(centre.shape) - centre
+    return np.column_stack(
+        [bounds[:, 0] + np.minimum(shift, 0.0), bounds[:, 1] + np.maximum(shift, 0.0)]
+    )
+
+
+def _blends(model):
+    """Whether ``model`` moves to a fallback outside its calibration domain."""
+    return isinstance(model, CompensationPipeline) and model.outside == "blend"
+
+
+def _fallback_prediction(model, X):
+    """The fallback's prediction (first output) of a fitted CompensationPipeline for X."""
+    features = model.steps[0][1].transform(X)
+    if hasattr(features, "to_numpy"):
+        features = features.to_numpy()
+    return model.fallback_.predict(np.asarray(features, dtype=float))[:, 0]
+
+
+def _reissue(caught, skip=()):
+    """Warn again, once each, the recorded warnings not of a ``skip`` category."""
+    seen = set()
+    for record in caught:
+        key = (record.category, str(record.message))
+        if issubclass(record.category, skip) or key in seen:
+            continue
+        seen.add(key)
+        warnings.warn(record.message, stacklevel=3)
+
+
 def _fit_difficulty(distance, sq_residual):
     """A linear model of the squared residual on the distance; returns (model, floor)."""
     model = Ridge(alpha=_DIFFICULTY_ALPHA).fit(distance[:, None], sq_residual)
@@ -356,8 +412,14 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     extrapolates), their jackknife variance widens the band in quadrature (``adaptive``
     only). ``predict`` is the prediction of ``estimator`` refitted on all rows.
 
+    Around a :class:`~sklearn_ifog.pipeline.CompensationPipeline` with ``outside="blend"``
+    (``adaptive`` only), rows outside the full model's calibration domain get a wider band:
+    the fallback's out-of-fold error quantile (``fallback_quantile_``) times its share of
+    the prediction joins in quadrature, and the band is stretched to hold the regressor's
+    own extrapolation as well as the prediction. Inside the domain the band is unchanged.
+
     See the module notes (:mod:`sklearn_ifog.conformal`) for why the run and not the row,
-    and why this is not MAPIE.
+    why this is not MAPIE, and the band outside the calibration domain.
 
     Parameters
     ----------
@@ -388,8 +450,8 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         0.906-0.936 in ``benchmarks/bench_conformal.py`` (``benchmarks/results/conformal.md``).
     adaptive : bool, default=True
         Whether scores are normalised by the difficulty model and the band widened where
-        the fold models part; False gives a band of the same width everywhere (absolute
-        residual scores).
+        the fold models part and outside the calibration domain; False gives a band of the
+        same width everywhere (absolute residual scores).
 
     Attributes
     ----------
@@ -422,6 +484,14 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         ``adaptive``); distances are divided by it.
     difficulty_ : Ridge
         The variance model ``sigma(x)^2`` on the scaled distance (only when ``adaptive``).
+    fallback_scores_ : ndarray of shape (n_samples,) or None
+        Absolute out-of-fold error of the fold models' fallbacks (each on the runs it did
+        not see), when ``estimator`` is a CompensationPipeline with ``outside="blend"``
+        and ``adaptive``; None otherwise.
+    fallback_quantile_ : float
+        The conformal quantile (level ``confidence``) of the runs' ``coverage`` quantiles of
+        ``fallback_scores_`` (0 without them): the fallback's error band, which widens the
+        band in proportion to the fallback's share of a prediction outside the domain.
     fold_variance_reference_ : float
         The 0.95 quantile, over the calibration rows, of the variance of the fold models'
         predictions (only when ``adaptive``): where the fold models part by more, the
@@ -573,18 +643,27 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             )
         self.estimators_ = []
         oof = np.empty(n_samples)
-        for train, test in splits:
-            model = clone(self.estimator).fit(_safe_indexing(X, train), y[train])
-            oof[test] = model.predict(_safe_indexing(X, test))
-            self.estimators_.append(model)
+        with warnings.catch_warnings():
+            # A held-out run outside its fold model's calibration domain is expected: its
+            # residual then measures the model's outside policy, as a new run would.
+            warnings.simplefilter("ignore", OutsideCalibrationWarning)
+            oof_fallback = np.full(n_samples, np.nan)
+            for train, test in splits:
+                model = clone(self.estimator).fit(_safe_indexing(X, train), y[train])
+                oof[test] = model.predict(_safe_indexing(X, test))
+                self.estimators_.append(model)
+                if _blends(model):
+                    oof_fallback[test] = _fallback_prediction(model, _safe_indexing(X, test))
+            on_calibration = (
+                np.stack([np.asarray(model.predict(X), dtype=float) for model in self.estimators_])
+                if self.adaptive
+                else None
+            )
         self.estimator_ = clone(self.estimator).fit(X, y)
         self.oof_prediction_ = oof
         residual = np.abs(y - oof)
 
         if self.adaptive:
-            on_calibration = np.stack(
-                [np.asarray(model.predict(X), dtype=float) for model in self.estimators_]
-            )
             self.fold_variance_reference_ = float(
                 np.quantile(on_calibration.var(axis=0), _EXTRAPOLATION_REFERENCE)
             )
@@ -616,6 +695,12 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         scores = residual / sigma
         self.scores_ = scores
         self.score_groups_ = unit
+        # The fallback's own out-of-fold errors (each fold model's fallback on the runs it
+        # did not see), for the band where the full model's prediction is the fallback's.
+        self.fallback_scores_ = None
+        if self.adaptive and _blends(self.estimator_) and not np.isnan(oof_fallback).any():
+            self.fallback_scores_ = np.abs(y - oof_fallback)
+        self.fallback_quantile_ = self._fallback_quantile(self.coverage)
         labels, group_scores = run_quantile_scores(scores, unit, self.coverage)
         first_row = {label: rows[0] for label, rows in _table.run_segments(unit, n_samples)}
         self.groups_ = labels
@@ -623,6 +708,24 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         self.group_fold_ = np.array([fold_of[first_row[label]] for label in labels])
         self.quantile_ = float(conformal_quantile(group_scores, self.confidence))
         return self
+
+    def _fallback_quantile(self, coverage):
+        """The conformal quantile of the fallback's run-wise out-of-fold errors (or 0)."""
+        if getattr(self, "fallback_scores_", None) is None:  # None, or fitted before them
+            return 0.0
+        _, group_scores = run_quantile_scores(self.fallback_scores_, self.score_groups_, coverage)
+        return float(conformal_quantile(group_scores, self.confidence))
+
+    def _fallback_share(self, X):
+        """The full model's ``"blend"`` weight of every row (None without the terms).
+
+        :func:`~sklearn_ifog.domain.fallback_weight` of the row's distance outside the full
+        model's calibration domain: the fallback's share of the prediction.
+        """
+        if getattr(self, "fallback_scores_", None) is None:
+            return None
+        model = self.estimator_
+        return fallback_weight(model.calibration_distance(X), model.domain_.margin)
 
     def _raw_features(self, X):
         model = self.estimator_
@@ -674,28 +777,52 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         -------
         bounds : ndarray of shape (n_samples, 2)
             Column 0 the lower bound, column 1 the upper bound (deg/h for a drift).
+
+        Warns
+        -----
+        OutsideCalibrationWarning
+            At most once per call: the full model's, when rows lie outside its calibration
+            domain (the fold models' own warnings are not repeated).
         """
         check_is_fitted(self)
         X = _check_input(self, X, reset=False)
         raw = self._raw_features(X) if self.adaptive else None
-        predictions = np.stack(
-            [np.asarray(model.predict(X), dtype=float) for model in self.estimators_]
-        )
-        return self._bounds(self.predict(X), predictions, raw, coverage)
+        # The fold models, each calibrated on fewer runs, would each warn of their own
+        # domain; the band is for the full model's prediction, so only its warning (at
+        # most one) reaches the user.
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            predictions = np.stack(
+                [np.asarray(model.predict(X), dtype=float) for model in self.estimators_]
+            )
+        centre = self.predict(X)
+        _reissue(caught, skip=(OutsideCalibrationWarning,))
+        return self._bounds(centre, predictions, raw, coverage, self._fallback_share(X))
 
-    def _bounds(self, centre, predictions, raw, coverage=None):
+    def _bounds(self, centre, predictions, raw, coverage=None, fallback_share=None):
         """The bounds from the full model's and the fold models' predictions.
 
         ``raw`` is the difficulty model's input (the pipeline's features before its last
-        step), None when not adaptive. Used by :meth:`predict_interval` and by
+        step), None when not adaptive. ``fallback_share`` is the full model's ``"blend"``
+        weight of every row (:meth:`_fallback_share`), for the terms outside the
+        calibration domain; None leaves them out. Used by :meth:`predict_interval` and by
         :class:`~sklearn_ifog.streaming.StreamingCompensator`.
         """
+        extrapolation = None
+        if fallback_share is not None and getattr(self, "fallback_scores_", None) is not None:
+            # What the regressor itself extrapolates to, before the policy set it aside.
+            regressor = self.estimator_[-1]
+            extrapolation = np.asarray(regressor.predict(raw), dtype=float).reshape(centre.shape)
+        else:
+            fallback_share = None
         group_scores, quantile = self.group_scores_, self.quantile_
+        fallback_quantile = getattr(self, "fallback_quantile_", 0.0)
         if coverage is not None:
             if not (isinstance(coverage, numbers.Real) and 0.0 < coverage < 1.0):
                 raise ValueError(f"coverage must be a float in (0, 1), got {coverage!r}.")
             _, group_scores = run_quantile_scores(self.scores_, self.score_groups_, coverage)
             quantile = float(conformal_quantile(group_scores, self.confidence))
+            fallback_quantile = self._fallback_quantile(coverage)
         scale = self._scale(raw)
         if scale is None:
             scale = np.ones(centre.shape[0])
@@ -718,7 +845,17 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         # coverage (the residuals say nothing of conditions no calibration run had).
         level = self.coverage if coverage is None else coverage
         extra = extrapolation_variance(predictions, self.fold_variance_reference_)
-        return _widen(bounds, extra, level)
+        if fallback_share is not None:
+            # Outside the domain the prediction moves to the fallback, which the fold
+            # models share (so they agree there, and the jackknife sees nothing): the
+            # fallback's own out-of-fold error quantile, times its share of the prediction,
+            # joins the band in quadrature too (as a variance at the same normal quantile).
+            z = norm.ppf((1 + level) / 2)
+            extra = extra + np.square(np.asarray(fallback_share) * fallback_quantile / z)
+        bounds = _widen(bounds, extra, level)
+        if extrapolation is not None:
+            bounds = _cover_both(bounds, centre, extrapolation)
+        return bounds
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

@@ -329,6 +329,32 @@ class CompensationPipeline(Pipeline):
                 "CompensationPipeline.fit needs the drift target y (rate - reference); got None."
             )
         super().fit(X, y, **params)
+        return self.fit_domain(X, y)
+
+    def fit_domain(self, X, y):
+        """(Re)learn the calibration domain and the fallback from the rows ``X``, ``y``.
+
+        :meth:`fit` calls it after fitting the steps. Call it alone to give a fitted
+        pipeline the domain of other calibration rows (partial pooling gives each unit's
+        copy of the lot's model the domain of that unit's rows); the steps are not refitted.
+
+        Parameters
+        ----------
+        X : iterable
+            Calibration rows, in the first step's layout.
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            Their drift.
+
+        Returns
+        -------
+        self : CompensationPipeline
+            With ``domain_``, ``fallback_`` and ``feature_names_out_`` learnt from them.
+
+        Raises
+        ------
+        ValueError
+            With fewer than 2 rows, or a thermal feature constant over them.
+        """
         features = self.steps[0][1]
         raw = _as_rows(features.transform(X))
         names = np.asarray(features.get_feature_names_out(), dtype=object)
@@ -337,9 +363,9 @@ class CompensationPipeline(Pipeline):
                 "CompensationPipeline needs at least 2 calibration rows to learn its "
                 f"calibration domain, got n_samples={raw.shape[0]}."
             )
-        self.feature_names_out_ = names
         check_varies(raw, names)
         columns = _temperature_columns(features)
+        self.feature_names_out_ = names
         self.domain_ = CalibrationDomain(margin=self.margin, temperature=columns).fit(raw)
         column = columns[0] if columns else None
         Y = np.asarray(y, dtype=np.float64).reshape(raw.shape[0], -1)

@@ -4,9 +4,16 @@ The unit travels inside X as a column (like the run id), so scorers, ``cross_val
 ``GridSearchCV`` see one ordinary regressor. The numerics of partial pooling live in
 :mod:`sklearn_ifog._shrinkage`; this module holds the scikit-learn surface and the access to
 the output layer of the supported final regressors.
+
+Every unit's model carries its own calibration domain (a
+:class:`~sklearn_ifog.pipeline.CompensationPipeline` learns it at fit): with ``"none"`` and
+``"partial"`` the domain and the fallback of the unit's own calibration rows, with ``"full"``
+the lot's. Outside it a unit's predictions follow its model's ``outside`` policy, and
+:meth:`UnitwiseRegressor.predict` says so once per call.
 """
 
 import copy
+import warnings
 from numbers import Integral
 from typing import ClassVar
 
@@ -26,6 +33,7 @@ from sklearn.linear_model import (
 )
 from sklearn.pipeline import Pipeline
 from sklearn.utils import get_tags
+from sklearn.utils.metaestimators import available_if
 from sklearn.utils.validation import (
     check_array,
     check_consistent_length,
@@ -35,6 +43,8 @@ from sklearn.utils.validation import (
 
 from sklearn_ifog import _shrinkage, _table
 from sklearn_ifog._compat import HasMethods, StrOptions, _fit_context, _safe_indexing
+from sklearn_ifog.domain import OutsideCalibrationWarning
+from sklearn_ifog.pipeline import CompensationPipeline
 from sklearn_ifog.rbf import RBFNetRegressor
 from sklearn_ifog.rbf._basis import gaussian_design, tail_features
 
@@ -62,6 +72,9 @@ LINEAR_OUTPUT = (
 # ``benchmarks/unitwise_selection.py`` (rule ``chosen`` against ``evidence_lot_own`` and
 # ``far_own_spread1`` / ``far_own_spread3``): spreads of 1, 2 and 3 all pass on seeds 0-4.
 OWN_MODEL_SPREAD = 2.0
+
+# Units named one by one in the warning of a predict call (a lot can hold hundreds).
+_LISTED_UNITS = 10
 
 
 # --------------------------------------------------------------------------------------------
@@ -164,6 +177,33 @@ def _with_weights(model, W):
     return model
 
 
+def _with_unit_domain(model, X, y):
+    """``model`` (fitted) given the calibration domain and fallback of the rows ``X``, ``y``.
+
+    Partial pooling deep-copies the lot model and replaces its output layer; the copy would
+    keep the lot's domain, which spans every unit's calibration. The unit's weights are
+    solved on its own rows, so the unit's model holds where those rows are: its domain and
+    fallback are fitted on them (:meth:`CompensationPipeline.fit_domain`). A model without
+    a domain (not a CompensationPipeline) is returned as it is.
+    """
+    if not isinstance(model, CompensationPipeline):
+        return model
+    return model.fit_domain(X, y)
+
+
+def _raw_predictions(model):
+    """``model`` predicting without its ``outside`` policy, for held-out scoring.
+
+    Partial pooling compares a unit's own model with its shrunk output layer on held-out
+    runs; the shrunk layer is scored as raw linear algebra (:mod:`sklearn_ifog._shrinkage`),
+    so the own model is scored raw too: the comparison is between the two fits, and whichever
+    is kept gets the same domain and fallback (the unit's) at prediction time.
+    """
+    if isinstance(model, CompensationPipeline):
+        model.set_params(outside="none")
+    return model
+
+
 def _label(value):
     """A unit label as a plain Python value (numpy scalars unwrapped), for dict keys."""
     return value.item() if isinstance(value, np.generic) else value
@@ -192,6 +232,16 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
       With an RBF network, the units' own models (as with ``"none"``, their own centres
       and widths) are a further candidate, compared on held-out runs (see Notes).
 
+    Every unit's model knows where it was calibrated. With
+    :func:`~sklearn_ifog.make_compensation_pipeline` (a
+    :class:`~sklearn_ifog.pipeline.CompensationPipeline`) each unit's model carries its own
+    calibration domain and fallback: with ``"none"`` and ``"partial"`` those of the unit's
+    own calibration rows (a partially pooled unit solves its weights on its rows, so it is
+    calibrated where they are, not wherever the lot was), with ``"full"`` the lot's. A row
+    outside its unit's domain follows that model's ``outside`` policy; :meth:`predict`
+    warns once per call, naming the units concerned, and :meth:`calibration_distance` and
+    :meth:`outside_calibration` give every row's distance and flag from its unit's model.
+
     Parameters
     ----------
     estimator : estimator object
@@ -219,8 +269,10 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         The units seen in fit, sorted.
     estimators_ : dict
         Unit -> fitted model. With ``"full"`` every unit maps to ``lot_estimator_``; with
-        ``"partial"`` each is a copy of ``lot_estimator_`` with the unit's output weights,
-        so it is an ordinary fitted model (it can be saved, streamed or exported alone).
+        ``"partial"`` each is a copy of ``lot_estimator_`` with the unit's output weights
+        and, for a CompensationPipeline, the calibration domain (``domain_``) and fallback
+        (``fallback_``) of the unit's own rows, so it is an ordinary fitted model (it can
+        be saved, streamed or exported alone).
     lot_estimator_ : estimator or None
         The model fitted on the whole lot (None with ``"none"``).
     shrinkage_ : dict or None
@@ -294,7 +346,10 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     one fit of ``estimator`` per held-out run) and with their chosen strength (each fold's
     prior the lot's output layer re-solved without the held-out rows, since the lot model
     saw them); when the own models' summed squared error is the lower, every one of these
-    units keeps its own model. The choice is made for the lot, not unit by unit, because
+    units keeps its own model. Both candidates are scored without the ``outside`` policy
+    (the own model's folds with ``outside="none"``, as the shrunk layer is scored by linear
+    algebra): the comparison is between the two fits, and whichever is kept gets the same
+    domain and fallback, the unit's. The choice is made for the lot, not unit by unit, because
     one unit's few held-out runs give a noisy comparison; and the own model's error,
     fitted on ``r - 1`` of a unit's ``r`` runs, is scaled by ``(r - 1) / r`` before the
     comparison, because a model that learns its basis from the unit's rows alone gains
@@ -328,6 +383,8 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     ([0, 1, 2], [0, 1, 2])
     >>> model.predict(X).shape == y.shape
     True
+    >>> bool(model.outside_calibration(X).any())  # each unit's calibration is inside
+    False
     >>> model.predict(X.assign(unit=7))
     Traceback (most recent call last):
     ...
@@ -491,7 +548,12 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             (weights,) = _shrinkage.solve_shrunk(
                 Phi[index], Y[index], prior, scale, [self.shrinkage_[unit]]
             )
-            self.estimators_[unit] = _with_weights(lot, weights)
+            try:
+                self.estimators_[unit] = _with_unit_domain(
+                    _with_weights(lot, weights), _safe_indexing(X_inner, index), y[index]
+                )
+            except ValueError as error:
+                raise ValueError(f"unit {unit!r} (column {self.unit!r}): {error}") from error
 
     def _own_wins(self, several, rows, grid):
         """Whether the units with several runs are better served by their own models.
@@ -515,22 +577,62 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         sse, n_held = 0.0, 0
         for test in folds:
             try:
-                model = clone(self.estimator).fit(
+                model = _raw_predictions(clone(self.estimator)).fit(
                     _safe_indexing(X_inner, index[~test]), y[index[~test]]
                 )
             except ValueError:  # e.g. too few rows for the model: not a candidate
                 return np.inf
-            prediction = np.asarray(
-                model.predict(_safe_indexing(X_inner, index[test])), dtype=np.float64
-            )
+            with warnings.catch_warnings():
+                # a held-out run outside the other runs' domain is expected here
+                warnings.simplefilter("ignore", OutsideCalibrationWarning)
+                prediction = np.asarray(
+                    model.predict(_safe_indexing(X_inner, index[test])), dtype=np.float64
+                )
             sse += float(
                 np.square(y[index[test]] - prediction.reshape(y[index[test]].shape)).sum()
             )
             n_held += y[index[test]].size
         return sse / n_held
 
+    def _units_of(self, X):
+        """(X without the unit column, the unit of every row); every unit seen in fit."""
+        check_is_fitted(self)
+        X_inner, units, _ = self._split_unit(X, reset=False)
+        known = set(self.estimators_)
+        for unit in np.unique(units):
+            if _label(unit) not in known:
+                fitted = [_label(u) for u in self.units_[:10]]
+                more = "" if self.units_.size <= 10 else f" and {self.units_.size - 10} more"
+                raise ValueError(
+                    f"unit {_label(unit)!r} (column {self.unit!r} of X) was not seen in fit; "
+                    f"the fitted units are {fitted}{more}."
+                )
+        return X_inner, units
+
+    def _dispatch(self, X_inner, units, method):
+        """``method`` of every unit's model on the unit's rows, row i for input row i."""
+        present = np.unique(units)
+        if self.lot_estimator_ is not None and all(
+            self.estimators_[_label(unit)] is self.lot_estimator_ for unit in present
+        ):
+            # One model for every unit here ("full"): one call, the lot model's own answer.
+            return np.asarray(getattr(self.lot_estimator_, method)(X_inner))
+        output = None
+        for unit in present:
+            index = np.flatnonzero(units == unit)
+            part = np.asarray(
+                getattr(self.estimators_[_label(unit)], method)(_safe_indexing(X_inner, index))
+            )
+            if output is None:
+                output = np.empty((units.shape[0], *part.shape[1:]), dtype=part.dtype)
+            output[index] = part
+        return output
+
     def predict(self, X):
         """Predict every row with the model of its unit.
+
+        A unit's rows outside its model's calibration domain follow that model's
+        ``outside`` policy (:class:`~sklearn_ifog.pipeline.CompensationPipeline`).
 
         Parameters
         ----------
@@ -546,35 +648,104 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         ------
         ValueError
             If the unit column is missing or holds a unit not seen in fit (named).
+
+        Warns
+        -----
+        OutsideCalibrationWarning
+            At most once per call, when rows lie outside their unit's calibration domain:
+            it names those units with the share of each one's rows outside, and the largest
+            distance (the unit models' own warnings are gathered into this one).
         """
-        check_is_fitted(self)
-        X_inner, units, _ = self._split_unit(X, reset=False)
-        present = np.unique(units)
-        known = set(self.estimators_)
-        for unit in present:
-            if _label(unit) not in known:
-                fitted = [_label(u) for u in self.units_[:10]]
-                more = "" if self.units_.size <= 10 else f" and {self.units_.size - 10} more"
-                raise ValueError(
-                    f"unit {_label(unit)!r} (column {self.unit!r} of X) was not seen in fit; "
-                    f"the fitted units are {fitted}{more}."
-                )
-        if self.lot_estimator_ is not None and all(
-            self.estimators_[_label(unit)] is self.lot_estimator_ for unit in present
-        ):
-            # One model for every unit here ("full"): one call, the lot model's own answer.
-            return np.asarray(self.lot_estimator_.predict(X_inner), dtype=np.float64)
-        output = None
-        for unit in present:
-            index = np.flatnonzero(units == unit)
-            part = np.asarray(
-                self.estimators_[_label(unit)].predict(_safe_indexing(X_inner, index)),
-                dtype=np.float64,
+        X_inner, units = self._units_of(X)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            output = self._dispatch(X_inner, units, "predict")
+        outside = [w for w in caught if issubclass(w.category, OutsideCalibrationWarning)]
+        for record in caught:
+            if not issubclass(record.category, OutsideCalibrationWarning):
+                warnings.warn(record.message, stacklevel=2)
+        if outside:
+            self._warn_outside(X_inner, units, outside[0].message)
+        return np.asarray(output, dtype=np.float64)
+
+    def _warn_outside(self, X_inner, units, first_message):
+        """One OutsideCalibrationWarning for the whole call, unit by unit."""
+        if not hasattr(self.estimator, "outside_calibration"):
+            # a model that warns without a per-row flag: pass its first warning on
+            warnings.warn(first_message, stacklevel=3)
+            return
+        flags = self._dispatch(X_inner, units, "outside_calibration")
+        distance = self._dispatch(X_inner, units, "calibration_distance")
+        present = np.unique(units[flags])
+        parts = []
+        for unit in present[:_LISTED_UNITS]:
+            rows = units == unit
+            n_out = int(flags[rows].sum())
+            parts.append(
+                f"unit {_label(unit)!r}: {n_out} of {int(rows.sum())} rows, "
+                f"{n_out / rows.sum():.1%}"
             )
-            if output is None:
-                output = np.empty((units.shape[0], *part.shape[1:]))
-            output[index] = part
-        return output
+        if present.size > _LISTED_UNITS:
+            parts.append(f"and {present.size - _LISTED_UNITS} more units")
+        worst = int(np.argmax(np.where(flags, distance, -np.inf)))
+        policies = sorted(
+            {str(getattr(self.estimators_[_label(unit)], "outside", "?")) for unit in present}
+        )
+        warnings.warn(
+            f"Rows lie outside their unit's calibration domain in {present.size} of "
+            f"{np.unique(units).size} units ({'; '.join(parts)}); largest distance "
+            f"{distance[worst]:.3g} decorrelated standard deviations (unit "
+            f"{_label(units[worst])!r}). Their predictions follow each unit model's outside "
+            f"policy ({', '.join(map(repr, policies))}).",
+            OutsideCalibrationWarning,
+            stacklevel=3,
+        )
+
+    @available_if(lambda self: hasattr(self.estimator, "calibration_distance"))
+    def calibration_distance(self, X):
+        """Distance of every row outside its unit's calibration domain (0 inside).
+
+        Each unit's rows are measured by the unit's model
+        (:meth:`~sklearn_ifog.pipeline.CompensationPipeline.calibration_distance`: in
+        decorrelated standard deviations of that unit's calibration, with ``"none"`` and
+        ``"partial"`` the unit's own calibration rows, with ``"full"`` the lot's).
+        Available when ``estimator`` has the method (e.g.
+        :func:`~sklearn_ifog.make_compensation_pipeline`).
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_columns)
+            With the columns seen in fit. Every unit must have been seen in fit.
+
+        Returns
+        -------
+        distance : ndarray of shape (n_samples,)
+            Row i for input row i.
+        """
+        X_inner, units = self._units_of(X)
+        return self._dispatch(X_inner, units, "calibration_distance").astype(np.float64)
+
+    @available_if(lambda self: hasattr(self.estimator, "outside_calibration"))
+    def outside_calibration(self, X):
+        """Whether every row lies outside its unit's calibration domain.
+
+        Each unit's rows are flagged by the unit's model
+        (:meth:`~sklearn_ifog.pipeline.CompensationPipeline.outside_calibration`), so a
+        row inside one unit's domain may be outside another's. Available when
+        ``estimator`` has the method.
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_columns)
+            With the columns seen in fit. Every unit must have been seen in fit.
+
+        Returns
+        -------
+        outside : ndarray of shape (n_samples,), dtype=bool
+            Row i for input row i.
+        """
+        X_inner, units = self._units_of(X)
+        return self._dispatch(X_inner, units, "outside_calibration").astype(bool)
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
