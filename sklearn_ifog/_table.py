@@ -606,14 +606,27 @@ def read_thermal_columns(X, *, temperature, time=None, run=None):
             )
         used[position] = param
 
+    run_values = None if run is None else label_column(X, run, param="run")
     values = np.empty((X.shape[0], len(temp_positions)))
     for sensor, position in enumerate(temp_positions):
-        values[:, sensor] = numeric_column(X, position, param="temperature")
+        try:
+            values[:, sensor] = numeric_column(X, position, param="temperature")
+        except TableError as error:
+            if run_values is None or error.row is None:
+                raise
+            # A missing reading is found in a log run by run: say which run it is in.
+            run_id = run_values[error.row]
+            raise TableError(
+                f"{error} It is in run {run_id!r}; every temperature must be a finite "
+                "reading in degC.",
+                row=error.row,
+                value=error.value,
+                run=run_id,
+            ) from None
     time_values = time_label = None
     if time is not None:
         time_values = numeric_column(X, time, param="time")
         time_label = _label("time", X, column_position(X, time, param="time"))
-    run_values = None if run is None else label_column(X, run, param="run")
     return ThermalColumns(values, time_values, run_values, time_label)
 
 

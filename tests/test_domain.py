@@ -275,8 +275,11 @@ def test_bad_input_is_named(heating_and_cycling, fitted):
         make_compensation_pipeline(LinearRegression()).fit(constant, y)
     bad = X_op.copy()
     bad.loc[bad.index[7], "temperature"] = np.nan
-    with pytest.raises(ValueError, match="temperature column 'temperature' contains NaN"):
+    run = bad.loc[bad.index[7], "run"]
+    with pytest.raises(ValueError, match="temperature column 'temperature' contains NaN") as info:
         fitted.predict(bad)
+    assert f"It is in run {run!r}" in str(info.value)
+    assert "first at row 7" in str(info.value)
     with pytest.raises(ValueError, match="drift target"):
         make_compensation_pipeline(LinearRegression()).fit(X)
 
