@@ -447,7 +447,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         like the calibration runs holds its drift inside the band at least ``coverage`` of
         its time with probability at least ``confidence`` (the band widens as
         ``confidence`` grows). With ``coverage=0.9``, 0.6 gave mean held-out coverages of
-        0.906-0.936 in ``benchmarks/bench_conformal.py`` (``benchmarks/results/conformal.md``).
+        0.905-0.950 in ``benchmarks/bench_conformal.py`` (``benchmarks/results/conformal.md``).
     adaptive : bool, default=True
         Whether scores are normalised by the difficulty model and the band widened where
         the fold models part and outside the calibration domain; False gives a band of the
