@@ -23,8 +23,8 @@ import math
 import numpy as np
 
 from sklearn_ifog.domain import (
+    apply_policy,
     box_distance,
-    fallback_weight,
     outside_domain,
     temperature_excess,
 )
@@ -490,16 +490,16 @@ class CompiledDomain:
             A new array when a row is outside and the policy changes it, else
             ``prediction`` itself.
         """
-        if self.policy == "none" or not outside.any():
-            return prediction
-        prediction = prediction.copy()
-        if self.policy == "clip":
-            prediction[outside] = evaluate(self.project(features[outside]))
-        else:
-            weight = fallback_weight(distance[outside], self.margin)[:, None]
-            fallback = self.fallback.predict(features[outside])
-            prediction[outside] = (1.0 - weight) * prediction[outside] + weight * fallback
-        return prediction
+        return apply_policy(
+            self.policy,
+            prediction,
+            features,
+            distance,
+            outside,
+            domain=self.domain,
+            fallback=self.fallback,
+            evaluate=evaluate,
+        )
 
     def project(self, features):
         """Feature rows moved onto the domain (the ``"clip"`` policy's inputs).

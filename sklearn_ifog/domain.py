@@ -40,6 +40,7 @@ __all__ = [
     "CalibrationDomain",
     "Fallback",
     "OutsideCalibrationWarning",
+    "apply_policy",
     "box_distance",
     "check_varies",
     "fallback_weight",
@@ -478,6 +479,71 @@ def fallback_weight(distance, margin, width=BLEND_WIDTH):
     """
     s = np.clip((np.asarray(distance, dtype=np.float64) - margin) / width, 0.0, 1.0)
     return s * s * (3.0 - 2.0 * s)
+
+
+def apply_policy(policy, prediction, features, distance, outside, *, domain, fallback, evaluate):
+    """The prediction of every row under an ``outside`` policy (rows inside unchanged).
+
+    The one implementation of the policies, shared by
+    :meth:`~sklearn_ifog.pipeline.CompensationPipeline.predict` and the streaming
+    compensator (the C export writes the same arithmetic).
+
+    Parameters
+    ----------
+    policy : {"blend", "clip", "none"}
+        ``"blend"``: ``(1 - w) prediction + w fallback`` with ``w`` the
+        :func:`fallback_weight` of the distance; ``"clip"``: the model at
+        ``domain.project`` of the row; ``"none"``: the prediction as it is.
+    prediction : ndarray of shape (n_samples, n_outputs)
+        The model's prediction of the rows (not modified).
+    features : ndarray of shape (n_samples, n_features)
+        Their thermal features.
+    distance, outside : ndarray of shape (n_samples,)
+        Their distance to the box and their outside flags.
+    domain : CalibrationDomain
+        The fitted domain (its ``margin`` and :meth:`~CalibrationDomain.project`).
+    fallback : Fallback
+        The conservative model of ``"blend"``.
+    evaluate : callable
+        ``evaluate(rows) -> (n_rows, n_outputs)``, the model's prediction of feature rows
+        (for ``"clip"``).
+
+    Returns
+    -------
+    prediction : ndarray of shape (n_samples, n_outputs)
+        ``prediction`` itself when no row changes, else a new array.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.linspace(10.0, 40.0, 31)
+    >>> domain = CalibrationDomain(margin=1.0, temperature=0).fit(t[:, None])
+    >>> rows = np.array([[25.0], [41.0], [300.0]])  # inside, just beyond T, far
+    >>> distance = domain.distance(rows)
+    >>> outside = domain.predict(rows) == -1
+    >>> fallback = Fallback(np.array([1.0]), np.array([0.0]), 0)
+    >>> apply_policy(
+    ...     "blend",
+    ...     np.full((3, 1), 7.0),
+    ...     rows,
+    ...     distance,
+    ...     outside,
+    ...     domain=domain,
+    ...     fallback=fallback,
+    ...     evaluate=None,
+    ... ).ravel().tolist()
+    [7.0, 7.0, 1.0]
+    """
+    if policy == "none" or not outside.any():
+        return prediction
+    prediction = prediction.copy()
+    if policy == "clip":
+        prediction[outside] = evaluate(domain.project(features[outside]))
+    else:
+        weight = fallback_weight(distance[outside], domain.margin)[:, None]
+        blended = fallback.predict(features[outside])
+        prediction[outside] = (1.0 - weight) * prediction[outside] + weight * blended
+    return prediction
 
 
 class CalibrationDomain(OutlierMixin, BaseEstimator):

@@ -23,9 +23,9 @@ from sklearn_ifog._contract import get_term, sensor_keys
 from sklearn_ifog.domain import (
     CalibrationDomain,
     OutsideCalibrationWarning,
+    apply_policy,
     box_distance,
     check_varies,
-    fallback_weight,
     fit_fallback,
     outside_domain,
     temperature_excess,
@@ -455,18 +455,22 @@ class CompensationPipeline(Pipeline):
         if not outside.any():
             return prediction
         self._warn_outside(distance, beyond, outside)
-        if self.outside == "clip":
-            projected = self.domain_.project(rows[outside])
-            prediction[outside] = self._predict_features(_like(features, projected), **params)
-        elif self.outside == "blend":
-            weight = fallback_weight(distance[outside], self.domain_.margin)
-            fallback = self.fallback_.predict(rows[outside])
-            if prediction.ndim == 1:
-                fallback = fallback[:, 0]
-            else:
-                weight = weight[:, None]
-            prediction[outside] = (1.0 - weight) * prediction[outside] + weight * fallback
-        return prediction
+
+        def evaluate(projected):
+            predicted = self._predict_features(_like(features, projected), **params)
+            return predicted.reshape(projected.shape[0], -1)
+
+        policed = apply_policy(
+            self.outside,
+            prediction.reshape(rows.shape[0], -1),
+            rows,
+            distance,
+            outside,
+            domain=self.domain_,
+            fallback=self.fallback_,
+            evaluate=evaluate,
+        )
+        return policed.reshape(prediction.shape)
 
     def _warn_outside(self, distance, beyond, outside):
         message = (
