@@ -70,10 +70,9 @@ def _outside_warnings(caught):
     return [w for w in caught if issubclass(w.category, OutsideCalibrationWarning)]
 
 
-@pytest.mark.parametrize("pooling", ["none", "partial"])
-def test_each_unit_is_calibrated_where_its_own_rows_are(two_ranges, pooling):
+def test_each_unit_is_calibrated_where_its_own_rows_are(two_ranges):
     X, y = two_ranges
-    model = UnitwiseRegressor(_linear(), pooling=pooling).fit(X, y)
+    model = UnitwiseRegressor(_linear(), pooling="none").fit(X, y)
     temperature = X["temperature"].to_numpy()
     for unit in (0, 1):
         rows, _ = _rows_of(X, unit)
@@ -108,33 +107,30 @@ def test_full_pooling_shares_the_lots_domain(two_ranges):
     assert not model.outside_calibration(_swapped(X)).any()
 
 
-def test_partial_pooling_keeps_each_units_own_domain_and_fallback(two_ranges):
-    """A partially pooled unit is a copy of the lot model with new output weights; its
-    domain and fallback are those a unit's own model ("none") learns from its rows."""
+def test_partial_pooling_keeps_the_lots_domain_and_fallback(two_ranges):
+    """A partially pooled unit is a copy of the lot model with new output weights: it pools
+    the lot's calibration, so it keeps the lot's domain and fallback (a unit's own domain
+    would send most of its rows to a one-run fallback)."""
     X, y = two_ranges
     partial = UnitwiseRegressor(_linear(), pooling="partial").fit(X, y)
-    own = UnitwiseRegressor(_linear(), pooling="none").fit(X, y)
-    lot_final = partial.lot_estimator_.steps[-1][1]
+    lot = partial.lot_estimator_
     for unit in (0, 1):
         assert partial.shrinkage_[unit] is not None  # the shrunk layer, not the own model
-        shrunk, alone = partial.estimators_[unit], own.estimators_[unit]
-        assert shrunk.steps[-1][1] is not lot_final
+        shrunk = partial.estimators_[unit]
+        assert shrunk.steps[-1][1] is not lot.steps[-1][1]
         for name in DOMAIN_ARRAYS:
             np.testing.assert_array_equal(
-                getattr(shrunk.domain_, name), getattr(alone.domain_, name), err_msg=name
+                getattr(shrunk.domain_, name), getattr(lot.domain_, name), err_msg=name
             )
-        assert shrunk.domain_.temperature_columns_ == alone.domain_.temperature_columns_
-        assert shrunk.fallback_.column == alone.fallback_.column
-        np.testing.assert_array_equal(shrunk.fallback_.intercept, alone.fallback_.intercept)
-        np.testing.assert_array_equal(shrunk.fallback_.slope, alone.fallback_.slope)
-        assert shrunk.domain_ is not partial.lot_estimator_.domain_
-    # the lot model keeps the domain of the whole lot
-    lot = partial.lot_estimator_.domain_
-    column = lot.temperature_columns_[0]
-    assert (lot.data_min_[column], lot.data_max_[column]) == (
+        np.testing.assert_array_equal(shrunk.fallback_.intercept, lot.fallback_.intercept)
+        np.testing.assert_array_equal(shrunk.fallback_.slope, lot.fallback_.slope)
+    column = lot.domain_.temperature_columns_[0]
+    assert (lot.domain_.data_min_[column], lot.domain_.data_max_[column]) == (
         X["temperature"].min(),
         X["temperature"].max(),
     )
+    # each unit's rows given to the other unit: inside the lot's calibration
+    assert not partial.outside_calibration(_swapped(X)).any()
 
 
 def test_partial_reads_the_scaled_features_through_the_slice(two_ranges):
@@ -164,14 +160,14 @@ def test_distance_and_flags_are_each_unit_models_own_in_input_order(two_ranges, 
         unit_model = model.estimators_[unit]
         np.testing.assert_array_equal(distance[rows], unit_model.calibration_distance(part))
         np.testing.assert_array_equal(flags[rows], unit_model.outside_calibration(part))
-    if pooling != "full":
+    if pooling == "none":
         assert flags[: X.shape[0]].any()
     assert not flags[X.shape[0] :].any()
 
 
 def test_predict_follows_each_units_policy(two_ranges):
     X, y = two_ranges
-    model = UnitwiseRegressor(_linear(), pooling="partial").fit(X, y)
+    model = UnitwiseRegressor(_linear(), pooling="none").fit(X, y)
     probe = _swapped(X)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", OutsideCalibrationWarning)
@@ -241,14 +237,14 @@ def test_policy_leaves_the_partial_pooling_choice_unchanged():
     assert blend.shrinkage_ == raw.shrinkage_
 
 
-def test_a_unit_without_a_domain_is_named_under_partial_pooling(two_ranges):
+def test_a_unit_without_a_domain_is_named_without_pooling(two_ranges):
     X, y = two_ranges
     rows, _ = _rows_of(X, 0)
     soak = X[rows].assign(unit=2, run=X["run"][rows] + 200, temperature=25.0)
     X_soak = pd.concat([X, soak], ignore_index=True)
     y_soak = np.concatenate([y, y[rows]])
-    with pytest.raises(ValueError, match=r"unit 2 \(column 'unit'\):.*constant"):
-        UnitwiseRegressor(_linear(), pooling="partial").fit(X_soak, y_soak)
+    with pytest.raises(ValueError, match=r"unit 2.*constant"):
+        UnitwiseRegressor(_linear(), pooling="none").fit(X_soak, y_soak)
 
 
 def test_a_model_without_a_domain_has_no_domain_methods(two_ranges):
