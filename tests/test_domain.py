@@ -153,8 +153,10 @@ def test_fallback_weight_is_smooth_and_bounded():
 # -- the fallback ----------------------------------------------------------------------
 
 
-def test_fallback_keeps_a_real_slope_and_drops_a_spurious_one():
-    rng = np.random.default_rng(0)
+@pytest.mark.parametrize("seed", range(8))
+def test_fallback_keeps_a_real_slope_and_drops_a_spurious_one(seed):
+    """Holds on seeds 0-19 (checked once); the suite runs 0-7."""
+    rng = np.random.default_rng(seed)
     t = np.linspace(10.0, 22.0, 400)
     real = 70.0 * t + rng.normal(scale=20.0, size=t.size)
     noise = rng.normal(scale=20.0, size=t.size)
