@@ -5,11 +5,12 @@ The unit travels inside X as a column (like the run id), so scorers, ``cross_val
 :mod:`sklearn_ifog._shrinkage`; this module holds the scikit-learn surface and the access to
 the output layer of the supported final regressors.
 
-Every unit's model carries its own calibration domain (a
-:class:`~sklearn_ifog.pipeline.CompensationPipeline` learns it at fit): with ``"none"`` and
-``"partial"`` the domain and the fallback of the unit's own calibration rows, with ``"full"``
-the lot's. Outside it a unit's predictions follow its model's ``outside`` policy, and
-:meth:`UnitwiseRegressor.predict` says so once per call.
+Every unit's model carries a calibration domain (a
+:class:`~sklearn_ifog.pipeline.CompensationPipeline` learns it at fit): with ``"none"`` (and
+for a unit that keeps its own model under ``"partial"``) the domain and the fallback of the
+unit's own calibration rows; with ``"full"``, and for a partially pooled (shrunk) unit, the
+lot's, since its weights pool the lot's calibration. Outside it a unit's predictions follow
+its model's ``outside`` policy, and :meth:`UnitwiseRegressor.predict` says so once per call.
 """
 
 import copy
@@ -221,9 +222,10 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     Every unit's model knows where it was calibrated. With
     :func:`~sklearn_ifog.make_compensation_pipeline` (a
     :class:`~sklearn_ifog.pipeline.CompensationPipeline`) each unit's model carries its own
-    calibration domain and fallback: with ``"none"`` and ``"partial"`` those of the unit's
-    own calibration rows (a partially pooled unit solves its weights on its rows, so it is
-    calibrated where they are, not wherever the lot was), with ``"full"`` the lot's. A row
+    calibration domain and fallback: with ``"none"`` those of the unit's own calibration
+    rows; with ``"full"``, and for a partially pooled (shrunk) unit under ``"partial"``,
+    the lot's (its weights pool the lot's calibration; a unit that keeps its own model keeps
+    its own domain). A row
     outside its unit's domain follows that model's ``outside`` policy; :meth:`predict`
     warns once per call, naming the units concerned, and :meth:`calibration_distance` and
     :meth:`outside_calibration` give every row's distance and flag from its unit's model.
@@ -692,8 +694,9 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
 
         Each unit's rows are measured by the unit's model
         (:meth:`~sklearn_ifog.pipeline.CompensationPipeline.calibration_distance`: in
-        decorrelated standard deviations of that unit's calibration, with ``"none"`` and
-        ``"partial"`` the unit's own calibration rows, with ``"full"`` the lot's).
+        decorrelated standard deviations of the domain that unit's model carries: the unit's
+        own calibration rows with ``"none"``, the lot's with ``"full"`` and for a shrunk
+        unit under ``"partial"``).
         Available when ``estimator`` has the method (e.g.
         :func:`~sklearn_ifog.make_compensation_pipeline`).
 
