@@ -4,9 +4,11 @@ Every benchmark prints, at the end of its output, one line per target and per co
 
 - ``PASS: <target> (<measured>)`` or ``FAIL: <target> (<measured>)``;
 - ``WIN: ...``, ``TIE: ...`` or ``LOSS: ...`` for a comparison of our model with one peer on
-  a lower-is-better score: WIN when ours is below the peer's by more than ``TIE_MARGIN``
-  (relative), LOSS when above it by more than the margin, TIE otherwise. A tie is never a
-  win: a target "beats X" needs WIN.
+  a lower-is-better score: WIN when ours is below the peer's by more than ``TIE_MARGIN`` of
+  the larger of the two magnitudes, LOSS when above it by more than that, TIE otherwise. A
+  tie is never a win: a target "beats X" needs WIN. The band is on the difference, so the
+  verdict is right for every sign (an excess over a noise floor can be negative, where a
+  band built as ``theirs * (1 +- margin)`` would swap its ends).
 
 and exits 1 when any target fails (0 otherwise). ``tests/test_benchmarks.py`` checks these
 lines' format and that the exit code agrees with them.
@@ -20,22 +22,34 @@ TIE_MARGIN = 0.02
 LINE = re.compile(r"^(PASS|FAIL|WIN|TIE|LOSS): \S.*$")
 
 
+def relative_difference(ours, theirs):
+    """``(ours - theirs) / max(|ours|, |theirs|)``, in [-2, 2]; 0 when both are 0."""
+    scale = max(abs(ours), abs(theirs))
+    return 0.0 if scale == 0 else (ours - theirs) / scale
+
+
 def compare(ours, theirs, margin=TIE_MARGIN):
-    """WIN, TIE or LOSS of a lower-is-better score ``ours`` against ``theirs``."""
-    if ours < theirs * (1.0 - margin):
+    """WIN, TIE or LOSS of a lower-is-better score ``ours`` against ``theirs``.
+
+    The tie band is ``margin`` times the larger magnitude, on either side of ``theirs``:
+    right for negative, zero and mixed-sign scores alike.
+    """
+    difference = relative_difference(ours, theirs)
+    if difference < -margin:
         return "WIN"
-    if ours > theirs * (1.0 + margin):
+    if difference > margin:
         return "LOSS"
     return "TIE"
 
 
 def comparison_line(ours_name, theirs_name, ours, theirs, what, margin=TIE_MARGIN):
-    """One ``WIN/TIE/LOSS`` line, with both scores and their ratio."""
+    """One ``WIN/TIE/LOSS`` line, with both scores, their ratio and relative difference."""
     outcome = compare(ours, theirs, margin)
     ratio = ours / theirs if theirs else float("inf")
     return (
         f"{outcome}: {ours_name} vs {theirs_name}, {what}: {ours:.4g} vs {theirs:.4g} "
-        f"(ratio {ratio:.4f}; tie within {margin:.0%})"
+        f"(ratio {ratio:.4f}; difference {relative_difference(ours, theirs):+.4f} of the "
+        f"larger; tie within {margin:.0%})"
     )
 
 

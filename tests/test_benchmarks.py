@@ -4,7 +4,7 @@ Each script in ``benchmarks/`` runs in a subprocess with its results directory s
 temporary one (``benchmarks/results/`` must not change). At quick size a target may
 legitimately fail (exit 1), so the tests assert the verdict lines' format and that the exit
 code agrees with them (1 exactly when a ``FAIL:`` line is printed), that every
-WIN/TIE/LOSS line's label agrees with its ratio and the tie margin (a tie is never a win),
+WIN/TIE/LOSS line's label agrees with its two scores and the tie margin (a tie is never a win),
 and that the results were written. Marked ``benchmark``: ``-m "not benchmark"`` leaves them
 out of a quick local run; the README's test command runs them.
 """
@@ -29,7 +29,10 @@ sys.path.remove(str(BENCHMARKS))
 
 TIMEOUT = 1200  # seconds; a quick run takes seconds to a minute on an idle machine
 VERDICT = re.compile(r"^(PASS|FAIL|WIN|TIE|LOSS)\b")
-RATIO = re.compile(r"\(ratio (?P<ratio>[0-9.eE+-]+|inf); tie within (?P<margin>\d+)%\)")
+NUMBER = r"[-+]?(?:[0-9.]+(?:[eE][-+]?\d+)?|inf|nan)"
+SCORES = re.compile(
+    rf": (?P<ours>{NUMBER}) vs (?P<theirs>{NUMBER}) \(ratio [^;]*;.*tie within (?P<margin>\d+)%\)"
+)
 
 # script, its quick arguments (``{out}``: the temporary directory), the files it must write
 # there, whether it prints targets (PASS/FAIL lines).
@@ -130,11 +133,56 @@ def test_every_benchmark_script_has_a_quick_run():
         (1.0, 1.0, "TIE"),
         (1.015, 1.0, "TIE"),
         (1.03, 1.0, "LOSS"),
+        # negative scores (an excess below a noise floor): the band must not swap its ends
+        (-0.001299, -0.001299, "TIE"),
+        (-0.0017, -0.005, "LOSS"),
+        (-0.005, -0.0017, "WIN"),
+        (-1.0, -0.99, "TIE"),
+        # zero and mixed signs
+        (0.0, 0.0, "TIE"),
+        (0.0, 1e-9, "WIN"),
+        (1e-9, 0.0, "LOSS"),
+        (-0.001, 0.001, "WIN"),
+        (0.001, -0.001, "LOSS"),
     ],
 )
 def test_a_tie_is_within_the_margin_and_never_a_win(ours, theirs, expected):
     assert TIE_MARGIN == 0.02
     assert compare(ours, theirs) == expected
+
+
+def _labels_the_printed_scores_allow(ours, theirs, margin):
+    """Every label that scores rounded to four significant digits could have come from."""
+    labels = set()
+    for scale_ours in (1 - 5e-4, 1.0, 1 + 5e-4):
+        for scale_theirs in (1 - 5e-4, 1.0, 1 + 5e-4):
+            labels.add(compare(ours * scale_ours, theirs * scale_theirs, margin))
+    return labels
+
+
+def _check_comparison_line(line):
+    match = SCORES.search(line)
+    assert match, f"a comparison line without its two scores and tie margin: {line}"
+    ours, theirs = float(match["ours"]), float(match["theirs"])
+    margin = int(match["margin"]) / 100
+    label = line.split(":")[0]
+    allowed = _labels_the_printed_scores_allow(ours, theirs, margin)
+    assert label in allowed, f"{line!r}: the scores give {sorted(allowed)}"
+
+
+def test_every_committed_comparison_agrees_with_its_scores():
+    """Each WIN/TIE/LOSS in ``benchmarks/results/`` is what ``compare`` gives its scores."""
+    checked = 0
+    for path in sorted((BENCHMARKS / "results").glob("*.md")):
+        for line in path.read_text().splitlines():
+            line = line.removeprefix("- ").strip()
+            if line.startswith(("WIN:", "TIE:", "LOSS:")):
+                try:
+                    _check_comparison_line(line)
+                except AssertionError as error:
+                    raise AssertionError(f"{path.name}: {error}") from None
+                checked += 1
+    assert checked > 50
 
 
 def _digest(directory):
@@ -173,11 +221,8 @@ def test_quick_run_completes_with_consistent_verdicts(script, tmp_path):
     failed = any(line.startswith("FAIL:") for line in lines)
     assert done.returncode == (1 if failed else 0), tail
     for line in lines:
-        match = RATIO.search(line)
-        if line.startswith(("WIN:", "TIE:", "LOSS:")) and match:
-            margin = int(match["margin"]) / 100
-            ratio = float(match["ratio"])
-            assert compare(ratio, 1.0, margin) == line.split(":")[0], line
+        if line.startswith(("WIN:", "TIE:", "LOSS:")):
+            _check_comparison_line(line)
     for name in files:
         path = tmp_path / name
         assert path.is_file(), f"{name} not written; {tail}"
