@@ -17,17 +17,30 @@ GroupedPredictor runs all three options on the linear model and "relative" on th
 (time). The score is the MSD of the compensated rate on the test runs of all units (rows pooled),
 averaged over seeds, also shown as a ratio to the simulator's noise floor on those rows.
 
+Seeds. ``unitwise.OWN_MODEL_SPREAD`` and the far-unit rule (a unit the evidence puts far from
+the lot keeps its own model) were chosen in ``unitwise_selection.py`` on the test runs of the
+lots of seeds 0-4 (``SELECTION_SEEDS``; the earlier choices of partial pooling, on seeds 0-2
+of this benchmark). The verdict is scored on seeds 5, 6 and 7 (``--quick``: seed 5), which
+played no part in any choice; a run given a selection seed says so in its output.
+
+Every RBF row gives the number of Gaussian units its fitted networks hold (the most over
+units and seeds, per pooling). A pooling whose networks hold none and a linear tail on every
+seed is the linear model's pipeline, so its score is the linear row's again: the table marks
+it ``=lin``, the target lines name it, and it is no separate evidence for the network.
+
 Targets (the verdict; exit status 1 if one fails):
 
 1. for every physics, lot, calibration size and model of the verdict, "partial" is at most
    1.05 times the better of "none" and "full" (seed means);
 2. on the similar lot calibrated on one run per unit, "partial" reaches the MSD of "none"
-   calibrated on two runs (chamber time halved): ratio <= 1, or the table says how close it
-   gets (the issue's wording: this one is reported, it does not fail the run).
+   calibrated on two runs (chamber time halved): reported as a comparison line
+   (``_verdict.compare``: reached only on a WIN; a TIE, within 2 %, is not reached), as the
+   issue asked ("reach it, or say how close"): it does not fail the run.
 
-Run (about 30 minutes on one core, 16 with ``--jobs 2``: the cases in two processes)::
+Run (the committed results took 10.6 minutes with ``--jobs 1`` on a shared two-core
+machine; ``--jobs 2`` runs the cases in two processes)::
 
-    nice -n 10 .venv/bin/python benchmarks/bench_unitwise.py --jobs 2
+    nice -n 10 .venv/bin/python benchmarks/bench_unitwise.py --jobs 1
 
 ``--quick``: one seed, the lumped physics, the linear model only (a minute). Writes
 ``benchmarks/results/unitwise.md`` and ``unitwise.json`` (``unitwise_quick.*`` with
@@ -49,8 +62,9 @@ from sklearn.linear_model import LinearRegression
 from sklearn_ifog import RBFNetRegressor, UnitwiseRegressor, make_compensation_pipeline
 from sklearn_ifog._io import write_text_files
 from sklearn_ifog.datasets import make_thermal_campaign, noise_floor
+from sklearn_ifog.unitwise import _final_step
 
-from _verdict import target_line  # isort: skip
+from _verdict import compare, comparison_line, target_line  # isort: skip
 
 RESULTS = Path(__file__).parent / "results"
 N_UNITS = 6
@@ -65,6 +79,10 @@ SKLEGO_SHRINKAGE = ("relative", "equal", "constant")
 SKLEGO_CONSTANT_ALPHA = 0.5
 TOLERANCE = 1.05
 LOTS = {"similar": LOT_SPREAD, "independent": None}
+# The lots OWN_MODEL_SPREAD and the far-unit rule were chosen on (unitwise_selection.py's
+# seed sets, 0-2 and 3-4): the verdict is scored on the seeds after them.
+SELECTION_SEEDS = (0, 1, 2, 3, 4)
+FIRST_SEED = 5
 
 
 def models(seed, quick):
@@ -109,6 +127,26 @@ def _grouped(pipeline, shrinkage):
     )
 
 
+def networks(model):
+    """(most Gaussian units, whether every network is the linear model) of a fitted
+    UnitwiseRegressor's RBF networks; (None, None) without one.
+
+    A network with no Gaussian unit and a linear tail is an unpenalised linear fit on the
+    standardised features, i.e. the linear model's pipeline.
+    """
+    if not isinstance(model, UnitwiseRegressor):
+        return None, None
+    finals = [_final_step(unit_model) for unit_model in model.estimators_.values()]
+    finals = [final for final in finals if isinstance(final, RBFNetRegressor)]
+    if not finals:
+        return None, None
+    units = [int(np.shape(final.centers_)[0]) for final in finals]
+    linear = all(
+        n == 0 and final.tail_degree_ == 1 for n, final in zip(units, finals, strict=True)
+    )
+    return max(units), linear
+
+
 def lot_campaign(physics, lot, seed):
     """The benchmark's lot: N_UNITS units, N_RUNS runs each at one azimuth."""
     return make_thermal_campaign(
@@ -142,10 +180,13 @@ def run_case(physics, lot, seed, quick):
             for method, model in candidates.items():
                 start = time.perf_counter()
                 with warnings.catch_warnings():
+                    # e.g. a quadratic tail on too few rows falling back to the linear one
+                    # (each row records its networks' tails through "linear_network")
                     warnings.simplefilter("ignore", UserWarning)
                     model.fit(X[train], y[train])
                     prediction = np.asarray(model.predict(X[test]), dtype=np.float64)
                 msd = float(np.mean(np.square(y[test] - prediction)))
+                units, linear = networks(model)
                 rows.append(
                     {
                         "physics": physics,
@@ -158,6 +199,8 @@ def run_case(physics, lot, seed, quick):
                         "msd": msd,
                         "noise_floor": floor,
                         "fit_time": time.perf_counter() - start,
+                        "gaussian_units": units,
+                        "linear_network": linear,
                         "shrinkage": (
                             {
                                 str(k): None if v is None else float(v)
@@ -172,18 +215,33 @@ def run_case(physics, lot, seed, quick):
 
 
 def summarise(rows):
-    """(physics, lot, model, k) -> method -> seed-mean MSD, and the floor."""
+    """(physics, lot, model, k) -> method -> seed-mean MSD, the floor, and the networks.
+
+    ``units``: pooling -> the most Gaussian units of its networks over seeds; ``linear``:
+    the poolings whose networks are, on every seed, the linear model (see :func:`networks`).
+    """
     table = {}
     for row in rows:
         key = (row["physics"], row["lot"], row["model"], row["n_calibration_runs"])
-        cell = table.setdefault(key, {"in_verdict": row["in_verdict"], "floor": []})
+        cell = table.setdefault(
+            key, {"in_verdict": row["in_verdict"], "floor": [], "units": {}, "linear": {}}
+        )
         cell.setdefault(row["method"], []).append(row["msd"])
         if row["method"] == "none":
             cell["floor"].append(row["noise_floor"])
+        if row.get("gaussian_units") is not None:
+            method = row["method"]
+            cell["units"][method] = max(cell["units"].get(method, 0), row["gaussian_units"])
+            cell["linear"][method] = cell["linear"].get(method, True) and row["linear_network"]
+    kept = ("in_verdict", "units")
     return {
         key: {
-            method: (values if method == "in_verdict" else float(np.mean(values)))
-            for method, values in cell.items()
+            **{
+                method: (values if method in kept else float(np.mean(values)))
+                for method, values in cell.items()
+                if method != "linear"
+            },
+            "linear": sorted(method for method, linear in cell["linear"].items() if linear),
         }
         for key, cell in table.items()
     }
@@ -202,62 +260,124 @@ def verdict(summary):
                 "case": f"{physics}/{lot}/{model}/{k} run(s)",
                 "value": ratio,
                 "passed": bool(ratio <= TOLERANCE),
+                "linear": [p for p in POOLINGS if p in cell["linear"]],
             }
         )
     for (physics, lot, model, k), cell in summary.items():
         if lot != "similar" or k != 1 or not cell["in_verdict"]:
             continue
-        twice = summary[(physics, lot, model, 2)]["none"]
-        ratio = cell["partial"] / twice
-        # The issue's second target is "reach it, or say how close": a ratio above 1 is
-        # reported (the closing note quotes it), not failed.
+        twice = summary[(physics, lot, model, 2)]
+        # The issue's second target is "reach it, or say how close": reported, not failed.
+        # Reached only on a WIN of compare (a tie within its margin is not reached).
+        outcome = compare(cell["partial"], twice["none"])
+        linear = [
+            name
+            for name, found in (("partial@1", cell), ("none@2", twice))
+            if name.split("@")[0] in found["linear"]
+        ]
         checks.append(
             {
                 "target": 2,
-                "case": f"{physics}/{lot}/{model}: partial@1 / none@2",
-                "value": ratio,
+                "case": f"{physics}/{lot}/{model}",
+                "partial_1": cell["partial"],
+                "none_2": twice["none"],
+                "value": cell["partial"] / twice["none"],
+                "outcome": outcome,
                 "passed": True,
-                "reached": bool(ratio <= 1.0),
+                "reached": outcome == "WIN",
+                "linear": linear,
             }
         )
     return checks
 
 
+def _target_text(check):
+    if check["target"] == 2:
+        line = comparison_line(
+            "partial@1",
+            "none@2",
+            check["partial_1"],
+            check["none_2"],
+            f"{check['case']} test MSD, 1 vs 2 calibration runs a unit "
+            f"({'reached' if check['reached'] else 'not reached'}, reported)",
+        )
+    else:
+        line = target_line(check["passed"], f"target 1: {check['case']}: {check['value']:.3f}")
+    if check["linear"]:
+        line += (
+            f" [{' and '.join(check['linear'])}: 0 Gaussian units and a linear tail on every "
+            "seed, the linear model's pipeline]"
+        )
+    return line
+
+
 def markdown(summary, checks, command, seeds, elapsed):
     methods = [*POOLINGS, *(f"sklego_{s}" for s in SKLEGO_SHRINKAGE)]
+    reused = sorted(set(seeds) & set(SELECTION_SEEDS))
+    seeds_note = (
+        f"Seeds {seeds}; OWN_MODEL_SPREAD and the far-unit rule were chosen on seeds "
+        f"{list(SELECTION_SEEDS)} (unitwise_selection.py), "
+        + (
+            f"so this run is NOT a held-out measurement: seeds {reused} were used to choose."
+            if reused
+            else "none of which is scored here."
+        )
+    )
     lines = [
         "# Unitwise benchmark: one model per gyro of a lot",
         "",
         f"Command: `{command}` ({elapsed / 60:.1f} min). Lot of {N_UNITS} units, {N_RUNS} runs "
         f"each at one azimuth, sampled every {SAMPLING_PERIOD:g} s; calibrated on the first "
-        f"1, 2 or 4 runs of every unit, tested on its last {N_TEST}; seeds {seeds}. "
+        f"1, 2 or 4 runs of every unit, tested on its last {N_TEST}. "
         f"Similar lot: lot_spread={LOT_SPREAD}; independent: every unit drawn on its own.",
+        "",
+        seeds_note,
         "",
         "MSD ((deg/h)^2) on the test runs, mean over seeds; in brackets the ratio to the "
         "noise floor of those rows. 'partial/best' is partial over the better of none and "
         "full (target 1: <= 1.05). sklego_*: scikit-lego's GroupedPredictor with that "
-        "shrinkage (comparison only; constant with alpha=0.5).",
+        "shrinkage (comparison only; constant with alpha=0.5). 'Gaussian units': the most "
+        "held by a fitted RBF network of the row (over units and seeds) with none / full / "
+        "partial. '=lin' after an RBF score: that pooling's networks hold no Gaussian unit "
+        "and a linear tail on every seed, so they are the linear model's pipeline and the "
+        "score is the linear row's (no evidence for the network); a row with all three is "
+        "marked '(= linear)'.",
         "",
-        "| physics | lot | model | runs | " + " | ".join(methods) + " | partial/best | verdict |",
-        "|" + "---|" * (len(methods) + 6),
+        "| physics | lot | model | runs | "
+        + " | ".join(methods)
+        + " | Gaussian units | partial/best | verdict |",
+        "|" + "---|" * (len(methods) + 7),
     ]
     for (physics, lot, model, k), cell in summary.items():
         floor = cell["floor"]
-        cells = [f"{cell[m]:.3g} ({cell[m] / floor:.2f})" if m in cell else "-" for m in methods]
+        cells = [
+            f"{cell[m]:.3g} ({cell[m] / floor:.2f}){' =lin' if m in cell['linear'] else ''}"
+            if m in cell
+            else "-"
+            for m in methods
+        ]
+        units = (
+            " / ".join(str(cell["units"].get(p, "-")) for p in POOLINGS) if cell["units"] else "-"
+        )
         ratio = cell["partial"] / min(cell["none"], cell["full"])
         mark = ("PASS" if ratio <= TOLERANCE else "FAIL") if cell["in_verdict"] else "(info)"
+        if set(POOLINGS) <= set(cell["linear"]):
+            mark += " (= linear)"
         lines.append(
             f"| {physics} | {lot} | {model} | {k} | "
             + " | ".join(cells)
-            + f" | {ratio:.3f} | {mark} |"
+            + f" | {units} | {ratio:.3f} | {mark} |"
         )
-    lines += ["", "## Targets", ""]
-    for check in checks:
-        if check["target"] == 2:
-            status = "REACHED" if check["reached"] else "not reached (reported)"
-        else:
-            status = "PASS" if check["passed"] else "FAIL"
-        lines.append(f"- target {check['target']}: {check['case']}: {check['value']:.3f} {status}")
+    lines += [
+        "",
+        "## Targets",
+        "",
+        "Target 1 (the verdict): partial <= 1.05 x the better of none and full. Target 2 "
+        "(reported): partial calibrated on 1 run a unit against none on 2; reached only on a "
+        "WIN (a TIE, within 2 %, is not reached).",
+        "",
+    ]
+    lines += [f"- {_target_text(check)}" for check in checks]
     failed = [check for check in checks if not check["passed"]]
     lines += ["", f"Verdict: {'FAIL' if failed else 'PASS'} ({len(failed)} failed)."]
     return "\n".join(lines) + "\n"
@@ -268,17 +388,24 @@ def main(argv=None):
     parser.add_argument("--quick", action="store_true", help="one seed, lumped, linear model")
     parser.add_argument("--seeds", type=int, default=3, help="number of seeds (default 3)")
     parser.add_argument(
-        "--first-seed", type=int, default=0, help="seeds first-seed, first-seed + 1, ..."
+        "--first-seed",
+        type=int,
+        default=FIRST_SEED,
+        help=f"seeds first-seed, first-seed + 1, ... (default {FIRST_SEED}: seeds "
+        f"{list(SELECTION_SEEDS)} chose OWN_MODEL_SPREAD and the far-unit rule)",
     )
     parser.add_argument(
         "--jobs", type=int, default=1, help="parallel processes over the cases (default 1)"
     )
     parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
     args = parser.parse_args(argv)
-    seeds = [0] if args.quick else list(range(args.first_seed, args.first_seed + args.seeds))
+    if args.quick:
+        seeds = [FIRST_SEED]
+    else:
+        seeds = list(range(args.first_seed, args.first_seed + args.seeds))
     physics_presets = ("lumped",) if args.quick else ("lumped", "layered_glass")
     command = "python benchmarks/bench_unitwise.py" + (" --quick" if args.quick else "")
-    if not args.quick and (args.seeds, args.first_seed) != (3, 0):
+    if not args.quick and (args.seeds, args.first_seed) != (3, FIRST_SEED):
         command += f" --seeds {args.seeds} --first-seed {args.first_seed}"
     start = time.perf_counter()
     cases = [(physics, lot, seed) for physics in physics_presets for lot in LOTS for seed in seeds]
@@ -312,15 +439,7 @@ def main(argv=None):
     )
     print(text)
     for check in checks:
-        text_line = f"target {check['target']}: {check['case']}: {check['value']:.3f}"
-        if check["target"] == 2:
-            reached = "reached" if check["reached"] else "not reached"
-            print(
-                f"target 2 (reported, not a verdict): {check['case']}: "
-                f"{check['value']:.3f} {reached}"
-            )
-        else:
-            print(target_line(check["passed"], text_line))
+        print(_target_text(check))
     return 1 if any(not check["passed"] for check in checks) else 0
 
 

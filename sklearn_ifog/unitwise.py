@@ -13,9 +13,10 @@ lot's, since its weights pool the lot's calibration. Outside it a unit's predict
 its model's ``outside`` policy, and :meth:`UnitwiseRegressor.predict` says so once per call.
 """
 
+import contextlib
 import copy
 import warnings
-from numbers import Integral
+from numbers import Integral, Number
 from typing import ClassVar
 
 import numpy as np
@@ -69,10 +70,20 @@ LINEAR_OUTPUT = (
 
 # A unit with two runs or more keeps its own model when the evidence puts its spread from
 # the lot, per output-layer column, at OWN_MODEL_SPREAD noise standard deviations or more
-# (n_u lam_u <= 1 / OWN_MODEL_SPREAD²; see the class Notes). Measured in
-# ``benchmarks/unitwise_selection.py`` (rule ``chosen`` against ``evidence_lot_own`` and
-# ``far_own_spread1`` / ``far_own_spread3``): spreads of 1, 2 and 3 all pass on seeds 0-4.
+# (n_u lam_u <= 1 / OWN_MODEL_SPREAD²; see the class Notes). Chosen, with the far-unit rule
+# itself, in ``benchmarks/unitwise_selection.py`` (rule ``chosen`` against
+# ``evidence_lot_own`` and ``far_own_spread1`` / ``far_own_spread3``) on the test runs of
+# the lots of seeds 0-4 (its two seed sets, 0-2 and 3-4): spreads of 1, 2 and 3 all pass
+# there. ``benchmarks/bench_unitwise.py`` scores it on seeds 5-7, which played no part in
+# the choice.
 OWN_MODEL_SPREAD = 2.0
+
+# A unit whose model is fitted on its rows alone (pooling="none", or a unit that keeps its
+# own model) needs at least this many rows, whatever the model: a single row holds no
+# temperature change (its dT and lags follow the first-row rule), so a model fitted on it
+# learns a constant. A final regressor with a linear output layer needs, besides, at least
+# one row per output-layer weight, or its weights are not determined by the unit's rows.
+MIN_UNIT_ROWS = 2
 
 # Units named one by one in the warning of a predict call (a lot can hold hundreds).
 _LISTED_UNITS = 10
@@ -196,6 +207,59 @@ def _label(value):
     return value.item() if isinstance(value, np.generic) else value
 
 
+def _id_kind(value):
+    if isinstance(value, (str, bytes, np.str_, np.bytes_)):
+        return "string"
+    if isinstance(value, (Number, np.number)):
+        return "number"
+    return type(value).__name__
+
+
+def _check_ids(labels, key, param):
+    """``labels`` (unit or run ids), refused with a TypeError unless all numbers or all strings.
+
+    Ids of mixed kinds cannot be sorted (``units_`` is sorted), and an integer ``0`` beside a
+    string ``"0"`` would be two units that print alike: the column is named, with an example
+    of each kind, instead of numpy's comparison error.
+    """
+    if labels.dtype.kind != "O":
+        return labels
+    values = labels.tolist()
+    # distinct ids, first seen first; an unhashable id (e.g. a dict) leaves every row
+    with contextlib.suppress(TypeError):
+        values = dict.fromkeys(values)
+    examples = {}
+    for value in values:
+        examples.setdefault(_id_kind(value), value)
+    if len(examples) > 1 or not examples.keys() <= {"number", "string"}:
+        found = " and ".join(
+            f"{kind}s (e.g. {value!r})" if kind in ("number", "string") else f"{kind} {value!r}"
+            for kind, value in examples.items()
+        )
+        what = "mixes {0} ids of different types" if len(examples) > 1 else "holds {0} ids of type"
+        raise TypeError(
+            f"The {param} column {key!r} of X {what.format(param)}: {found}. Expected "
+            f"{param} ids of one kind, all numbers or all strings (convert the column, e.g. "
+            "with .astype(str))."
+        )
+    return labels
+
+
+def _rows_needed(model):
+    """(rows a unit needs for the fitted ``model`` to be determined by them, why)."""
+    final = _final_step(model)
+    if isinstance(final, (RBFNetRegressor, *LINEAR_OUTPUT)):
+        n_weights = layer_weights(final).shape[0]
+        if not isinstance(final, RBFNetRegressor) and not getattr(final, "fit_intercept", True):
+            n_weights -= 1  # layer_weights carries an intercept row of zeros
+        why = (
+            f"{type(final).__name__} with {n_weights} output-layer weights: one row per "
+            "weight determines them"
+        )
+        return max(MIN_UNIT_ROWS, n_weights), why
+    return MIN_UNIT_ROWS, "one row holds no temperature change"
+
+
 # --------------------------------------------------------------------------------------------
 # The estimator
 # --------------------------------------------------------------------------------------------
@@ -208,7 +272,9 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     removed from X before the estimator sees it) and predicts each row with its unit's
     model. ``pooling`` says how much the units share:
 
-    - ``"none"``: independent models, each on its unit's rows only;
+    - ``"none"``: independent models, each on its unit's rows only (a unit needs at least
+      ``MIN_UNIT_ROWS`` rows, and with a linear output layer one row per weight: a unit
+      with fewer is a ValueError naming it);
     - ``"full"``: one model fitted on the whole lot, used for every unit;
     - ``"partial"``: one model fitted on the whole lot, then each unit's *output layer*
       re-solved on its own rows as a ridge regression towards the lot's weights; the
@@ -324,8 +390,14 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     seed set is above 1.00 times the better of ``"none"`` and ``"full"`` (1.02 with a
     spread of 1, 1.00 with 3: the choice is not a knife edge)
     (``benchmarks/unitwise_selection.py``, rules ``chosen``, ``evidence_lot_own``,
-    ``far_own_spread1`` and ``far_own_spread3``). A single run cannot show the own model's
-    extrapolation error, so a single-run unit always keeps the shrunk weights.
+    ``far_own_spread1`` and ``far_own_spread3``). The rule and its spread were chosen on
+    those seeds (0-4); ``benchmarks/bench_unitwise.py`` scores them on seeds 5-7. The
+    distance is counted in noise standard deviations, not in design: units of one design
+    whose scatter is large against their noise are far from the lot in this sense and keep
+    their own models (``tests/test_unitwise.py`` measures which lots do). A single run
+    cannot show the own model's extrapolation error, so a single-run unit always keeps the
+    shrunk weights, and so does a unit with fewer rows than its own model needs (see
+    ``pooling="none"``).
 
     With the RBF network, whose basis (centres and widths) is learnt, a unit unlike the
     lot, or with enough runs, can be better served by its own network than by any weights
@@ -404,7 +476,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             param="unit",
             hint="UnitwiseRegressor needs the unit of every row; name its column with unit=.",
         )
-        units = _table.label_column(X, self.unit, param="unit")
+        units = _check_ids(_table.label_column(X, self.unit, param="unit"), self.unit, "unit")
         keep = [index for index in range(X.shape[1]) if index != position]
         if not keep:
             raise ValueError(
@@ -416,13 +488,14 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     def _runs(self, X, n_samples):
         if self.run is None:
             return np.zeros(n_samples, dtype=np.int64)
-        return _table.label_column(
+        runs = _table.label_column(
             X,
             self.run,
             param="run",
             hint="pooling='partial' holds out one run at a time; pass run=None to cut each "
             "unit's rows into contiguous blocks instead.",
         )
+        return _check_ids(runs, self.run, "run")
 
     # -- scikit-learn surface -------------------------------------------------------------
 
@@ -445,7 +518,33 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         -------
         self : UnitwiseRegressor
             Fitted.
+
+        Raises
+        ------
+        ValueError
+            If the unit column is missing, if a unit fitted on its rows alone
+            (``pooling="none"``) has fewer rows than its model needs (named, with the
+            count: at least ``MIN_UNIT_ROWS``, and one per weight of a linear output layer),
+            or if a unit's model cannot be fitted (named).
+        TypeError
+            If the unit column (or, for ``"partial"``, the run column) mixes ids of
+            different types, e.g. the string ``"0"`` among integers.
+
+        Notes
+        -----
+        A refused call leaves the estimator as it was: a previously fitted model keeps its
+        fitted attributes.
         """
+        state = dict(vars(self))
+        try:
+            return self._fit(X, y)
+        except BaseException:
+            # nothing of a refused fit is kept: a fitted model stays as it was
+            vars(self).clear()
+            vars(self).update(state)
+            raise
+
+    def _fit(self, X, y):
         if y is None:
             raise ValueError(
                 f"{type(self).__name__} requires y to be passed, but the target y is None."
@@ -474,13 +573,33 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         self._fit_partial(lot, X_inner, y, runs, rows)
         return self
 
-    def _fit_unit(self, unit, X_inner, y, index):
-        try:
-            return clone(self.estimator).fit(
-                _safe_indexing(X_inner, index), _safe_indexing(y, index)
-            )
-        except ValueError as error:
-            raise ValueError(f"unit {unit!r} (column {self.unit!r}): {error}") from error
+    def _fit_unit(self, unit, X_inner, y, index, *, too_few="raise"):
+        """The unit's own model, fitted on its rows alone; a unit it cannot be is named.
+
+        A unit with fewer rows than the model needs is a ValueError, or None with
+        ``too_few="none"``.
+        """
+        needed, why = MIN_UNIT_ROWS, "one row holds no temperature change"
+        model = None
+        if index.size >= needed:
+            try:
+                model = clone(self.estimator).fit(
+                    _safe_indexing(X_inner, index), _safe_indexing(y, index)
+                )
+            except ValueError as error:
+                raise ValueError(f"unit {unit!r} (column {self.unit!r}): {error}") from error
+            needed, why = _rows_needed(model)
+        if index.size >= needed:
+            return model
+        if too_few == "none":
+            return None
+        raise ValueError(
+            f"unit {unit!r} (column {self.unit!r} of X) has {index.size} row"
+            f"{'' if index.size == 1 else 's'}; a model fitted on a unit's rows alone, as "
+            f"pooling={self.pooling!r} does, needs at least {needed} here ({why}). "
+            "Calibrate the unit on more rows, or use pooling='partial', which shrinks the "
+            "lot's model towards the unit's rows."
+        )
 
     def _fit_partial(self, lot, X_inner, y, runs, rows):
         final = _final_step(lot)
@@ -530,16 +649,20 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         }
         for unit, index in rows.items():
             if unit in several and (own or unit in far):
-                self.shrinkage_[unit] = None
-                self.estimators_[unit] = self._fit_unit(unit, X_inner, y, index)
-                continue
+                own_model = self._fit_unit(unit, X_inner, y, index, too_few="none")
+                # a unit too small to determine its own model keeps the shrunk weights
+                if own_model is not None:
+                    self.shrinkage_[unit] = None
+                    self.estimators_[unit] = own_model
+                    continue
             (weights,) = _shrinkage.solve_shrunk(
                 Phi[index], Y[index], prior, scale, [self.shrinkage_[unit]]
             )
             # The shrunk layer keeps the lot model's domain and fallback: it pools the lot's
             # calibration, which covers more than the unit's own runs. With the unit's own
-            # domain (commit 0bba43d), `python benchmarks/bench_unitwise.py --jobs 2` had
-            # "partial" up to 8.6 x the better of "none" and "full" on similar lots.
+            # domain (at commit 0bba43d), `python benchmarks/bench_unitwise.py --jobs 2` (then on
+            # seeds 0-2) had "partial" up to 8.6 x the better of "none" and "full" on similar
+            # lots.
             self.estimators_[unit] = _with_weights(lot, weights)
 
     def _own_wins(self, several, rows, grid):
@@ -569,6 +692,8 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 )
             except ValueError:  # e.g. too few rows for the model: not a candidate
                 return np.inf
+            if np.count_nonzero(~test) < _rows_needed(model)[0]:
+                return np.inf  # not determined by the unit's rows: not a candidate either
             with warnings.catch_warnings():
                 # a held-out run outside the other runs' domain is expected here
                 warnings.simplefilter("ignore", OutsideCalibrationWarning)

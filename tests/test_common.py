@@ -99,8 +99,8 @@ EXPECTED_FAILED_CHECKS = {
             "saying so, not the check's wording."
         ),
         "check_dtype_object": (
-            "Unit ids of mixed types (the check's dicts among strings) cannot be sorted: "
-            "numpy's TypeError, not the check's wording."
+            "Unit ids of mixed types (the check's dict among numbers) are a TypeError "
+            "naming the unit column and the types found, not the check's wording."
         ),
     },
 }

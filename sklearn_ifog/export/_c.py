@@ -1,5 +1,6 @@
 """Export of a fitted compensation Pipeline to self-contained C99 (header + source)."""
 
+import math
 import re
 from pathlib import Path
 
@@ -519,12 +520,13 @@ def _adaptation_parts(writer, spec, prefix, adapt, forgetting, prior, degree):
             "step_drift": step_drift,
         }
     weights = np.asarray(prior["weights"], dtype=np.float64)
-    covariance = np.asarray(prior["covariance"], dtype=np.float64)
+    factor = np.asarray(prior["factor"], dtype=np.float64)
     n_weights = weights.shape[0]
     writer.parameters += [
-        "/* Recalibration (RLS): initial output-layer weights and covariance. */\n"
+        "/* Recalibration (RLS): initial output-layer weights and the factor S0 of the initial\n"
+        " * covariance P0 = S0 S0' (Cholesky). */\n"
         + _array(f"{prefix}_initial_weights", weights, "double", "double"),
-        _array(f"{prefix}_initial_covariance", covariance, "double", "double"),
+        _array(f"{prefix}_initial_factor", factor, "double", "double"),
         f"static int {prefix}_drift(\n"
         f"    const {prefix}_state *state, const double features[{upper}_N_FEATURES],\n"
         f"    double phi_out[{upper}_N_WEIGHTS], {prefix}_real base[{upper}_N_OUTPUTS],\n"
@@ -539,7 +541,8 @@ def _adaptation_parts(writer, spec, prefix, adapt, forgetting, prior, degree):
             prefix=prefix,
             PREFIX=upper,
             lam=lam,
-            trace0=format_c_literal(float(np.trace(covariance))),
+            sqrt_lam=format_c_literal(math.sqrt(forgetting)),
+            trace0=format_c_literal(float(prior["trace"])),
             drift_lines="\n".join(_drift_lines(prefix, adapt, domain)),
             record_domain="" if domain is None else _record_domain(domain, "outside"),
         )
@@ -563,10 +566,10 @@ def _adaptation_parts(writer, spec, prefix, adapt, forgetting, prior, degree):
         ),
         "adapt_fields": (
             '    /* Recalibration (recursive least squares, mode "' + adapt + '"): the output\n'
-            "     * layer's weights and their covariance (over the noise variance), the\n"
-            "     * references used and the covariance resets. */\n"
+            "     * layer's weights, the factor S of their covariance P = S S' (over the\n"
+            "     * noise variance), the references used and the factor's resets. */\n"
             f"    double weights[{upper}_N_WEIGHTS][{upper}_N_OUTPUTS];\n"
-            f"    double covariance[{upper}_N_WEIGHTS][{upper}_N_WEIGHTS];\n"
+            f"    double covariance_factor[{upper}_N_WEIGHTS][{upper}_N_WEIGHTS];\n"
             "    long n_updates;\n"
             "    long n_resets;\n"
         ),
@@ -815,7 +818,7 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
 
     With ``adapt``, the state also carries the online recalibration of
     :class:`~sklearn_ifog.streaming.StreamingCompensator` (same ``adapt`` and
-    ``forgetting``, same initial weights and covariance, same recursive least squares and
+    ``forgetting``, same initial weights and covariance factor, same square-root RLS and
     guards, in fixed-size double arrays): ``{prefix}_adapt(&state, time, temperature, rate,
     reference, drift)`` compensates a sample whose true rate is known and then learns from
     it, ``{prefix}_step`` uses the recalibrated weights, ``{prefix}_reset`` (a new run)
@@ -855,8 +858,8 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
         A C identifier: prefix of every generated name and the files' base name.
     adapt : {None, "bias", "output"}, default=None
         Online recalibration (see :class:`~sklearn_ifog.streaming.StreamingCompensator`);
-        needs ``precision="double"`` (a covariance updated in single precision soon loses
-        its positive definiteness).
+        needs ``precision="double"`` (the initial covariance spans eight orders of
+        magnitude: single precision cannot carry it).
     forgetting : float, default=0.999
         Forgetting factor of the recalibration, in (0, 1].
 
@@ -911,14 +914,14 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
     if adapt is not None and precision != "double":
         raise ValueError(
             f"adapt={adapt!r} needs precision='double', got {precision!r}: the recalibration's "
-            "covariance is updated in double."
+            "covariance factor is updated in double."
         )
     spec = describe_pipeline(pipeline)
     prior, degree = None, None
     if adapt is not None or forgetting != 0.999:
         from sklearn_ifog.streaming import StreamingCompensator
 
-        # The same checks of adapt and forgetting, the same initial weights and covariance.
+        # The same checks of adapt and forgetting, the same initial weights and factor.
         compensator = StreamingCompensator(pipeline, adapt=adapt, forgetting=forgetting)
         prior = compensator._prior
         if compensator.compiled:
@@ -990,8 +993,9 @@ def to_c_units(model, directory, precision="double", prefix="ifog"):
     >>> from sklearn.pipeline import make_pipeline
     >>> from sklearn_ifog import ThermalFeatures, UnitwiseRegressor
     >>> from sklearn_ifog.export import to_c_units
-    >>> X = pd.DataFrame({"unit": ["A-1"] * 6 + ["B-2"] * 6, "time": np.tile(np.arange(6.0), 2)})
-    >>> X["temperature"] = 20 + X["time"] ** 2 / 10
+    >>> time = np.tile(np.arange(30.0), 2)
+    >>> X = pd.DataFrame({"unit": ["A-1"] * 30 + ["B-2"] * 30, "time": time})
+    >>> X["temperature"] = 20 + X["time"] ** 2 / 100
     >>> pipe = make_pipeline(ThermalFeatures(time="time"), LinearRegression())
     >>> model = UnitwiseRegressor(pipe, pooling="none").fit(X, X["temperature"] / 100)
     >>> with tempfile.TemporaryDirectory() as directory:
