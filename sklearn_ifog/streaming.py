@@ -31,7 +31,7 @@ from sklearn_ifog._contract import (
     state_time_constants,
 )
 from sklearn_ifog._lags import LagState, lag_deficit
-from sklearn_ifog._rls import initial_covariance, rls_sequence, rls_step
+from sklearn_ifog._rls import covariance_trace, initial_factor, rls_sequence, rls_step
 from sklearn_ifog.domain import fallback_weight
 from sklearn_ifog.features import (
     ThermalFeatures,
@@ -43,9 +43,10 @@ from sklearn_ifog.features import (
 __all__ = ["StreamingCompensator", "advance_features"]
 
 STATE_SCHEMA = "sklearn-ifog-streaming-state"
-#: 3: the recalibration (``adapt``, ``rls``); 2: the lags' deficits and the last raw
-#: temperature (version 1 held an EMA in samples).
-STATE_VERSION = 3
+#: 4: the recalibration carries the covariance's square-root factor (``covariance_factor``,
+#: version 3 the covariance); 3: the recalibration (``adapt``, ``rls``); 2: the lags' deficits
+#: and the last raw temperature (version 1 held an EMA in samples).
+STATE_VERSION = 4
 
 #: The recalibration modes of ``StreamingCompensator(adapt=...)``.
 ADAPT_MODES = (None, "bias", "output")
@@ -174,9 +175,11 @@ class StreamingCompensator:
     such a sample is ``rate - reference``. Samples without a reference are only compensated
     (and forgetting does not act on them). The initial covariance is diffuse along the bias
     and a common relative change of the thermal weights (what ageing changes) and tight
-    elsewhere (:func:`sklearn_ifog._rls.initial_covariance`). The weights and covariance are
-    part of the state: same whatever the chunking (1e-12), saved and restored with it, and
-    kept by :meth:`reset` (they belong to the gyro, not to the run).
+    elsewhere (:func:`sklearn_ifog._rls.initial_covariance`); it is carried as a square-root
+    factor (``P = S Sᵀ``, Potter's update: the covariance form loses digits to rounding on
+    such a prior, :mod:`sklearn_ifog._rls`). The weights and the factor are part of the state:
+    same whatever the chunking (1e-12), saved and restored with it, and kept by
+    :meth:`reset` (they belong to the gyro, not to the run).
 
     Runs: the compensator follows one run at a time. With a ``run`` column in the
     ThermalFeatures, a change of run id — between chunks or inside a chunk — starts a new run
@@ -447,8 +450,8 @@ class StreamingCompensator:
                 )
             weights = self._compiled.final.weights.copy()
             bias_index = self._compiled.final.bias_index
-        covariance = initial_covariance(weights, bias_index=bias_index)
-        return {"weights": weights, "covariance": covariance, "trace": float(np.trace(covariance))}
+        factor = initial_factor(weights, bias_index=bias_index)
+        return {"weights": weights, "factor": factor, "trace": covariance_trace(factor)}
 
     @property
     def last_outside(self):
@@ -488,7 +491,7 @@ class StreamingCompensator:
             if self._prior is not None:
                 rls = {
                     "weights": self._prior["weights"].copy(),
-                    "covariance": self._prior["covariance"].copy(),
+                    "covariance_factor": self._prior["factor"].copy(),
                     "n_updates": 0,
                     "n_resets": 0,
                 }
@@ -531,9 +534,10 @@ class StreamingCompensator:
             temperature per sensor), ``last_time``, ``deficit`` (per sensor, per time
             constant: ``T - lag_tau(T)`` after the last sample; None without lags),
             ``finished_runs``, ``adapt`` and ``rls`` (None without ``adapt``; else
-            ``weights``, ``(n_weights, n_outputs)`` nested lists, ``covariance``,
-            ``(n_weights, n_weights)``, ``n_updates`` the references used (those of samples
-            inside the calibration domain) and ``n_resets`` the covariance resets).
+            ``weights``, ``(n_weights, n_outputs)`` nested lists, ``covariance_factor``,
+            ``(n_weights, n_weights)``, the factor ``S`` of the covariance ``P = S Sᵀ``,
+            ``n_updates`` the references used (those of samples inside the calibration
+            domain) and ``n_resets`` the factor's resets).
         """
         state = {key: value for key, value in self.state.items() if key != "rls"}
         state = copy.deepcopy(state)
@@ -542,7 +546,7 @@ class StreamingCompensator:
         if rls is not None:
             state["rls"] = {
                 "weights": rls["weights"].tolist(),
-                "covariance": rls["covariance"].tolist(),
+                "covariance_factor": rls["covariance_factor"].tolist(),
                 "n_updates": int(rls["n_updates"]),
                 "n_resets": int(rls["n_resets"]),
             }
@@ -578,25 +582,54 @@ class StreamingCompensator:
             raise ValueError(
                 f"state is for {state['n_sensors']} sensor(s); this model has {self.n_sensors}."
             )
-        if list(state["time_constants"]) != self._time_constants:
+        time_constants = state["time_constants"]
+        if not isinstance(time_constants, (list, tuple)) or list(time_constants) != (
+            self._time_constants
+        ):
             raise ValueError(
-                f"state carries lags at time constants {state['time_constants']} s; this "
+                f"state carries lags at time constants {time_constants} s; this "
                 f"model's are {self._time_constants} s (lag terms and smoothing)."
             )
-        if state["has_history"]:
-            temperature = state["temperature"]
-            if temperature is None or len(temperature) != self.n_sensors:
-                raise ValueError(f"state['temperature'] must hold {self.n_sensors} value(s).")
-            if self._features["time"] is not None and state["last_time"] is None:
-                raise ValueError("state['last_time'] is missing: the model uses time.")
-            expected = (self.n_sensors, len(self._time_constants))
-            if self._time_constants and np.shape(state["deficit"]) != expected:
+        if not isinstance(state["finished_runs"], (list, tuple)):
+            raise ValueError(
+                "state['finished_runs'] must be a list of run ids, got "
+                f"{type(state['finished_runs']).__name__}."
+            )
+        history = state["has_history"]
+        if not isinstance(history, (bool, np.bool_)):
+            raise ValueError(f"state['has_history'] must be True or False, got {history!r}.")
+        uses_lags = bool(self._time_constants)
+        if history:
+            _state_numbers(state["temperature"], "state['temperature']", (self.n_sensors,))
+            if self._features["time"] is not None:
+                if state["last_time"] is None:
+                    raise ValueError("state['last_time'] is missing: the model uses time.")
+                _state_numbers(state["last_time"], "state['last_time']", ())
+            elif state["last_time"] is not None:
                 raise ValueError(
-                    f"state['deficit'] must have shape {expected} (sensors, time constants), "
-                    f"got {np.shape(state['deficit'])}."
+                    "state['last_time'] must be None: the model has no time column, got "
+                    f"{state['last_time']!r}."
                 )
+            if uses_lags:
+                shape = (self.n_sensors, len(self._time_constants))
+                _state_numbers(
+                    state["deficit"], "state['deficit']", shape, "(sensors, time constants)"
+                )
+            elif state["deficit"] is not None:
+                raise ValueError(
+                    "state['deficit'] must be None: the model carries no lags, got "
+                    f"{state['deficit']!r}."
+                )
+        else:
+            for key in ("temperature", "last_time", "deficit"):
+                if state[key] is not None:
+                    raise ValueError(
+                        f"state[{key!r}] must be None before a run's first row "
+                        f"(has_history=False), got {state[key]!r}."
+                    )
         rls = self._check_rls_state(state)
         restored = copy.deepcopy({key: value for key, value in state.items() if key != "rls"})
+        restored["has_history"] = bool(history)
         restored["rls"] = rls
         self.state = restored
         self._refresh_fast()
@@ -613,27 +646,31 @@ class StreamingCompensator:
             if rls is not None:
                 raise ValueError("state['rls'] must be None: this compensator does not adapt.")
             return None
-        keys = {"weights", "covariance", "n_updates", "n_resets"}
+        keys = {"weights", "covariance_factor", "n_updates", "n_resets"}
         if not isinstance(rls, dict) or set(rls) != keys:
-            raise ValueError(f"state['rls'] must be a dict with keys {sorted(keys)}.")
+            got = sorted(rls) if isinstance(rls, dict) else type(rls).__name__
+            raise ValueError(f"state['rls'] must be a dict with keys {sorted(keys)}, got {got}.")
         shape = self._prior["weights"].shape
-        weights = np.array(rls["weights"], dtype=np.float64)
-        covariance = np.array(rls["covariance"], dtype=np.float64)
-        if weights.shape != shape or covariance.shape != (shape[0], shape[0]):
-            raise ValueError(
-                f"state['rls'] must hold weights of shape {shape} and a covariance of shape "
-                f"{(shape[0], shape[0])}, got {weights.shape} and {covariance.shape}."
-            )
-        if not (np.all(np.isfinite(weights)) and np.all(np.isfinite(covariance))):
-            raise ValueError("state['rls'] holds NaN or inf.")
-        if not np.array_equal(covariance, covariance.T):
-            raise ValueError("state['rls']['covariance'] must be symmetric.")
-        return {
-            "weights": weights,
-            "covariance": covariance,
-            "n_updates": int(rls["n_updates"]),
-            "n_resets": int(rls["n_resets"]),
-        }
+        weights = _state_numbers(rls["weights"], "state['rls']['weights']", shape)
+        factor = _state_numbers(
+            rls["covariance_factor"],
+            "state['rls']['covariance_factor']",
+            (shape[0], shape[0]),
+            "(weights, weights)",
+        )
+        counts = {}
+        for key in ("n_updates", "n_resets"):
+            value = rls[key]
+            if (
+                isinstance(value, (bool, np.bool_))
+                or not isinstance(value, numbers.Integral)
+                or value < 0
+            ):
+                raise ValueError(
+                    f"state['rls'][{key!r}] must be a count (an integer >= 0), got {value!r}."
+                )
+            counts[key] = int(value)
+        return {"weights": weights, "covariance_factor": factor, **counts}
 
     # -- one sample ------------------------------------------------------------------------
 
@@ -689,6 +726,8 @@ class StreamingCompensator:
         if self._uses_time:
             if time is None:
                 raise ValueError(f"The model needs the time column {self._features['time']!r}.")
+            if not _is_number(time):
+                raise ValueError(f"time must be a number (s), got {_describe(time)}.")
             time = float(time)
             if not math.isfinite(time):
                 _table.check_finite(np.array([time]), "time")
@@ -721,18 +760,18 @@ class StreamingCompensator:
             else:
                 phi = self._compiled.design(np.array([row]))[0]
                 target = rates - references
-            weights, covariance, resets = rls_step(
+            weights, factor, resets = rls_step(
                 rls["weights"],
-                rls["covariance"],
+                rls["covariance_factor"],
                 phi,
                 np.atleast_1d(np.asarray(target, dtype=np.float64)),
                 self.forgetting,
-                self._prior["covariance"],
+                self._prior["factor"],
                 self._prior["trace"],
             )
             rls = {
                 "weights": weights,
-                "covariance": covariance,
+                "covariance_factor": factor,
                 "n_updates": rls["n_updates"] + 1,
                 "n_resets": rls["n_resets"] + resets,
             }
@@ -783,12 +822,12 @@ class StreamingCompensator:
 
     def _row_values(self, values, label):
         """The sample's values, finite: a float for one output, else shape (n_outputs,)."""
-        if self._single_output and isinstance(values, (float, int, numbers.Real)):
+        if self._single_output and (type(values) is float or _is_number(values)):
             values = float(values)
             if not math.isfinite(values):
                 _table.check_finite(np.array([values]), label)
             return values
-        values = np.asarray(values, dtype=np.float64).reshape(-1)
+        values = _number_array(values, label, "deg/h").reshape(-1)
         if values.shape[0] != self.n_outputs:
             raise ValueError(
                 f"{label} has {values.shape[0]} value(s) per sample; the model predicts "
@@ -823,13 +862,17 @@ class StreamingCompensator:
         return row, feature_state
 
     def _step_slow(self, time, temperature, rate, run, reference):
-        temperature = np.asarray(temperature, dtype=np.float64).reshape(1, -1)
-        times = None if time is None else np.array([time], dtype=np.float64)
+        temperature = _number_array(temperature, "temperature", "deg C").reshape(1, -1)
+        times = None
+        if self._uses_time and time is not None:
+            if not _is_number(time):
+                raise ValueError(f"time must be a number (s), got {_describe(time)}.")
+            times = np.array([time], dtype=np.float64)
         runs = None if run is None else [run]
-        rates = None if rate is None else np.asarray(rate, dtype=np.float64)[None]
+        rates = None if rate is None else _number_array(rate, "rate", "deg/h")[None]
         references = None
         if reference is not None:
-            references = _reference_values(np.asarray(reference, dtype=np.float64)[None])
+            references = _reference_values(_number_array(reference, "reference", "deg/h")[None])
         compensated, drift = self._advance(temperature, times, runs, rates, references)
         if self._single_output:
             return (None if compensated is None else float(compensated[0])), float(drift[0])
@@ -864,6 +907,12 @@ class StreamingCompensator:
             :attr:`last_outside` and :attr:`last_distance` for a pipeline with a domain;
             never warns.
         """
+        n_rows = np.shape(X)[0] if hasattr(X, "shape") else len(X)
+        if n_rows == 0:
+            raise ValueError(
+                "X has 0 rows: update needs at least one row (one sample) per call; "
+                "skip the call when a chunk is empty."
+            )
         # The batch transformer's own validation and column reading: same columns, same
         # errors as ``pipeline.predict``.
         thermal = self._thermal
@@ -874,7 +923,7 @@ class StreamingCompensator:
         temperature, time, run, _ = _table.read_thermal_columns(
             X, temperature=spec["temperature"], time=spec["time"], run=thermal.run
         )
-        rates = None if rate is None else np.asarray(rate, dtype=np.float64)
+        rates = None if rate is None else _number_array(rate, "rate", "deg/h")
         references = None if reference is None else _reference_values(reference)
         return self._advance(temperature, time, run, rates, references)
 
@@ -982,14 +1031,14 @@ class StreamingCompensator:
             # A reference outside the domain teaches nothing: the features there were never
             # calibrated, and the policy, not the output layer, answers for them.
             learns = has_reference if outside is None else has_reference & ~outside
-            prediction, weights, covariance, resets = rls_sequence(
+            prediction, weights, factor, resets = rls_sequence(
                 rls["weights"],
-                rls["covariance"],
+                rls["covariance_factor"],
                 design,
                 target,
                 learns,
                 self.forgetting,
-                self._prior["covariance"],
+                self._prior["factor"],
             )
             if self.adapt == "output":
                 drift = prediction
@@ -999,7 +1048,7 @@ class StreamingCompensator:
                 drift = base + prediction
             rls = {
                 "weights": weights,
-                "covariance": covariance,
+                "covariance_factor": factor,
                 "n_updates": rls["n_updates"] + int(learns.sum()),
                 "n_resets": rls["n_resets"] + resets,
             }
@@ -1189,29 +1238,102 @@ def _row_function(n_sensors, terms, time_constants, smoothing, seconds_per_unit,
     return namespace["row"]
 
 
+def _is_number(value):
+    """A real number that is not a bool (True is not a rate)."""
+    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+
+
+def _describe(value):
+    """``value`` for an error message: a string as the string, anything else by its type."""
+    if isinstance(value, (str, bytes)):
+        return f"the string {value!r}"
+    if isinstance(value, (bool, np.bool_)):
+        return f"the boolean {value!r}"
+    return f"{value!r} ({type(value).__name__})"
+
+
+def _number_array(values, label, unit, *, allow_none=False):
+    """``values`` (a number, a sequence or an array) as float64, refusing what is not a number.
+
+    Strings (even ``"1.0"``), booleans and other objects raise a ``ValueError`` naming
+    ``label``, what was expected and the first bad entry: numpy would convert a numeric
+    string, and a boolean mask passed for the values would be read as 0 and 1. With
+    ``allow_none``, None entries are kept (an object array), for the caller to mark.
+    """
+    expected = f"{label} must hold numbers ({unit})"
+    if isinstance(values, (str, bytes, bool, np.bool_)):
+        raise ValueError(f"{expected}, got {_describe(values)}.")
+    raw = values.to_numpy() if hasattr(values, "to_numpy") else values
+    try:
+        array = np.asarray(raw)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{expected}, got an array numpy cannot read ({exc}).") from None
+    kind = array.dtype.kind
+    if kind in "iuf":
+        return array.astype(np.float64, copy=False)
+    if kind == "O":
+        flat = array.reshape(-1)
+        for index, value in enumerate(flat.tolist()):
+            if not (_is_number(value) or (allow_none and value is None)):
+                row = np.unravel_index(index, array.shape)[0] if array.ndim else 0
+                raise ValueError(f"{expected}, got {_describe(value)} at row {row}.")
+        if allow_none:
+            return array
+        return array.astype(np.float64)
+    what = {"U": "strings", "S": "bytes", "b": "booleans", "c": "complex numbers"}.get(
+        kind, f"values of dtype {array.dtype}"
+    )
+    first = array.reshape(-1)[0].item() if array.size else None
+    example = "" if first is None else f" (first: {first!r})"
+    raise ValueError(f"{expected}, got {what}{example}.")
+
+
+def _state_numbers(value, label, shape, axes=""):
+    """A state entry as a finite float64 array of ``shape``; else a ``ValueError`` naming it."""
+    try:
+        array = None if value is None else np.asarray(value)
+    except (TypeError, ValueError):
+        array = None
+    numeric = array is not None and array.dtype.kind in "iuf"
+    if not numeric or array.shape != shape:
+        got = value if not numeric else f"shape {array.shape}"
+        if len(shape) == 0:
+            raise ValueError(f"{label} must be a number, got {got!r}.")
+        if len(shape) == 1:
+            raise ValueError(f"{label} must hold {shape[0]} value(s) (numbers), got {got}.")
+        axes = f" {axes}" if axes else ""
+        raise ValueError(f"{label} must have shape {shape}{axes} of numbers, got {got}.")
+    array = array.astype(np.float64)
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{label} holds NaN or inf.")
+    return array
+
+
 def _floats(values):
-    """A sensor reading (float or sequence) as a list of Python floats."""
-    if isinstance(values, numbers.Real):
+    """A sensor reading (a number or a sequence of numbers) as a list of Python floats."""
+    if _is_number(values):
         return [float(values)]
-    return [float(value) for value in np.asarray(values, dtype=np.float64).reshape(-1)]
+    return _number_array(values, "temperature", "deg C").reshape(-1).tolist()
 
 
 def _reference_values(reference):
-    """``(values, known)`` of a reference column: None or masked entries are unknown."""
+    """``(values, known)`` of a reference column: None or masked entries are unknown.
+
+    Every known entry must be a number (not a string, even ``"1.0"``, nor a boolean): a
+    ``ValueError`` naming ``reference`` otherwise.
+    """
     if isinstance(reference, np.ma.MaskedArray):
         known = ~np.ma.getmaskarray(reference)
-        values = np.asarray(reference.filled(0.0), dtype=np.float64)
+        data = _number_array(np.ma.getdata(reference), "reference", "deg/h")
+        values = np.where(known, data, 0.0)
     else:
-        raw = np.asarray(
-            reference.to_numpy() if hasattr(reference, "to_numpy") else reference, dtype=object
-        )
-        known = np.vectorize(lambda value: value is not None, otypes=[bool])(raw)
-        if raw.size and not known.all():
-            raw = np.where(known, raw, 0.0)
-        try:
-            values = raw.astype(np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"reference must hold numbers or None, got {exc}.") from None
+        raw = _number_array(reference, "reference", "deg/h", allow_none=True)
+        if raw.dtype == object:
+            known = np.vectorize(lambda value: value is not None, otypes=[bool])(raw)
+            values = np.where(known, raw, 0.0).astype(np.float64)
+        else:
+            known = np.ones(raw.shape, dtype=bool)
+            values = raw
     bad = known & ~np.isfinite(values)
     if bad.any():
         _table.check_finite(np.where(known, values, 0.0), "reference")

@@ -6,6 +6,7 @@ import re
 import subprocess
 import sys
 import time
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -20,6 +21,7 @@ from sklearn_ifog import (
 from sklearn_ifog.cli import main
 from sklearn_ifog.cli._progress import Progress
 from sklearn_ifog.datasets import make_thermal_campaign
+from sklearn_ifog.domain import OutsideCalibrationWarning
 from sklearn_ifog.metrics import mean_squared_deviation
 from sklearn_ifog.persistence import load_model, save_model
 
@@ -598,6 +600,16 @@ def test_fit_and_compensate_with_interval(campaign_csv, fitted_model, tmp_path, 
     table = _read(out)
     assert {"drift_lower", "drift_upper"} <= set(table.columns)
     assert (table["drift_lower"] < table["drift_upper"]).all()
+    # The written bounds are the model's own band on the same rows (read back from the CSV,
+    # where floats keep round-trip precision), and the drift its point prediction.
+    frame = _read(campaign_csv)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OutsideCalibrationWarning)
+        band = model.predict_interval(frame[INPUT_COLUMNS], coverage=0.9)
+        drift = model.predict(frame[INPUT_COLUMNS])
+    np.testing.assert_allclose(table["drift_lower"], band[:, 0], rtol=1e-15, atol=0)
+    np.testing.assert_allclose(table["drift_upper"], band[:, 1], rtol=1e-15, atol=0)
+    np.testing.assert_allclose(table["drift"], drift, rtol=1e-15, atol=0)
     wider = tmp_path / "wider.csv"
     assert (
         main(
@@ -614,10 +626,15 @@ def test_fit_and_compensate_with_interval(campaign_csv, fitted_model, tmp_path, 
         == 0
     )
     wide = _read(wider)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OutsideCalibrationWarning)
+        wide_band = model.predict_interval(frame[INPUT_COLUMNS], coverage=0.99)
+    np.testing.assert_allclose(wide[["drift_lower", "drift_upper"]], wide_band, rtol=1e-15, atol=0)
     assert (
         (wide["drift_upper"] - wide["drift_lower"])
         >= (table["drift_upper"] - table["drift_lower"]) - 1e-12
     ).all()
+    assert ((wide["drift_upper"] - wide["drift_lower"]) > (band[:, 1] - band[:, 0])).any()
     report = tmp_path / "report"
     assert main(["report", str(model_path), str(campaign_csv), "--out", str(report)]) == 0
     assert "coverage" in (report / "report.md").read_text()

@@ -43,6 +43,9 @@ POLICIES = ["blend", "clip", "none"]
 # an absolute term: the excess beyond the box is a difference of coordinates near the box's
 # edge.
 RTOL = 1e-12
+# The recalibrated drift: C and Python run the same square-root recursion in other summation
+# orders, and a recursion carries rounding from one reference to the next (test_export.py).
+ADAPT_RTOL = 1e-11
 
 # Reads rows (run-start flag, time, has-reference flag, rates..., references...,
 # temperatures..., Python's features...); steps every sample (adapt on those with a
@@ -567,7 +570,7 @@ def test_c_recalibration_inside_the_domain_matches_python(name, adapt, calibrati
     )
     assert not c["outside"].any()  # the calibration lies inside its own domain
     drift, compensator = _stream(model, calibration, adapt, has)
-    _assert_close(c["streamed"], drift, 1e-9)
+    _assert_close(c["streamed"], drift, ADAPT_RTOL)
     state = compensator.get_state()["rls"]
     assert [c["n_updates"], c["n_resets"]] == [state["n_updates"], state["n_resets"]]
     assert c["n_updates"] == has.sum()
@@ -594,7 +597,7 @@ def test_c_recalibration_outside_the_domain_matches_python(
     np.testing.assert_array_equal(c["outside"], flag)
     assert c["n_updates"] == (has & ~flag).sum() < has.sum()
     drift, compensator = _stream(model, excursion, adapt, has)
-    _assert_close(c["streamed"], drift, 1e-9)
+    _assert_close(c["streamed"], drift, ADAPT_RTOL)
     np.testing.assert_array_equal(compensator.last_outside, flag)
     assert compensator.get_state()["rls"]["n_updates"] == c["n_updates"]
 

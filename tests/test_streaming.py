@@ -446,8 +446,9 @@ def test_streaming_with_passthrough_steps_equals_batch(campaign):
 @pytest.mark.parametrize(
     ("change", "message"),
     [
-        ({"schema": "other-schema"}, r"schema 'other-schema' version 3; expected"),
-        ({"version": 1}, r"version 1; expected 'sklearn-ifog-streaming-state' version 3"),
+        ({"schema": "other-schema"}, r"schema 'other-schema' version 4; expected"),
+        ({"version": 3}, r"version 3; expected 'sklearn-ifog-streaming-state' version 4"),
+        ({"version": 1}, r"version 1; expected 'sklearn-ifog-streaming-state' version 4"),
     ],
 )
 def test_set_state_refuses_wrong_schema_or_version(models, change, message):
@@ -490,6 +491,48 @@ def test_set_state_refuses_a_missing_time_when_the_model_uses_time(models, campa
         compensator.set_state(state)
 
 
+def test_set_state_refuses_entries_of_the_wrong_type_or_shape(models, campaign):
+    """Every entry of a state is checked before anything is restored (issue "Honest
+    measurement, part two", point 10): the refused state changes nothing."""
+    compensator = StreamingCompensator(models["lags"])
+    compensator.update(_one_run(campaign, 5))
+    state = compensator.get_state()
+    deficit = json.loads(json.dumps(state["deficit"]))
+    deficit[0][1] = float("inf")
+    refused = [
+        ({"has_history": "yes"}, r"state\['has_history'\] must be True or False, got 'yes'"),
+        ({"temperature": ["20.5"]}, r"state\['temperature'\] must hold 1 value\(s\)"),
+        ({"temperature": [float("nan")]}, r"state\['temperature'\] holds NaN or inf"),
+        ({"last_time": "40"}, r"state\['last_time'\] must be a number, got '40'"),
+        ({"deficit": deficit}, r"state\['deficit'\] holds NaN or inf"),
+        ({"deficit": None}, r"state\['deficit'\] must have shape \(1, 3\)"),
+        ({"time_constants": None}, r"time constants None s; this model's are"),
+        ({"finished_runs": None}, r"state\['finished_runs'\] must be a list of run ids"),
+        (
+            {"has_history": False},
+            r"state\['temperature'\] must be None before a run's first row",
+        ),
+    ]
+    for change, message in refused:
+        with pytest.raises(ValueError, match=message):
+            compensator.set_state({**state, **change})
+        assert compensator.get_state() == state, message
+    # Without lags, a deficit is refused; without a time column, a last time.
+    plain = make_pipeline(
+        ThermalFeatures(temperature="temperature", run="run", terms=("T", "dT")),
+        StandardScaler(),
+        Ridge(alpha=1e-3),
+    ).fit(campaign, campaign["drift"])
+    other = StreamingCompensator(plain)
+    other.update(_one_run(campaign, 5))
+    kept = other.get_state()
+    with pytest.raises(ValueError, match=r"state\['deficit'\] must be None: the model carries"):
+        other.set_state({**kept, "deficit": [[0.0]]})
+    with pytest.raises(ValueError, match=r"state\['last_time'\] must be None: the model has"):
+        other.set_state({**kept, "last_time": 40.0})
+    assert other.get_state() == kept
+
+
 def test_set_state_refuses_an_old_version_and_other_lags(models, campaign):
     compensator = StreamingCompensator(models["lags"])
     compensator.update(_one_run(campaign, 5))
@@ -497,7 +540,7 @@ def test_set_state_refuses_an_old_version_and_other_lags(models, campaign):
     assert state["time_constants"] == [300.0, 600.0, 3600.0]
     old = {key: state[key] for key in ("schema", "n_sensors", "run", "has_history")}
     old.update(version=1, smoothed=[20.0], last_time=40.0, finished_runs=[])
-    with pytest.raises(ValueError, match=r"version 1; expected .* version 3"):
+    with pytest.raises(ValueError, match=r"version 1; expected .* version 4"):
         compensator.set_state(old)
     with pytest.raises(ValueError, match=r"time constants \[300\.0, 600\.0\]"):
         compensator.set_state({**state, "time_constants": [300.0, 600.0]})

@@ -392,7 +392,8 @@ $unused}
 )
 
 # The online recalibration's functions (``adapt``), at the end of the source. ``$lam``: the
-# forgetting factor; ``$trace0``: the initial covariance's trace; ``$drift_lines``: the body
+# forgetting factor, ``$sqrt_lam`` its square root; ``$trace0``: the initial covariance's
+# trace (the sum of the squares of the initial factor); ``$drift_lines``: the body
 # of ``${prefix}_drift``; ``$record_domain``: how ``${prefix}_adapt`` records the sample's
 # distance and flag in the state.
 ADAPT_FUNCTIONS = Template(
@@ -422,47 +423,66 @@ void ${prefix}_reset_adaptation(${prefix}_state *state)
             state->weights[i][j] = ${prefix}_initial_weights[i][j];
         }
         for (j = 0; j < ${PREFIX}_N_WEIGHTS; ++j) {
-            state->covariance[i][j] = ${prefix}_initial_covariance[i][j];
+            state->covariance_factor[i][j] = ${prefix}_initial_factor[i][j];
         }
     }
     state->n_updates = 0;
     state->n_resets = 0;
 }
 
-/* One recursive-least-squares update with forgetting (see ${prefix}.h). */
+/* f = S' phi and its squared norm (the factor S of the covariance P = S S'). */
+static double ${prefix}_rls_project(
+    const ${prefix}_state *state, const double phi[${PREFIX}_N_WEIGHTS],
+    double f[${PREFIX}_N_WEIGHTS])
+{
+    double norm2 = 0.0;
+    int i;
+    int j;
+    for (j = 0; j < ${PREFIX}_N_WEIGHTS; ++j) {
+        double total = 0.0;
+        for (i = 0; i < ${PREFIX}_N_WEIGHTS; ++i) {
+            total += state->covariance_factor[i][j] * phi[i];
+        }
+        f[j] = total;
+        norm2 += total * total;
+    }
+    return norm2;
+}
+
+/* One recursive-least-squares update with forgetting, in Potter's square-root form (see
+ * ${prefix}.h): the covariance is carried as its factor S (P = S S'), which keeps the
+ * digits the covariance form loses on the initial covariance's 1e8 condition number. */
 static void ${prefix}_rls(
     ${prefix}_state *state, const double phi[${PREFIX}_N_WEIGHTS],
     const double target[${PREFIX}_N_OUTPUTS])
 {
+    double f[${PREFIX}_N_WEIGHTS];
     double p_phi[${PREFIX}_N_WEIGHTS];
-    double gain[${PREFIX}_N_WEIGHTS];
     double error[${PREFIX}_N_OUTPUTS];
-    double quadratic = 0.0;
+    double quadratic;
+    double s;
+    double beta;
     double trace = 0.0;
-    int positive = 1;
     int i;
     int j;
+    quadratic = ${prefix}_rls_project(state, phi, f);
+    if (!isfinite(quadratic)) {
+        /* The factor overflows against this row: back to the initial factor. */
+        for (i = 0; i < ${PREFIX}_N_WEIGHTS; ++i) {
+            for (j = 0; j < ${PREFIX}_N_WEIGHTS; ++j) {
+                state->covariance_factor[i][j] = ${prefix}_initial_factor[i][j];
+            }
+        }
+        quadratic = ${prefix}_rls_project(state, phi, f);
+        state->n_resets += 1;
+    }
+    s = $lam + quadratic;
     for (i = 0; i < ${PREFIX}_N_WEIGHTS; ++i) {
         double total = 0.0;
         for (j = 0; j < ${PREFIX}_N_WEIGHTS; ++j) {
-            total += state->covariance[i][j] * phi[j];
+            total += state->covariance_factor[i][j] * f[j];
         }
         p_phi[i] = total;
-        quadratic += phi[i] * total;
-    }
-    if (!isfinite(quadratic) || quadratic < 0.0) {
-        /* Not positive definite: back to the initial covariance. */
-        quadratic = 0.0;
-        for (i = 0; i < ${PREFIX}_N_WEIGHTS; ++i) {
-            double total = 0.0;
-            for (j = 0; j < ${PREFIX}_N_WEIGHTS; ++j) {
-                state->covariance[i][j] = ${prefix}_initial_covariance[i][j];
-                total += state->covariance[i][j] * phi[j];
-            }
-            p_phi[i] = total;
-            quadratic += phi[i] * total;
-        }
-        state->n_resets += 1;
     }
     for (j = 0; j < ${PREFIX}_N_OUTPUTS; ++j) {
         double total = 0.0;
@@ -472,39 +492,34 @@ static void ${prefix}_rls(
         error[j] = target[j] - total;
     }
     for (i = 0; i < ${PREFIX}_N_WEIGHTS; ++i) {
-        gain[i] = p_phi[i] / ($lam + quadratic);
+        const double gain = p_phi[i] / s;
         for (j = 0; j < ${PREFIX}_N_OUTPUTS; ++j) {
-            state->weights[i][j] += gain[i] * error[j];
+            state->weights[i][j] += gain * error[j];
         }
     }
+    /* 1 / (s + sqrt(lam s)) = (1 - sqrt(lam / s)) / (f'f), without the cancellation. */
+    beta = 1.0 / (s + sqrt($lam * s));
     for (i = 0; i < ${PREFIX}_N_WEIGHTS; ++i) {
+        const double scaled = beta * p_phi[i];
         for (j = 0; j < ${PREFIX}_N_WEIGHTS; ++j) {
-            state->covariance[i][j] = (state->covariance[i][j] - gain[i] * p_phi[j]) / $lam;
+            const double value = (state->covariance_factor[i][j] - scaled * f[j]) / $sqrt_lam;
+            state->covariance_factor[i][j] = value;
+            trace += value * value;
         }
     }
-    for (i = 0; i < ${PREFIX}_N_WEIGHTS; ++i) {
-        for (j = i + 1; j < ${PREFIX}_N_WEIGHTS; ++j) {
-            const double mean = 0.5 * (state->covariance[i][j] + state->covariance[j][i]);
-            state->covariance[i][j] = mean;
-            state->covariance[j][i] = mean;
-        }
-        if (!(state->covariance[i][i] > 0.0) || !isfinite(state->covariance[i][i])) {
-            positive = 0;
-        }
-        trace += state->covariance[i][i];
-    }
-    if (!positive) {
+    if (!isfinite(trace)) {
         for (i = 0; i < ${PREFIX}_N_WEIGHTS; ++i) {
             for (j = 0; j < ${PREFIX}_N_WEIGHTS; ++j) {
-                state->covariance[i][j] = ${prefix}_initial_covariance[i][j];
+                state->covariance_factor[i][j] = ${prefix}_initial_factor[i][j];
             }
         }
         state->n_resets += 1;
     } else if (trace > $trace0) {
-        const double shrink = $trace0 / trace;
+        /* The trace of P is the sum of the squares of S: the wind-up bound. */
+        const double shrink = sqrt($trace0 / trace);
         for (i = 0; i < ${PREFIX}_N_WEIGHTS; ++i) {
             for (j = 0; j < ${PREFIX}_N_WEIGHTS; ++j) {
-                state->covariance[i][j] *= shrink;
+                state->covariance_factor[i][j] *= shrink;
             }
         }
     }
