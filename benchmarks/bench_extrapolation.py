@@ -57,6 +57,10 @@ The width was first chosen as 10 on seeds 0-2, where it met the new-rates target
 case; seed 3 then showed it keeping a network 11-18 x worse than the line (``--tune``) (a glass
 transition seen heating only), so safety decided for the narrowest width of the sweep.
 
+Also printed (not a target): the fallback's evidence, per case, against what the line in T
+does outside the calibrated temperatures, and how a threshold on that evidence would fare
+(:func:`evidence_markdown`): whether the calibration can tell when a slope extrapolates.
+
 Run (about 5 min on two cores)::
 
     python benchmarks/bench_extrapolation.py --n-jobs 2
@@ -81,7 +85,7 @@ from sklearn.preprocessing import PolynomialFeatures
 from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
 from sklearn_ifog._io import write_text_files
 from sklearn_ifog.datasets import load_psim_tvc, make_thermal_campaign, noise_floor
-from sklearn_ifog.domain import fallback_weight
+from sklearn_ifog.domain import extremes_held_out, fallback_weight
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _verdict import exit_code, target_line
@@ -95,6 +99,9 @@ REAL_AXES = ("gyro_x", "gyro_y", "gyro_z")
 SWEEP_WIDTHS = (1.0, 3.0, 10.0, 30.0)
 SHARED_RAMP_RATE = 1.0  # degC/min, every run of the shared-profile case
 SWEEP_MARGINS = (0.1, 0.5, 1.0, 1.5, 2.0)
+# Thresholds on the fallback's evidence (the line's squared error over the constant's at the
+# worse calibrated extreme): the rule of ``fit_fallback`` keeps the slope at 0.25.
+EVIDENCE_THRESHOLDS = (0.1, 0.25, 0.5, 1.0, 2.0)
 
 OUTSIDE_RATIO = 1.5  # outside T: <= 1.5 x the better of uncompensated and the line
 RATE_RATIO = 1.2  # new rates: <= 1.2 x the line
@@ -167,6 +174,9 @@ def simulator_case(physics, seed, sampling_period, n_runs):
     )
     calibration = make_thermal_campaign(profile="paper", temperature_range=(10.0, 40.0), **common)
     X_cal, y_cal = calibration.data, calibration.target.to_numpy()
+    # What the calibration's own extremes say of a line in T (the fallback's evidence).
+    losses = extremes_held_out(X_cal["temperature"].to_numpy(), y_cal[:, None])
+    evidence = max(float(end[1].mean() / end[0].mean()) for end in losses)
     record = {}
     for profile in OPERATING_PROFILES:
         operation = make_thermal_campaign(
@@ -191,6 +201,7 @@ def simulator_case(physics, seed, sampling_period, n_runs):
             "sweep": _score(y_op, sweep, groups),
             "flagged outside T": float(flagged[outside_t].mean()) if outside_t.any() else None,
             "slope": float(model.fallback_.slope[0]),
+            "evidence": evidence,
         }
     return record
 
@@ -490,8 +501,59 @@ def markdown(simulated, shared, real, sweep_only, lines, command, seconds):
                 + " | ".join(f"{shares[m]:.4f}" for m in SWEEP_MARGINS)
                 + " |"
             )
+    out += evidence_markdown(simulated)
     out += ["", "## Verdict", "", *lines, ""]
     return "\n".join(out)
+
+
+def evidence_markdown(simulated):
+    """Can the calibration tell when a line in T extrapolates? Its evidence against the use.
+
+    Per case: the fallback's evidence (:func:`~sklearn_ifog.domain.extremes_held_out`: the
+    line's mean squared error over the constant's at the worse of the two calibrated
+    extremes, each held out in turn), whether ``fit_fallback`` kept the slope, and what the
+    line then does outside the calibrated temperatures (its MSD over uncompensated's). Then,
+    for thresholds on the evidence alone (without ``fit_fallback``'s one-standard-error
+    clause), the cases where a fallback that keeps the line below the threshold would fail
+    the outside-T targets, taking the outside-T rows' MSD as the fallback's (the line's or
+    uncompensated's; the blend gives the fallback full weight on nearly all of them).
+    """
+    out = [
+        "",
+        "## The fallback's evidence against what the line does outside T",
+        "",
+        "| case | evidence (line/constant at the worse calibrated extreme) | slope kept | "
+        "line / uncompensated outside T |",
+        "|---|---|---|---|",
+    ]
+    cells = []
+    for (physics, seed), record in simulated.items():
+        for profile, cell in record.items():
+            scores = cell["scores"]["outside T"]
+            if not scores["rows"]:
+                continue
+            line, uncompensated = scores["line in T"], scores["uncompensated"]
+            cells.append((cell["evidence"], line, uncompensated))
+            out.append(
+                f"| {physics} s{seed} {profile} | {cell['evidence']:.3f} | "
+                f"{'yes' if cell['slope'] != 0 else 'no'} | {line / uncompensated:.3f} |"
+            )
+    out += [
+        "",
+        "| keep the line when the evidence is below | cases keeping it | outside-T target "
+        f"(<= {OUTSIDE_RATIO:g} x min(uncompensated, line)) fails | first rule "
+        f"(<= {NEVER_WORSE:g} x uncompensated) fails |",
+        "|---|---|---|---|",
+    ]
+    for threshold in EVIDENCE_THRESHOLDS:
+        kept = fails = harmful = 0
+        for evidence, line, uncompensated in cells:
+            fallback = line if evidence <= threshold else uncompensated
+            kept += evidence <= threshold
+            fails += fallback > OUTSIDE_RATIO * min(line, uncompensated)
+            harmful += fallback > NEVER_WORSE * uncompensated
+        out.append(f"| {threshold:g} | {kept} of {len(cells)} | {fails} | {harmful} |")
+    return out
 
 
 def main(argv=None):

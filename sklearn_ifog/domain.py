@@ -43,6 +43,7 @@ __all__ = [
     "apply_policy",
     "box_distance",
     "check_varies",
+    "extremes_held_out",
     "fallback_weight",
     "fit_box",
     "fit_fallback",
@@ -382,6 +383,57 @@ def _line(temperature, Y):
     return Y.mean(axis=0) - slope * t_mean, slope
 
 
+def extremes_held_out(temperature, Y):
+    """Squared errors of a constant and a line in T extrapolated to the calibrated extremes.
+
+    The coldest and the warmest fifth of the rows are held out in turn; a constant (the mean)
+    and a line in T are fitted on the other rows and evaluated on the held-out ones. This is
+    the evidence :func:`fit_fallback` decides the slope on.
+
+    Parameters
+    ----------
+    temperature : array-like of shape (n_samples,)
+        T of the calibration rows.
+    Y : array-like of shape (n_samples, n_outputs)
+        Their targets.
+
+    Returns
+    -------
+    losses : ndarray of shape (2, 2, n_held, n_outputs) or None
+        ``losses[end, model]``: the squared errors at the cold (``end=0``) and the warm
+        (``end=1``) extreme of the constant (``model=0``) and of the line (``model=1``).
+        None when fewer than 48 rows (a held-out fifth under 10) or a single temperature
+        leave nothing to test.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.linspace(0.0, 30.0, 100)
+    >>> losses = extremes_held_out(t, (2.0 * t)[:, None])
+    >>> losses.shape
+    (2, 2, 20, 1)
+    >>> bool(losses[:, 1].max() < 1e-20)  # an exact line extrapolates exactly
+    True
+    """
+    temperature = np.asarray(temperature, dtype=np.float64)
+    Y = np.asarray(Y, dtype=np.float64)
+    n_samples = temperature.shape[0]
+    n_held = round(_EXTRAPOLATION_FRACTION * n_samples)
+    if n_held < _MIN_FALLBACK_ROWS or np.ptp(temperature) == 0:
+        return None
+    order = np.argsort(temperature, kind="stable")
+    losses = []
+    for held in (order[:n_held], order[-n_held:]):
+        kept = np.ones(n_samples, dtype=bool)
+        kept[held] = False
+        intercept, slope = _line(temperature[kept], Y[kept])
+        line = intercept + temperature[held, None] * slope
+        losses.append(
+            np.stack([np.square(Y[held] - Y[kept].mean(axis=0)), np.square(Y[held] - line)])
+        )
+    return np.stack(losses)
+
+
 def fit_fallback(temperature, Y, column=None):
     """Fit the fallback: a line in T where its slope extrapolates, else a constant.
 
@@ -422,21 +474,10 @@ def fit_fallback(temperature, Y, column=None):
     zero = np.zeros(Y.shape[1])
     if temperature is None:
         return Fallback(constant, zero, None)
-    temperature = np.asarray(temperature, dtype=np.float64)
-    n_samples = temperature.shape[0]
-    n_held = round(_EXTRAPOLATION_FRACTION * n_samples)
-    if n_held < _MIN_FALLBACK_ROWS or np.ptp(temperature) == 0:
+    losses = extremes_held_out(temperature, Y)
+    if losses is None:
         return Fallback(constant, zero, column)
-    order = np.argsort(temperature, kind="stable")
-    losses = []  # per held-out end: (2, n_held, n_outputs) squared errors, constant then line
-    for held in (order[:n_held], order[-n_held:]):
-        kept = np.ones(n_samples, dtype=bool)
-        kept[held] = False
-        intercept, slope = _line(temperature[kept], Y[kept])
-        line = intercept + temperature[held, None] * slope
-        losses.append(
-            np.stack([np.square(Y[held] - Y[kept].mean(axis=0)), np.square(Y[held] - line)])
-        )
+    temperature = np.asarray(temperature, dtype=np.float64)
     # The line must remove most of the error at *both* calibrated extremes...
     explains = np.all(
         [end[1].mean(axis=0) <= _REAL_SLOPE_RATIO * end[0].mean(axis=0) for end in losses],
