@@ -55,6 +55,12 @@ Run (about 20-30 min on two cores)::
 
     python benchmarks/bench_thermal_state.py --n-jobs 2
 
+The default seeds (0-2) are the campaigns on which the default features (terms, lags,
+smoothing) were chosen; the same run on seeds no default was chosen on writes
+``thermal_state_heldout.*``::
+
+    python benchmarks/bench_thermal_state.py --seeds 8 9 10 --tag heldout --n-jobs 2
+
 ``--quick`` (CI, well under a minute of CPU): one seed, 60 s samples, four models, one run
 per (unit, azimuth). Writes ``benchmarks/results/thermal_state[_quick].md`` and ``.json``
 (``--out DIR`` elsewhere).

@@ -66,6 +66,10 @@ def _listing(directory):
 
 
 def test_fit_compensate_report_round_trip(campaign_csv, fitted_model, tmp_path, capsys):
+    """Fit, compensate and report agree with the Python API, and the model cuts the MSD.
+
+    The cut (at least 5x) held for ``campaign_csv`` on campaign seeds 1-10 (checked once).
+    """
     frame = _read(campaign_csv)
     out_csv = tmp_path / "out.csv"
     assert main(["compensate", str(fitted_model), str(campaign_csv), "-o", str(out_csv)]) == 0
@@ -130,6 +134,10 @@ def test_earth_rate_reference_gives_the_same_model(campaign_csv, fitted_model, t
 
 
 def test_fit_with_cross_validation_prints_and_stores_it(campaign_csv, tmp_path, capsys):
+    """``--cv`` prints and stores the cross-validated MSD, which the model lowers.
+
+    The MSD fell for ``campaign_csv`` on campaign seeds 1-10 (checked once).
+    """
     model = tmp_path / "cv.joblib"
     args = ["--cv", "azimuth", "--model", "linear", "-o", str(model)]
     assert main(["fit", str(campaign_csv), *FIT_ARGS, *args]) == 0

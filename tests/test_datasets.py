@@ -118,6 +118,7 @@ def test_temperature_reading_has_a_resolution_of_0_01_degc(campaign):
 
 
 def test_profiles_stay_in_range_and_runs_reach_different_temperatures(campaign):
+    """Checked once on the fixture's campaign seeds 7-16 (holds on each)."""
     runs = campaign.run_params
     assert set(runs["profile"]) <= {"paper", "cycle", "staircase"}
     assert runs["min_setpoint"].min() >= -10.0
@@ -148,6 +149,7 @@ def test_paper_profile_soaks_low_ramps_up_and_soaks_high():
 
 
 def test_drift_follows_the_coil_temperature_rate(campaign):
+    """Checked once on the fixture's campaign seeds 7-16 (holds on each)."""
     frame, components = campaign.frame, campaign.components
     for unit, params in enumerate(campaign.unit_params):
         shupe_rows, coil_rates, layer_rates = [], [], []
@@ -211,6 +213,7 @@ def test_drift_at_a_steady_ramp_is_k_of_t_times_the_ramp_rate():
 
 
 def test_noise_components_add_up_and_have_the_stated_statistics():
+    """Checked once on campaign seeds 11-20 (holds on each)."""
     sampling_period = 10.0
     bunch = make_thermal_campaign(
         n_units=2, n_runs=3, azimuths=[0.0], sampling_period=sampling_period, random_state=11
@@ -244,6 +247,7 @@ def test_without_noise_the_output_is_reference_plus_drift():
 
 
 def test_magnitudes_are_those_of_a_navigation_grade_gyro():
+    """Checked once on campaign seeds 0-9 (holds on each)."""
     bunch = make_thermal_campaign(physics="lumped", random_state=0)
     frame, parts = bunch.frame, bunch.components
     assert 10_000 <= len(frame) <= 30_000
@@ -576,6 +580,7 @@ def test_glass_transition_bends_the_stress_term_and_the_bias_around_tg():
 
 
 def test_layered_magnitudes_are_those_of_a_navigation_grade_gyro():
+    """Checked once on campaign seeds 0-9 (holds on each)."""
     bunch = make_thermal_campaign(physics="layered", sampling_period=60.0, random_state=0)
     frame, parts = bunch.frame, bunch.components
     thermal = (parts["shupe"] + parts["stress"]).abs().groupby(frame["run"]).max()
@@ -627,6 +632,8 @@ def test_unknown_physics_raises_an_error_naming_the_parameter():
 
 @pytest.mark.parametrize("physics", ["lumped", "layered", "layered_glass"])
 def test_lot_units_scatter_around_the_design(physics):
+    """Checked once on lot seeds 5-14 for each physics (holds on each)."""
+
     def campaign(spread):
         return make_thermal_campaign(
             n_units=6,
@@ -664,6 +671,7 @@ def test_lot_units_scatter_around_the_design(physics):
 
 
 def test_lot_is_closer_than_independent_units():
+    """Checked once on campaign seeds 0-9 (holds on each)."""
     kwargs = {
         "n_units": 5,
         "n_runs": 1,

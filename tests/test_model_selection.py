@@ -235,6 +235,7 @@ def drift_frame():
 
 
 def test_compare_regressors_values_match_hand_computation(drift_frame):
+    """The linear model's reduction above 5 held on noise seeds 1-10 (checked once)."""
     X, y = drift_frame
     regressors = {
         "raw": DummyRegressor(strategy="constant", constant=0.0),
@@ -322,6 +323,15 @@ def test_compare_regressors_bad_input(drift_frame):
 
 @pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
 def test_default_comparison_on_a_small_campaign(small_campaign):
+    """The default table on the session's small campaign (seed 0): every model beats the raw
+    output, and the thermal models each leave at most half the MSD of the bias model.
+
+    Checked once on campaign seeds 0-9 (holds on each): the four thermal models' reductions
+    were 2.19 (seed 5) to 11.5 times the bias model's. An absolute reduction of at least 15
+    (the earlier claim) fails on seeds 5 and 7 (Gaussian process 10.5 and 14.6) and 9 (all
+    four, 8.1 to 9.2): the reduction a campaign allows depends on its drift against its
+    noise, so the models are judged against their peer in the same run.
+    """
     X, y = small_campaign.data, small_campaign.target
     summary, folds = compare_regressors(X, y, cv=LeaveOneAzimuthOut(), return_folds=True)
     assert list(summary.index) == list(default_regressors())
@@ -333,10 +343,9 @@ def test_default_comparison_on_a_small_campaign(small_campaign):
     assert summary.loc["raw", "reduction"] == 1.0
     # Measured on this campaign (reduction factors; layered physics, whose turn-on bias the
     # constant model removes): linear 34.6, kernel ridge 34.5, Gaussian process 29.9, RBF
-    # modified 30.7, RBF traditional 28.5, bias 12.2.
+    # modified 34.6, RBF traditional 32.3, bias 12.2.
     for name in ("linear", "kernel_ridge", "gaussian_process", "rbf_modified"):
-        assert summary.loc[name, "reduction"] >= 15.0, name
-    assert summary.loc["rbf_modified", "msd_after"] < summary.loc["bias", "msd_after"] / 2
+        assert summary.loc[name, "msd_after"] < summary.loc["bias", "msd_after"] / 2, name
     assert (summary.drop(index="raw")["reduction"] > 1.0).all()
     assert (summary["fit_time"] > 0).all()
 

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 from sklearn.exceptions import ConvergenceWarning
+from sklearn.linear_model import LinearRegression
 from sklearn.preprocessing import PolynomialFeatures
 
 from sklearn_ifog import RBFNetRegressor
@@ -84,19 +85,27 @@ def test_fitted_network_value_is_what_predict_evaluates(n_outputs):
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_fits_a_smooth_function_and_refinement_helps(seed):
-    # Over data and model seeds 0-4 the OLS network's test MSE was 3.2e-3 to 5.4e-3 and the
-    # refined one's 7.0e-4 to 8.8e-4 (3688b23, quadratic tail); with the linear tail, now
-    # the default, the OLS network's is 5.3e-3 to 7.7e-3 on seeds 0-2, which run here
-    # (the refined one passes the bounds below on each).
+    """The OLS network removes nearly all of what a linear model misses; refinement then
+    brings the error below the noise variance.
+
+    Checked once on seeds 0-9 (data seeds ``2 seed`` and ``2 seed + 1``, model seed
+    ``seed``; the suite runs 0-2): the OLS network's test MSE was 4.7e-3 to 1.01e-2, at
+    most 3.0 % of the linear model's (0.31 to 0.34), and the refined one's 7.7e-4 to
+    1.3e-3. An absolute bound of four noise variances on the OLS network (1e-2, the
+    earlier claim) fails on seed 8; the claim relative to the linear peer holds on each.
+    """
     X, y, _ = _smooth(1000, seed=2 * seed)
     X_test, _, f_test = _smooth(2000, seed=2 * seed + 1)
     ols = RBFNetRegressor(refine=None, random_state=seed).fit(X, y)
     refined = RBFNetRegressor(random_state=seed).fit(X, y)
     mse_ols = np.mean((ols.predict(X_test) - f_test) ** 2)
     mse_refined = np.mean((refined.predict(X_test) - f_test) ** 2)
-    # The function's variance is 0.7 and a linear model leaves 0.34; the noise variance is
-    # 0.0025: the OLS network is within a few noise variances, the refined one below one.
-    assert mse_ols < 1e-2
+    mse_linear = np.mean((LinearRegression().fit(X, y).predict(X_test) - f_test) ** 2)
+    # The function's variance is 0.7 and a linear model leaves about 0.34 of it; the noise
+    # variance is 0.0025. The network's job is the nonlinear part, so the OLS network is
+    # judged against the linear peer (it must remove at least 95 % of what the peer
+    # leaves), and the refined one against the noise (below one noise variance).
+    assert mse_ols < 0.05 * mse_linear
     assert mse_refined < 2e-3
     assert mse_refined < mse_ols
     assert refined.selection_path_["refined"]
@@ -247,7 +256,9 @@ def test_width_grid_reaches_the_radius_of_clustered_rows():
 def test_clustered_rows_are_interpolated_between_clusters(seed):
     """Twelve clusters of one input (a gyro read at held temperatures): the network must
     follow the curve between them, not fit one narrow unit per cluster as it does at the
-    widest multiple of the nearest-neighbour spacing (the grid before it was extended)."""
+    widest multiple of the nearest-neighbour spacing (the grid before it was extended).
+
+    Checked once on seeds 0-9 (holds on each); the suite runs 0-5."""
     rng = np.random.RandomState(seed)
     levels = np.linspace(-2.0, 2.0, 12)
     X = (np.repeat(levels, 100) + 0.003 * rng.normal(size=1200))[:, None]
@@ -373,6 +384,7 @@ def test_multi_output_equals_single_output_fits_for_scaled_targets():
 
 
 def test_multi_output_shares_centres_across_outputs():
+    """Checked once on data seeds 0-9 (``_smooth(300, seed)``; holds on each)."""
     X, y, _ = _smooth(300)
     Y = np.column_stack([y, np.cos(2 * X[:, 1])])
     model = RBFNetRegressor(refine=None, random_state=0).fit(X, Y)

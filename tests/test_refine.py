@@ -168,6 +168,11 @@ def test_residual_norms_are_the_loss(jacobian_problem):
 
 @pytest.mark.parametrize("method", METHODS)
 def test_refinement_reduces_training_loss_from_a_poor_start(method):
+    """Every method at least halves the training loss of a poor start.
+
+    Checked once on problem seeds 0-9, each with start seed one more (holds on each; "gd"
+    ends at 0.14 to 0.50 of the start loss, 0.4997 on seed 9).
+    """
     Z, Y = smooth_problem()
     start = starting_network(Z, Y, width=0.3)
     result = refine_network(
@@ -193,6 +198,7 @@ def test_refinement_reduces_training_loss_from_a_poor_start(method):
 
 def test_varpro_with_subspace_trust_region_steps(monkeypatch):
     # Large problems take least_squares' LSMR steps instead of exact ones: force that path.
+    """Checked once on problem seeds 0-9, each with start seed one more (holds on each)."""
     Z, Y = smooth_problem()
     start = starting_network(Z, Y, width=0.3)
     exact = refine_network(Z, Y, *start, method="varpro", max_iter=30, random_state=0)
@@ -204,6 +210,7 @@ def test_varpro_with_subspace_trust_region_steps(monkeypatch):
 
 @pytest.mark.parametrize("method", METHODS)
 def test_quadratic_tail(method):
+    """Checked once on problem seeds 0-9, each with start seed one more (holds on each)."""
     Z, Y = smooth_problem()
     centers, widths = starting_network(Z, Y, width=0.3)[:2]
     coef, tail_coef, intercept = solve_output_weights(
@@ -290,6 +297,15 @@ def test_deterministic(method):
 
 @pytest.mark.parametrize("method", METHODS)
 def test_multi_output(method):
+    """Two outputs of different scales: the refinement cuts the loss by 30 % or more.
+
+    Checked once on problem seeds 0-9, each with start seed one more: holds on each for
+    "varpro" (0.012 to 0.019 of the start loss) and "gd" (0.23 to 0.55), and for "lm" on
+    seeds 0-5 and 7-9 (0.019 to 0.20); on seed 6 "lm" stops after two iterations at 0.78:
+    its second step gains 3e-7 of a loss of 0.65, which its stopping rule (gain below
+    ``tol`` times the loss) takes for convergence. Reported as a suspected bug of the
+    "lm" stopping rule, not narrowed here; the suite's seed 0 is not affected.
+    """
     Z, Y = smooth_problem(n_outputs=2)
     start = starting_network(Z, Y, width=0.3)
     result = refine_network(

@@ -262,7 +262,10 @@ def test_partial_with_identical_units_gives_the_lot_model(lot):
 
 
 def test_partial_lets_a_unit_unlike_the_lot_keep_its_own_weights(lot):
-    """One unit's drift reversed: the lot's weights are wrong for it, its own are right."""
+    """One unit's drift reversed: the lot's weights are wrong for it, its own are right.
+
+    Checked once on lot seeds 3-12 (holds on each).
+    """
     X, y = lot.data, lot.target.to_numpy().copy()
     odd = _unit_rows(lot, 2)
     y[odd] = -3.0 * y[odd]
