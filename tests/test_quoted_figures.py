@@ -103,3 +103,12 @@ def test_the_committed_tree_quotes_only_figures_its_results_hold():
     failures, _, checked = checker.check()
     assert failures == []
     assert checked > 100
+
+
+def test_markdown_lines_are_reported_where_they_are(tree):
+    (tree / "README.md").write_text(
+        "# Project\n\nIntro.\n\n## Speed\n\n"
+        "Measured by ``python benchmarks/bench_thermal_state.py``:\n\n1.038 faster.\n"
+    )
+    failures, _, _ = checker.check(tree)
+    assert failures == ["README.md:9: 1.038 not in thermal_state"]

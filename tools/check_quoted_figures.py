@@ -164,12 +164,12 @@ def page_blocks(path):
             HEADING_RULE.match(line) and current and current[-1].strip()
         )
         if is_heading:
-            title = [] if line.startswith("#") else [current.pop()]
+            # the block starts at its title: a Markdown heading line, or the reST title
+            # above its underline (blanked, so that offsets stay line numbers)
+            title = [line] if line.startswith("#") else [current.pop(), ""]
             if current:
                 blocks.append((start, "\n".join(current)))
-            start, current = number - len(title), title
-            if not line.startswith("#"):
-                current.append("")
+            start, current = number - len(title) + 1, title
             continue
         current.append(line)
     if current:
