@@ -585,3 +585,78 @@ def test_quadratic_tail_falls_back_to_linear_on_too_few_rows():
         warnings.simplefilter("error", UserWarning)
         linear = RBFNetRegressor(tail="linear", refine=None, random_state=0).fit(X, y)
     assert_array_equal(model.predict(X), linear.predict(X))
+
+
+def test_small_plain_input_is_predicted_as_validated_input(smooth_model):
+    # A few C-ordered float64 rows skip validate_data; the same rows given as a list are
+    # validated and must give the very same predictions (F-ordered rows, and more rows than
+    # the small path takes, are computed in another memory order: equal to round-off).
+    model, X, _ = smooth_model
+    rows = np.ascontiguousarray(X[:5])
+    fast = model.predict(rows)
+    assert_array_equal(fast, model.predict(rows.tolist()))
+    assert_allclose(fast, model.predict(np.asfortranarray(rows)), rtol=1e-12, atol=1e-14)
+    assert_allclose(fast, model.predict(np.vstack([rows] * 10))[:5], rtol=1e-12, atol=1e-14)
+    assert_allclose(fast, _formula(model, rows), rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_small_plain_input_with_non_finite_value_raises(smooth_model, bad):
+    model, X, _ = smooth_model
+    row = X[:1].copy()
+    row[0, 1] = bad
+    with pytest.raises(ValueError, match=r"NaN|infinity"):
+        model.predict(row)
+
+
+def test_small_plain_input_of_wrong_width_raises(smooth_model):
+    model = smooth_model[0]
+    with pytest.raises(ValueError, match="3 features"):
+        model.predict(np.zeros((1, 4)))
+
+
+def test_small_array_after_fit_on_named_columns_warns(smooth_model):
+    pd = pytest.importorskip("pandas")
+    _, X, y = smooth_model
+    model = RBFNetRegressor(refine=None, random_state=0).fit(
+        pd.DataFrame(X, columns=["a", "b", "c"]), y
+    )
+    with pytest.warns(UserWarning, match="feature names"):
+        model.predict(X[:1].copy())
+
+
+@pytest.mark.parametrize("tail_alpha", [0.0, 1e-3])
+def test_prefix_fits_fast_path_equals_svd_path(monkeypatch, tail_alpha):
+    # Well-conditioned paths are scored from triangular solves and the ridge rows; the
+    # general path (SVD solves, explicit Q) must give the same errors and dof, and the
+    # weights handed on are the SVD path's in both.
+    from sklearn_ifog.rbf import _ols
+
+    rng = np.random.default_rng(3)
+    Z = rng.uniform(-1, 1, size=(300, 2))
+    Phi = gaussian_design(Z, Z[:12], 0.6)
+    Y = np.column_stack([np.sin(3 * Z[:, 0]), Z[:, 1] ** 2]) + 0.01 * rng.normal(size=(300, 2))
+    sw = rng.uniform(0.5, 2.0, size=300)
+    Z_val = rng.uniform(-1, 1, size=(80, 2))
+    kwargs = dict(
+        T=Z,
+        sample_weight=sw,
+        alpha=0.05,
+        tail_alpha=tail_alpha,
+        Phi_val=gaussian_design(Z_val, Z[:12], 0.6),
+        T_val=Z_val,
+        Y_val=np.column_stack([np.sin(3 * Z_val[:, 0]), Z_val[:, 1] ** 2]),
+        sample_weight_val=np.ones(80),
+    )
+    assert _ols._well_conditioned(np.linalg.qr(np.hstack([np.ones((300, 1)), Z, Phi]), "r"))
+    fast = _ols.prefix_fits(Phi, Y, **kwargs)
+    monkeypatch.setattr(_ols, "_well_conditioned", lambda R: False)
+    general = _ols.prefix_fits(Phi, Y, **kwargs)
+    assert_allclose(fast.train_mse, general.train_mse, rtol=1e-10)
+    assert_allclose(fast.val_mse, general.val_mse, rtol=1e-10)
+    assert_allclose(fast.val_sq, general.val_sq, rtol=1e-9, atol=1e-14)
+    assert_allclose(fast.dof, general.dof, rtol=1e-10)
+    assert len(fast.weights) == len(general.weights) == 13
+    for k in range(13):
+        assert_array_equal(fast.weights[k], general.weights[k])
+    assert 3.0 < fast.dof[-1] < 3.0 + 12.0

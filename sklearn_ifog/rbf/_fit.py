@@ -6,7 +6,6 @@ from typing import NamedTuple
 import numpy as np
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils import check_random_state
-from threadpoolctl import threadpool_limits
 
 from sklearn_ifog.rbf._basis import (
     Network,
@@ -23,6 +22,7 @@ from sklearn_ifog.rbf._select import (
     subsample,
     tail_degrees,
 )
+from sklearn_ifog.rbf._threads import single_blas_thread
 
 
 def beats_beyond_noise(candidate, start, Z_val, Y_val, sw_val):
@@ -145,8 +145,10 @@ candidates, max_samples, validation_fraction, max_iter, tol, learning_rate, rand
     sw = sample_weight
     x_mean, x_scale = standardisation(X, sw)
     y_mean, y_scale = standardisation(Y, sw)
-    Z = (X - x_mean) / x_scale
-    Ys = (Y - y_mean) / y_scale
+    Z = np.subtract(X, x_mean)
+    Z /= x_scale
+    Ys = np.subtract(Y, y_mean)
+    Ys /= y_scale
     rng = check_random_state(random_state)
     options = SelectionOptions(
         n_centers=n_centers,
@@ -169,7 +171,7 @@ candidates, max_samples, validation_fraction, max_iter, tol, learning_rate, rand
     # Selection, refinement and the blocked solve work on small or skinny matrices, where
     # a multi-threaded BLAS spends more time synchronising than computing (3 to 20 times
     # slower on a loaded machine).
-    with threadpool_limits(limits=1, user_api="blas"):
+    with single_blas_thread():
         selection = select_network(
             Z,
             Ys,

@@ -8,7 +8,7 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from sklearn_ifog._compat import Interval, StrOptions, _check_sample_weight, _fit_context
-from sklearn_ifog.rbf._basis import Network, predict_network
+from sklearn_ifog.rbf._basis import SMALL_BATCH_ROWS, Network, predict_network
 from sklearn_ifog.rbf._fit import fit_network
 from sklearn_ifog.rbf._refine import REFINE_METHODS
 from sklearn_ifog.rbf._select import SELECTION_CRITERIA, TAIL_DEGREES, group_codes
@@ -382,6 +382,10 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
         and the exporters write.
         """
         check_is_fitted(self)
+        return self._fitted_network()
+
+    def _fitted_network(self):
+        """:meth:`_network` without the fitted check (the caller has made it)."""
         coef = np.atleast_2d(np.asarray(self.coef_, dtype=np.float64))
         n_outputs = coef.shape[0]
         return Network(
@@ -406,9 +410,31 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
             Predictions.
         """
         check_is_fitted(self)
-        X = validate_data(self, X, reset=False)
-        Y = predict_network((X - self.x_mean_) / self.x_scale_, *self._network())
+        if not self._is_small_plain_input(X):
+            X = validate_data(self, X, reset=False)
+        Z = np.subtract(X, self.x_mean_)
+        Z /= self.x_scale_
+        Y = predict_network(Z, *self._fitted_network())
         return Y[:, 0] if np.ndim(self.coef_) == 1 else Y
+
+    def _is_small_plain_input(self, X):
+        """Whether ``X`` is a few finite rows that ``validate_data`` would pass unchanged.
+
+        A C-ordered float64 ndarray of the fitted width, without feature names on either
+        side: ``validate_data`` would return it as it is, so the single-row latency is not
+        spent on its general checks. Anything else (including a NaN, which then raises its
+        usual error) goes through ``validate_data``.
+        """
+        return (
+            type(X) is np.ndarray
+            and X.dtype == np.float64
+            and X.ndim == 2
+            and 0 < X.shape[0] <= SMALL_BATCH_ROWS
+            and X.shape[1] == self.n_features_in_
+            and X.flags.c_contiguous
+            and not hasattr(self, "feature_names_in_")
+            and bool(np.isfinite(X).all())
+        )
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

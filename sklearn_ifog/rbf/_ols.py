@@ -6,9 +6,11 @@ candidate pool, the width scale, contiguous validation blocks, the re-solved fit
 prefix of the path and the criteria that pick a prefix. Plain numpy in, numpy out.
 """
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 from scipy.spatial import cKDTree
 from scipy.spatial.distance import pdist
 from sklearn.cluster import kmeans_plusplus
@@ -69,7 +71,15 @@ def _orthogonalise(v, Q):
 
 
 def ols_forward_select(
-    P, Y, *, T=None, sample_weight=None, alpha=0.0, max_selected=None, rtol=DEFAULT_RTOL
+    P,
+    Y,
+    *,
+    T=None,
+    sample_weight=None,
+    alpha=0.0,
+    max_selected=None,
+    rtol=DEFAULT_RTOL,
+    workspace=None,
 ):
     """Greedy forward selection of candidate columns by the error-reduction ratio.
 
@@ -102,6 +112,9 @@ def ols_forward_select(
         Upper bound on the number of columns chosen; ``None`` means all candidates.
     rtol : float, default=1e-5
         Relative tolerance below which a column counts as collinear.
+    workspace : :class:`Workspace`, default=None
+        Scratch arrays to reuse (between calls on candidate matrices of one shape, fresh
+        arrays of megabytes cost their page faults every time); None allocates them.
 
     Returns
     -------
@@ -123,10 +136,20 @@ def ols_forward_select(
     max_selected = n_candidates if max_selected is None else min(max_selected, n_candidates)
     n_tail = 0 if T is None else T.shape[1]
 
+    # Unit weights (the estimator's default) scale nothing: the products by root_w are
+    # skipped. The squares of the candidate matrix go to one scratch array.
+    unit = bool(np.all(sw == 1.0))
     # Reference norms include the mean: a column that is nearly constant is collinear with
     # the intercept and must be rejected by the same relative test.
-    reference_sq = np.square(P * root_w[:, None]).sum(axis=0)
-    Pc = _weighted_centre(P, sw, root_w)
+    workspace = Workspace() if workspace is None else workspace
+    scratch = workspace.array("ols_scratch", P.shape)
+    if unit:
+        reference_sq = np.square(P, out=scratch).sum(axis=0)
+        Pc = np.subtract(P, (sw @ P) / sw.sum(), out=workspace.array("ols_centred", P.shape))
+    else:
+        reference_sq = np.square(np.multiply(P, root_w[:, None], out=scratch), out=scratch)
+        reference_sq = reference_sq.sum(axis=0)
+        Pc = _weighted_centre(P, sw, root_w)
     Yr = _weighted_centre(Y, sw, root_w)
     total = float(np.square(Yr).sum())
     Q = np.zeros((n_samples, n_tail + max_selected))
@@ -145,7 +168,7 @@ def ols_forward_select(
     tail_err = float(np.square(tail_yq).sum() / total) if total > 0 else 0.0
 
     projections = Pc.T @ basis
-    residual_sq = np.square(Pc).sum(axis=0) - np.square(projections).sum(axis=1)
+    residual_sq = np.square(Pc, out=scratch).sum(axis=0) - np.square(projections).sum(axis=1)
     correlations = Pc.T @ Yr
     available = np.ones(n_candidates, dtype=bool)
     rejected = np.zeros(n_candidates, dtype=bool)
@@ -192,13 +215,39 @@ def ols_forward_select(
     )
 
 
+class Workspace:
+    """Named scratch arrays, reused while their shape stays the same.
+
+    The selection runs one path per width (and per fold) on candidate matrices of one
+    shape; allocating them afresh costs page faults of the same order as the arithmetic.
+    One workspace belongs to one sequence of calls (not shared between threads).
+
+    Examples
+    --------
+    >>> work = Workspace()
+    >>> work.array("a", (2, 3)) is work.array("a", (2, 3))
+    True
+    """
+
+    def __init__(self):
+        self._arrays = {}
+
+    def array(self, name, shape):
+        """An uninitialised float64 array of ``shape``, the same one while the shape holds."""
+        shape = tuple(shape)
+        array = self._arrays.get(name)
+        if array is None or array.shape != shape:
+            array = self._arrays[name] = np.empty(shape)
+        return array
+
+
 @dataclass
 class PrefixFits:
     """Result of :func:`prefix_fits`: the least-squares network on every path prefix.
 
     Attributes
     ----------
-    weights : list of ndarray
+    weights : sequence of ndarray
         ``weights[k]`` has shape (1 + n_tail + k, n_outputs): intercept, tail weights and
         the weights of the first ``k`` columns (ridge on those only).
     train_mse : ndarray of shape (n_prefixes, n_outputs)
@@ -211,7 +260,7 @@ class PrefixFits:
         Squared validation error of every row (summed over outputs), if given.
     """
 
-    weights: list
+    weights: Sequence
     train_mse: np.ndarray
     dof: np.ndarray
     val_mse: np.ndarray | None
@@ -282,54 +331,127 @@ def prefix_fits(
     n_outputs = Y.shape[1]
     sw = np.ones(n_samples) if sample_weight is None else np.asarray(sample_weight, float)
     root_w = np.sqrt(sw)[:, None]
-    A = _regressors(T, Phi)
-    n_fixed = A.shape[1] - n_selected
-    n_params = A.shape[1]
-    n_tail = n_fixed - 1
+    n_tail = 0 if T is None else T.shape[1]
+    n_fixed = 1 + n_tail
+    n_params = n_fixed + n_selected
     n_tail_rows = n_tail if tail_alpha > 0 else 0
     augmented = np.zeros((n_samples + n_tail_rows + n_selected, n_params + n_outputs))
-    augmented[:n_samples, :n_params] = A * root_w
-    augmented[:n_samples, n_params:] = Y * root_w
+    if np.all(sw == 1.0):
+        # Unit weights: the data rows of the augmented system are the regressors themselves.
+        A = augmented[:n_samples, :n_params]
+        A[:, 0] = 1.0
+        if n_tail:
+            A[:, 1:n_fixed] = T
+        A[:, n_fixed:] = Phi
+        augmented[:n_samples, n_params:] = Y
+    else:
+        A = _regressors(T, Phi)
+        augmented[:n_samples, :n_params] = A * root_w
+        augmented[:n_samples, n_params:] = Y * root_w
     if n_tail_rows:
         augmented[n_samples : n_samples + n_tail, 1:n_fixed] = np.sqrt(tail_alpha) * np.eye(n_tail)
     if alpha > 0 and n_selected:
         augmented[n_samples + n_tail_rows :, n_fixed:n_params] = np.sqrt(alpha) * np.eye(
             n_selected
         )
-    Q, R = np.linalg.qr(augmented)
-    # Hat-matrix trace: squared norms of Q's data rows; a column with a negligible pivot
-    # (a constant feature in the tail) spans nothing and adds no degree of freedom.
-    pivots = np.abs(np.diag(R)[:n_params])
-    live = pivots > 1e-10 * max(pivots.max(initial=0.0), 1e-300)
-    dof_columns = np.where(live, np.square(Q[:n_samples, :n_params]).sum(axis=0), 0.0)
+    n_pen = n_tail_rows + (n_selected if alpha > 0 else 0)
+    R = np.linalg.qr(augmented, mode="r")
+    # (With fewer rows than columns the factor is not square: the general path.)
+    fast = R.shape[0] >= n_params and _well_conditioned(R[:n_params, :n_params])
+    if fast:
+        # Hat-matrix trace: the squared norms of Q's data rows. Q's columns are unit
+        # vectors and its ridge rows are penalty @ R⁻¹ (tiny), so no Q is formed.
+        pen_q = scipy.linalg.solve_triangular(
+            R[:n_params, :n_params],
+            augmented[n_samples : n_samples + n_pen, :n_params].T,
+            trans="T",
+            check_finite=False,
+        )
+        dof_columns = 1.0 - np.square(pen_q).sum(axis=1)
+    else:
+        Q, R = np.linalg.qr(augmented)
+        # A column with a negligible pivot (a constant feature in the tail) spans nothing
+        # and adds no degree of freedom.
+        pivots = np.abs(np.diag(R)[:n_params])
+        live = pivots > 1e-10 * max(pivots.max(initial=0.0), 1e-300)
+        dof_columns = np.where(live, np.square(Q[:n_samples, :n_params]).sum(axis=0), 0.0)
     total_w = sw.sum()
-    weights, train_mse, dof, val_mse, val_sq = [], [], [], [], []
+    n_prefixes = n_selected + 1
+    # Every prefix's weights, zero-padded to all columns, side by side: the residuals of all
+    # prefixes come out of one matrix product.
+    stacked = np.zeros((n_params, n_prefixes, n_outputs))
+    if fast:
+        # R⁻¹ is upper triangular, so its leading blocks are the inverses of R's: one
+        # inverse and one product give every prefix, W_p = R⁻¹ [b_:p; 0].
+        R_inv = scipy.linalg.solve_triangular(
+            R[:n_params, :n_params], np.eye(n_params), check_finite=False
+        )
+        for k in range(n_prefixes):
+            stacked[: n_fixed + k, k] = R[: n_fixed + k, n_params:]
+        stacked = (R_inv @ stacked.reshape(n_params, -1)).reshape(stacked.shape)
+    else:
+        for k in range(n_prefixes):
+            p = n_fixed + k
+            stacked[:p, k] = guarded_lstsq(R[:p, :p], R[:p, n_params:])
+    # The weights handed on (only the chosen prefix's are ever read) are the SVD-based
+    # solve's, as they always were; the solves above only score the prefixes.
+    weights = _PrefixWeights(R, n_fixed, n_params)
+    stacked = stacked.reshape(n_params, n_prefixes * n_outputs)
+    residual = (A @ stacked).reshape(n_samples, n_prefixes, n_outputs)
+    np.subtract(Y[:, None, :], residual, out=residual)
+    np.square(residual, out=residual)
+    train_mse = (sw @ residual.reshape(n_samples, -1) / total_w).reshape(n_prefixes, n_outputs)
+    dof = np.array([dof_columns[: n_fixed + k].sum() for k in range(n_prefixes)])
+    val_mse = val_sq = None
     if Phi_val is not None:
         A_val = _regressors(T_val, Phi_val)
+        n_val = A_val.shape[0]
         sw_val = (
-            np.ones(A_val.shape[0])
-            if sample_weight_val is None
-            else np.asarray(sample_weight_val, float)
+            np.ones(n_val) if sample_weight_val is None else np.asarray(sample_weight_val, float)
         )
-    for k in range(n_selected + 1):
-        p = n_fixed + k
-        W = guarded_lstsq(R[:p, :p], R[:p, n_params:])
-        weights.append(W)
-        residual = Y - A[:, :p] @ W
-        train_mse.append(sw @ np.square(residual) / total_w)
-        dof.append(dof_columns[:p].sum())
-        if Phi_val is not None:
-            residual_val = Y_val - A_val[:, :p] @ W
-            squared = np.square(residual_val)
-            val_mse.append(sw_val @ squared / sw_val.sum())
-            val_sq.append(squared.sum(axis=1))
+        squared = (A_val @ stacked).reshape(n_val, n_prefixes, n_outputs)
+        np.subtract(Y_val[:, None, :], squared, out=squared)
+        np.square(squared, out=squared)
+        val_mse = (sw_val @ squared.reshape(n_val, -1) / sw_val.sum()).reshape(
+            n_prefixes, n_outputs
+        )
+        val_sq = np.ascontiguousarray(squared.sum(axis=2).T)
     return PrefixFits(
-        weights=weights,
-        train_mse=np.asarray(train_mse).reshape(-1, n_outputs),
-        dof=np.asarray(dof),
-        val_mse=None if Phi_val is None else np.asarray(val_mse).reshape(-1, n_outputs),
-        val_sq=None if Phi_val is None else np.asarray(val_sq),
+        weights=weights, train_mse=train_mse, dof=dof, val_mse=val_mse, val_sq=val_sq
     )
+
+
+class _PrefixWeights(Sequence):
+    """``weights[k]``: the least-squares weights of prefix ``k``, solved when first read."""
+
+    def __init__(self, R, n_fixed, n_params):
+        self._R, self._n_fixed, self._n_params = R, n_fixed, n_params
+        self._solved = {}
+
+    def __len__(self):
+        return self._n_params - self._n_fixed + 1
+
+    def __getitem__(self, k):
+        if isinstance(k, slice):
+            return [self[i] for i in range(*k.indices(len(self)))]
+        k = range(len(self))[k]  # negative indices; IndexError past the end
+        if k not in self._solved:
+            p = self._n_fixed + k
+            self._solved[k] = guarded_lstsq(self._R[:p, :p], self._R[:p, self._n_params :])
+        return self._solved[k]
+
+
+def _well_conditioned(R, max_condition=1e8):
+    """Whether the triangular ``R`` (and so every leading block) is far from rank deficiency.
+
+    A leading block ``R[:p, :p]`` spans the first ``p`` columns of ``R``, so its condition
+    number is at most ``R``'s: below ``max_condition`` (far above ``guarded_lstsq``'s cutoff
+    of 1e12) every prefix has full rank and a triangular solve is its least-squares solution.
+    """
+    if not np.all(np.isfinite(R)):
+        return False
+    singular = np.linalg.svd(R, compute_uv=False)
+    return bool(singular.size and singular[-1] > singular[0] / max_condition)
 
 
 def path_criterion(fits, criterion, n_samples):

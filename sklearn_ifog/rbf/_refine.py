@@ -34,7 +34,6 @@ network, the starting network is returned unchanged with ``improved=False``.
 
 import numpy as np
 from sklearn.utils import check_random_state
-from threadpoolctl import threadpool_limits
 
 from sklearn_ifog.rbf._basis import Network, n_tail_features, tail_features, weighted_mean_std
 from sklearn_ifog.rbf._gd import refine_gd
@@ -48,6 +47,7 @@ from sklearn_ifog.rbf._refine_core import (
     check_weights,
     network_loss,
 )
+from sklearn_ifog.rbf._threads import single_blas_thread
 from sklearn_ifog.rbf._varpro import refine_varpro
 
 #: The refinement methods, by name.
@@ -232,7 +232,7 @@ def refine_network(
     max_iter = int(max_iter)
     # Single-threaded BLAS: the tall, skinny SVD/QR/Cholesky calls here gain nothing from
     # threads, and OpenBLAS threads on shared cores made them 50x slower (measured).
-    with threadpool_limits(limits=1, user_api="blas"):
+    with single_blas_thread():
         if method == "varpro":
             result = refine_varpro(data, start, tracker, max_iter, tol)
         elif method == "lm":

@@ -23,6 +23,7 @@ from sklearn_ifog.rbf._basis import (
     tail_features,
 )
 from sklearn_ifog.rbf._ols import (
+    Workspace,
     candidate_pool,
     contiguous_validation_mask,
     ols_forward_select,
@@ -425,6 +426,7 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
     fixed_size = options.criterion is None and options.goal is None
     tail_alphas = tail_alphas_tried(options.tail_alpha, degree)
     paths = []
+    workspace = Workspace()
     for width in widths_tried:
         path, fits_list = _select_and_score(
             width,
@@ -436,6 +438,7 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
             max_centers,
             validation=(D2_val, T_val, Y_val, sw_val) if has_val else None,
             tail_alphas=[ta * sw_sel.sum() for ta in tail_alphas],
+            workspace=workspace,
         )
         for ta, fits in zip(tail_alphas, fits_list, strict=True):
             values = path_criterion(
@@ -515,7 +518,17 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
 
 
 def _select_and_score(
-    width, D2, Y, T, sample_weight, alpha, max_centers, *, validation=None, tail_alphas=(0.0,)
+    width,
+    D2,
+    Y,
+    T,
+    sample_weight,
+    alpha,
+    max_centers,
+    *,
+    validation=None,
+    tail_alphas=(0.0,),
+    workspace=None,
 ):
     """OLS path at one width, and the fit of every prefix (scored on held-out rows if given).
 
@@ -523,10 +536,20 @@ def _select_and_score(
     is ``(D2_val, T_val, Y_val, sample_weight_val)`` or None. The path is ranked once, with
     the tail free; the prefixes are fitted once per absolute tail penalty of
     ``tail_alphas``. Returns the path and the list of prefix fits, one per penalty.
+    ``workspace`` (:class:`~sklearn_ifog.rbf._ols.Workspace`) holds the candidate matrix
+    and the selection's scratch arrays between widths.
     """
-    P = np.exp(D2 * (-0.5 / width**2))
+    workspace = Workspace() if workspace is None else workspace
+    P = np.multiply(D2, -0.5 / width**2, out=workspace.array("candidates", D2.shape))
+    np.exp(P, out=P)
     path = ols_forward_select(
-        P, Y, T=T, sample_weight=sample_weight, alpha=alpha, max_selected=max_centers
+        P,
+        Y,
+        T=T,
+        sample_weight=sample_weight,
+        alpha=alpha,
+        max_selected=max_centers,
+        workspace=workspace,
     )
     chosen = path.selected
     D2_val, T_val, Y_val, sw_val = validation if validation is not None else (None,) * 4
@@ -579,6 +602,7 @@ def _cross_validated_losses(
     n_ta = len(tail_alphas)
     losses = [[] for _ in range(len(widths_tried) * n_ta)]
     weights = []
+    workspace = Workspace()
     for rows_in, rows_out in folds:
         if not (sw[rows_in].sum() > 0 and sw[rows_out].sum() > 0):
             continue
@@ -601,6 +625,7 @@ def _cross_validated_losses(
                 max_centers,
                 validation=(D2_out, T_out, Ys[rows_out], sw[rows_out]),
                 tail_alphas=[ta * sw_in.sum() for ta in tail_alphas],
+                workspace=workspace,
             )
             chosen = path.selected
             for j, fits in enumerate(fits_list):
