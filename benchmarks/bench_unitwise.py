@@ -37,10 +37,18 @@ Targets (the verdict; exit status 1 if one fails):
    (``_verdict.compare``: reached only on a WIN; a TIE, within 2 %, is not reached), as the
    issue asked ("reach it, or say how close"): it does not fail the run.
 
-Run (the committed results took 10.6 minutes with ``--jobs 1`` on a shared two-core
-machine; ``--jobs 2`` runs the cases in two processes)::
+Also reported (no target): **a new unit**, the production-line case. The lot is fitted on
+every unit but the last, each calibrated on its first 4 runs; the last unit is then
+calibrated on its first 0, 1, 2 or 3 runs and tested on its last ``N_TEST``: with
+``"partial"`` by ``add_units`` against the unrefitted lot (0 runs: ``handle_unknown="lot"``,
+the lot's model), with ``"none"`` its own model on those runs alone (none with 0 runs), and
+with ``"full"`` the lot's model at every count. The MSD of that unit's test runs, mean over
+seeds, per physics, lot and model.
 
-    nice -n 10 .venv/bin/python benchmarks/bench_unitwise.py --jobs 1
+Run (the committed results took 1.3 minutes with ``--jobs 2``, which runs the cases in two
+processes, on a shared two-core machine)::
+
+    nice -n 10 .venv/bin/python benchmarks/bench_unitwise.py --jobs 2
 
 ``--quick``: one seed, the lumped physics, the linear model only (a minute). Writes
 ``benchmarks/results/unitwise.md`` and ``unitwise.json`` (``unitwise_quick.*`` with
@@ -48,6 +56,7 @@ machine; ``--jobs 2`` runs the cases in two processes)::
 """
 
 import argparse
+import copy
 import json
 import sys
 import time
@@ -212,6 +221,85 @@ def run_case(physics, lot, seed, quick):
                     }
                 )
     return rows
+
+
+NEW_UNIT_RUNS = (0, 1, 2, 3)
+LOT_CALIBRATION_RUNS = 4
+
+
+def new_unit_curve(physics, lot, seed, quick):
+    """The last unit calibrated on 0-3 runs against the lot of the others (see docstring)."""
+    campaign = lot_campaign(physics, lot, seed)
+    frame, X, y = campaign.frame, campaign.data, campaign.target.to_numpy()
+    new_unit = N_UNITS - 1
+    runs = {u: sorted(frame.loc[frame.unit == u, "run"].unique()) for u in range(N_UNITS)}
+    train_runs = [run for u in range(new_unit) for run in runs[u][:LOT_CALIBRATION_RUNS]]
+    train = frame["run"].isin(train_runs).to_numpy()
+    test = frame["run"].isin(runs[new_unit][-N_TEST:]).to_numpy()
+    rows = []
+    for name, (pipeline, _, _) in models(seed, quick).items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            fitted = {
+                pooling: UnitwiseRegressor(pipeline, pooling=pooling, handle_unknown="lot").fit(
+                    X[train], y[train]
+                )
+                for pooling in ("partial", "full")
+            }
+            for k in NEW_UNIT_RUNS:
+                calibration = frame["run"].isin(runs[new_unit][:k]).to_numpy()
+                scores = {}
+                for pooling, model in fitted.items():
+                    if k:
+                        model = _added(model, X[calibration], y[calibration])
+                    scores[pooling] = float(np.mean(np.square(y[test] - model.predict(X[test]))))
+                if k:
+                    own = clone(pipeline).fit(X[calibration].drop(columns="unit"), y[calibration])
+                    prediction = own.predict(X[test].drop(columns="unit"))
+                    scores["none"] = float(np.mean(np.square(y[test] - prediction)))
+                for pooling, msd in scores.items():
+                    rows.append(
+                        {
+                            "physics": physics,
+                            "lot": lot,
+                            "seed": seed,
+                            "model": name,
+                            "runs": k,
+                            "pooling": pooling,
+                            "msd": msd,
+                        }
+                    )
+    return rows
+
+
+def _added(model, X, y):
+    """A copy of the fitted lot ``model`` with the new unit added (the lot is not refitted)."""
+    return copy.deepcopy(model).add_units(X, y)
+
+
+def curve_markdown(rows):
+    """Seed-mean MSD of the new unit's test runs against its calibration runs."""
+    table = {}
+    for row in rows:
+        key = (row["physics"], row["lot"], row["model"], row["pooling"])
+        table.setdefault(key, {}).setdefault(row["runs"], []).append(row["msd"])
+    lines = [
+        "## A new unit: test MSD against its calibration runs",
+        "",
+        f"The lot fitted on units 0-{N_UNITS - 2} ({LOT_CALIBRATION_RUNS} runs each); unit "
+        f"{N_UNITS - 1} calibrated on its first 0-3 runs (partial: add_units against the "
+        "unrefitted lot, 0 runs the lot's model; none: its own model alone; full: the lot's "
+        f"model), tested on its last {N_TEST}; mean over seeds, (deg/h)^2.",
+        "",
+        "| physics | lot | model | pooling | "
+        + " | ".join(f"{k} runs" for k in NEW_UNIT_RUNS)
+        + " |",
+        "|" + "---|" * (4 + len(NEW_UNIT_RUNS)),
+    ]
+    for (physics, lot, model, pooling), by_runs in table.items():
+        cells = [f"{np.mean(by_runs[k]):.3g}" if k in by_runs else "-" for k in NEW_UNIT_RUNS]
+        lines.append(f"| {physics} | {lot} | {model} | {pooling} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def summarise(rows):
@@ -412,27 +500,30 @@ def main(argv=None):
 
     def case(physics, lot, seed):
         found = run_case(physics, lot, seed, args.quick)
+        found_curve = new_unit_curve(physics, lot, seed, args.quick)
         print(
             f"[bench_unitwise] {physics}/{lot}/seed {seed} done "
             f"({time.perf_counter() - start:.0f} s)",
             file=sys.stderr,
             flush=True,
         )
-        return found
+        return found, found_curve
 
     # cases are independent: run in parallel processes (same rows, same order as serial)
     results = Parallel(n_jobs=args.jobs)(delayed(case)(*one) for one in cases)
-    rows = [row for found in results for row in found]
+    rows = [row for found, _ in results for row in found]
+    curve_rows = [row for _, found in results for row in found]
     summary = summarise(rows)
     checks = verdict(summary)
     elapsed = time.perf_counter() - start
-    text = markdown(summary, checks, command, seeds, elapsed)
+    text = markdown(summary, checks, command, seeds, elapsed) + "\n" + curve_markdown(curve_rows)
     stem = "unitwise_quick" if args.quick else "unitwise"
     args.out.mkdir(parents=True, exist_ok=True)
     write_text_files(
         {
             args.out / f"{stem}.json": json.dumps(
-                {"command": command, "rows": rows, "checks": checks}, indent=1
+                {"command": command, "rows": rows, "checks": checks, "new_unit": curve_rows},
+                indent=1,
             ),
             args.out / f"{stem}.md": text,
         }

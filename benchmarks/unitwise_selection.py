@@ -18,12 +18,15 @@ the same fits. Rules:
 - ``chosen``: what ``UnitwiseRegressor`` does: strengths by log-evidence, per unit with two
   runs or more, one from the summed log-evidence for the single-run units; a unit with two
   runs or more whose evidence puts it far from the lot (``n lam <= 1 / OWN_MODEL_SPREAD²``)
-  keeps its own model; the own model otherwise chosen for the lot, scaled, RBF network
-  only;
-- ``evidence_lot_own``: as ``chosen`` without the far-unit rule (the previous release's
-  choice);
-- ``far_own_spread1``, ``far_own_spread3``: as ``chosen``, with ``OWN_MODEL_SPREAD`` 1 and 3
-  instead of 2;
+  keeps its own model; the own model otherwise chosen for the lot, RBF network only, its
+  held-out error that of its output layer re-solved without each held-out run (its basis
+  kept: one fit per unit, ``unitwise._own_score``), unscaled;
+- ``chosen_refit_scaled``: as ``chosen``, the own model's held-out error from a refit per
+  held-out run, scaled by ``(r - 1) / r`` (the previous release's choice);
+- ``evidence_lot_own``: as ``chosen_refit_scaled`` without the far-unit rule (the choice of
+  the release before);
+- ``far_own_spread1``, ``far_own_spread3``: as ``chosen_refit_scaled``, with
+  ``OWN_MODEL_SPREAD`` 1 and 3 instead of 2;
 - ``evidence_unit_own``: as ``evidence_lot_own``, but the own model chosen unit by unit;
 - ``evidence_lot_own_unscaled``: as ``evidence_lot_own``, without the ``(r - 1) / r``
   scaling;
@@ -68,6 +71,7 @@ from sklearn_ifog.unitwise import (
     OWN_MODEL_SPREAD,
     _final_step,
     _layer_inputs,
+    _own_score,
     layer_design,
     layer_weights,
 )
@@ -90,6 +94,7 @@ RULES = (
     "cv_per_unit",
     "cv_lot_own",
     "chosen",
+    "chosen_refit_scaled",
     "evidence_lot_own",
     "far_own_spread1",
     "far_own_spread3",
@@ -135,6 +140,11 @@ def unit_statistics(pipeline, Xi, y, runs, units, train, test):
                 own_sse += _sse(y[index[fold]], model.predict(Xi.iloc[index[fold]]))
         weights = _shrinkage.solve_shrunk(Phi[index], Y[index], prior, scale, GRID)
         own = clone(pipeline).fit(Xi.iloc[index], y[index])
+        own_layer = (
+            _own_score(own, Xi.iloc[index], Y[index], folds)
+            if np.unique(runs[index]).size >= 2
+            else 0.0
+        )
         found.append(
             {
                 "unit": int(unit),
@@ -148,6 +158,7 @@ def unit_statistics(pipeline, Xi, y, runs, units, train, test):
                     Phi[index], Y[index], prior, scale, GRID
                 ).tolist(),
                 "cv_own": own_sse / index.size,
+                "cv_own_layer": float(own_layer),
                 "test_grid": [_sse(y[held], Phi[held] @ w[:, 0]) for w in weights],
                 "test_own": _sse(y[held], own.predict(Xi.iloc[held])),
                 "test_full": _sse(y[held], lot.predict(Xi.iloc[held])),
@@ -224,12 +235,12 @@ def _far(units, chosen, spread):
     }
 
 
-def _with_own(units, chosen, *, lot_level, scaled, far=()):
+def _with_own(units, chosen, *, lot_level, scaled, far=(), own_key="cv_own"):
     several = [u for u in units if u["n_runs"] >= 2]
 
     def own_error(u):
         factor = (u["n_runs"] - 1) / u["n_runs"] if scaled else 1.0
-        return u["cv_own"] * u["n_train"] * factor
+        return u[own_key] * u["n_train"] * factor
 
     def shrunk_error(u):
         return u["cv_runs"][chosen[u["unit"]]] * u["n_train"]
@@ -274,11 +285,20 @@ def rule_sse(cell, rule):
         return _with_own(units, chosen, lot_level=True, scaled=True)
     how = "shared" if rule == "evidence_shared" else "evidence"
     chosen = _strengths(units, how)
-    spread = {"chosen": OWN_MODEL_SPREAD, "far_own_spread1": 1.0, "far_own_spread3": 3.0}
+    spread = {
+        "chosen": OWN_MODEL_SPREAD,
+        "chosen_refit_scaled": OWN_MODEL_SPREAD,
+        "far_own_spread1": 1.0,
+        "far_own_spread3": 3.0,
+    }
     far = _far(units, chosen, spread[rule]) if rule in spread else set()
     if not rbf:
         return sum(
             u["test_own"] if u["unit"] in far else u["test_grid"][chosen[u["unit"]]] for u in units
+        )
+    if rule == "chosen":
+        return _with_own(
+            units, chosen, lot_level=True, scaled=False, far=far, own_key="cv_own_layer"
         )
     return _with_own(units, chosen, lot_level=True, scaled=True, far=far)
 

@@ -16,9 +16,11 @@ from sklearn.utils._param_validation import (
     StrOptions,
     validate_params,
 )
+from sklearn.utils.metadata_routing import _routing_enabled
 from sklearn.utils.validation import (
     _check_feature_names,
     _check_feature_names_in,
+    _check_method_params,
     _check_sample_weight,
 )
 
@@ -32,8 +34,10 @@ __all__ = [
     "StrOptions",
     "_check_feature_names",
     "_check_feature_names_in",
+    "_check_method_params",
     "_check_sample_weight",
     "_fit_context",
+    "_routing_enabled",
     "_safe_indexing",
     "validate_params",
 ]

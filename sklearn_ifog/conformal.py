@@ -82,6 +82,8 @@ from sklearn.model_selection import GroupKFold, KFold, LeaveOneGroupOut, check_c
 from sklearn.neighbors import NearestNeighbors
 from sklearn.pipeline import Pipeline
 from sklearn.utils import check_array
+from sklearn.utils.metadata_routing import MetadataRouter, MethodMapping, process_routing
+from sklearn.utils.parallel import Parallel, delayed
 from sklearn.utils.validation import (
     check_consistent_length,
     check_is_fitted,
@@ -90,7 +92,15 @@ from sklearn.utils.validation import (
 )
 
 from sklearn_ifog import _table
-from sklearn_ifog._compat import HasMethods, Interval, StrOptions, _fit_context, _safe_indexing
+from sklearn_ifog._compat import (
+    HasMethods,
+    Interval,
+    StrOptions,
+    _check_method_params,
+    _fit_context,
+    _routing_enabled,
+    _safe_indexing,
+)
 from sklearn_ifog.domain import OutsideCalibrationWarning, fallback_weight
 from sklearn_ifog.pipeline import CompensationPipeline
 
@@ -353,6 +363,28 @@ def _fallback_prediction(model, X):
     return model.fallback_.predict(np.asarray(features, dtype=float))[:, 0]
 
 
+def _fit_fold(estimator, X, y, train, test, predict_all, params):
+    """One fold of :meth:`ConformalRegressor.fit` (a joblib task).
+
+    Returns (the clone fitted on the ``train`` rows, its prediction of the ``test`` rows,
+    its fallback's prediction of them (None without the ``"blend"`` policy), and its
+    prediction of every row if ``predict_all``, else None). ``train=None``: the clone fitted
+    on all rows, and nothing else. ``params``: the fit parameters of the ``train`` rows.
+    """
+    if train is None:
+        return clone(estimator).fit(X, y, **params), None, None, None
+    with warnings.catch_warnings():
+        # A held-out run outside its fold model's calibration domain is expected: its
+        # residual then measures the model's outside policy, as a new run would.
+        warnings.simplefilter("ignore", OutsideCalibrationWarning)
+        model = clone(estimator).fit(_safe_indexing(X, train), y[train], **params)
+        held_out = _safe_indexing(X, test)
+        prediction = np.asarray(model.predict(held_out), dtype=float)
+        fallback = _fallback_prediction(model, held_out) if _blends(model) else None
+        on_rows = np.asarray(model.predict(X), dtype=float) if predict_all else None
+    return model, prediction, fallback, on_rows
+
+
 def _reissue(caught, skip=()):
     """Warn again, once each, the recorded warnings not of a ``skip`` category."""
     seen = set()
@@ -457,6 +489,11 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         Whether scores are normalised by the difficulty model and the band widened where
         the fold models part and outside the calibration domain; False gives a band of the
         same width everywhere (absolute residual scores).
+    n_jobs : int, default=None
+        Number of fold models (and the model on all rows) fitted at once, through
+        :class:`sklearn.utils.parallel.Parallel`: ``None`` one at a time unless in a
+        :func:`joblib.parallel_config` context, ``-1`` all cores. The results do not depend
+        on it; with ``joblib.parallel_config(backend="dask")`` the fits go to a Dask cluster.
 
     Attributes
     ----------
@@ -555,10 +592,22 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         "method": [StrOptions({"plus", "base", "minmax"})],
         "confidence": [Interval(numbers.Real, 0, 1, closed="neither")],
         "adaptive": ["boolean"],
+        "n_jobs": [numbers.Integral, None],
     }
 
+    # the calibration folds follow the groups: always consumed by fit itself
+    __metadata_request__fit: ClassVar[dict] = {"groups": True}
+
     def __init__(
-        self, estimator, *, coverage=0.9, cv=None, method="plus", confidence=0.6, adaptive=True
+        self,
+        estimator,
+        *,
+        coverage=0.9,
+        cv=None,
+        method="plus",
+        confidence=0.6,
+        adaptive=True,
+        n_jobs=None,
     ):
         self.estimator = estimator
         self.coverage = coverage
@@ -566,6 +615,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         self.method = method
         self.confidence = confidence
         self.adaptive = adaptive
+        self.n_jobs = n_jobs
 
     # -- helpers ------------------------------------------------------------------------------
 
@@ -603,7 +653,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         # The wrapped estimator validates its own parameters.
         prefer_skip_nested_validation=False
     )
-    def fit(self, X, y, groups=None):
+    def fit(self, X, y, groups=None, **fit_params):
         """Fit the model on all rows and calibrate the bands on out-of-fold residuals.
 
         Parameters
@@ -615,6 +665,13 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             Target (the drift, deg/h).
         groups : array-like of shape (n_samples,), default=None
             Group (run) of every row; None reads X's ``run`` column.
+        **fit_params : dict
+            Passed to ``estimator.fit`` (each fold model's with its training rows: arrays
+            of one value per row are cut). With
+            ``sklearn.set_config(enable_metadata_routing=True)`` only what ``estimator``
+            requests is routed to it, ``groups`` included (e.g.
+            ``RBFNetRegressor().set_fit_request(groups=True)``), and anything else is
+            scikit-learn's error.
 
         Returns
         -------
@@ -636,6 +693,11 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 f"{n_groups}."
             )
         splits = self._splits(X, y, groups)
+        if _routing_enabled():
+            routed = {} if groups is None else {"groups": groups}
+            params = process_routing(self, "fit", **routed, **fit_params).estimator.fit
+        else:
+            params = fit_params
         fold_of = np.full(n_samples, -1)
         for k, (_, test) in enumerate(splits):
             if np.any(fold_of[test] >= 0):
@@ -646,25 +708,35 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 f"cv leaves {int(np.sum(fold_of < 0))} row(s) out of every test fold; every "
                 "row must be in exactly one test fold (e.g. GroupKFold, LeaveOneGroupOut)."
             )
-        self.estimators_ = []
+        # One task per fold and one for the model on all rows, fitted n_jobs at once.
+        fitted = Parallel(n_jobs=self.n_jobs)(
+            [
+                *(
+                    delayed(_fit_fold)(
+                        self.estimator,
+                        X,
+                        y,
+                        train,
+                        test,
+                        self.adaptive,
+                        _check_method_params(X, params, train),
+                    )
+                    for train, test in splits
+                ),
+                delayed(_fit_fold)(self.estimator, X, y, None, None, False, params),
+            ]
+        )
+        self.estimator_ = fitted.pop()[0]
+        self.estimators_ = [model for model, _, _, _ in fitted]
         oof = np.empty(n_samples)
-        with warnings.catch_warnings():
-            # A held-out run outside its fold model's calibration domain is expected: its
-            # residual then measures the model's outside policy, as a new run would.
-            warnings.simplefilter("ignore", OutsideCalibrationWarning)
-            oof_fallback = np.full(n_samples, np.nan)
-            for train, test in splits:
-                model = clone(self.estimator).fit(_safe_indexing(X, train), y[train])
-                oof[test] = model.predict(_safe_indexing(X, test))
-                self.estimators_.append(model)
-                if _blends(model):
-                    oof_fallback[test] = _fallback_prediction(model, _safe_indexing(X, test))
-            on_calibration = (
-                np.stack([np.asarray(model.predict(X), dtype=float) for model in self.estimators_])
-                if self.adaptive
-                else None
-            )
-        self.estimator_ = clone(self.estimator).fit(X, y)
+        oof_fallback = np.full(n_samples, np.nan)
+        for (_, test), (_, held_out, fallback, _) in zip(splits, fitted, strict=True):
+            oof[test] = held_out
+            if fallback is not None:
+                oof_fallback[test] = fallback
+        on_calibration = (
+            np.stack([on_rows for _, _, _, on_rows in fitted]) if self.adaptive else None
+        )
         self.oof_prediction_ = oof
         residual = np.abs(y - oof)
 
@@ -713,6 +785,27 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         self.group_fold_ = np.array([fold_of[first_row[label]] for label in labels])
         self.quantile_ = float(conformal_quantile(group_scores, self.confidence))
         return self
+
+    def get_metadata_routing(self):
+        """The metadata routing of this object: ``fit`` parameters go to ``estimator.fit``.
+
+        ``groups`` is consumed by the calibration folds as well, and routed to
+        ``estimator.fit`` when it requests it. See scikit-learn's metadata routing user
+        guide.
+
+        Returns
+        -------
+        routing : MetadataRouter
+            What ``fit`` consumes and routes to ``estimator``.
+        """
+        return (
+            MetadataRouter(owner=self)
+            .add_self_request(self)
+            .add(
+                estimator=self.estimator,
+                method_mapping=MethodMapping().add(caller="fit", callee="fit"),
+            )
+        )
 
     def _fallback_quantile(self, coverage):
         """The conformal quantile of the fallback's run-wise out-of-fold errors (or 0)."""

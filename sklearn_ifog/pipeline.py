@@ -18,7 +18,7 @@ from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils.validation import check_is_fitted
 
-from sklearn_ifog._compat import Interval, StrOptions, _fit_context
+from sklearn_ifog._compat import Interval, StrOptions, _fit_context, _routing_enabled
 from sklearn_ifog._contract import get_term, sensor_keys
 from sklearn_ifog.domain import (
     CalibrationDomain,
@@ -160,8 +160,13 @@ def make_compensation_pipeline(
     if terms is not None:
         feature_params["terms"] = terms
     features = ThermalFeatures(temperature=temperature, time=time, run=run, **feature_params)
+    scale = StandardScaler()
+    if _routing_enabled():
+        # With metadata routing a sample_weight meant for the regressor must not stop at the
+        # scaler, which would otherwise have to say whether it wants it: it does not.
+        scale.set_fit_request(sample_weight=False)
     return CompensationPipeline(
-        [("features", features), ("scale", StandardScaler()), ("regressor", regressor)],
+        [("features", features), ("scale", scale), ("regressor", regressor)],
         outside=outside,
         margin=margin,
     )

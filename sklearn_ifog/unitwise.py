@@ -15,12 +15,15 @@ its model's ``outside`` policy, and :meth:`UnitwiseRegressor.predict` says so on
 
 import contextlib
 import copy
+import sys
+import time
 import warnings
 from numbers import Integral, Number
 from typing import ClassVar
 
 import numpy as np
 from sklearn.base import BaseEstimator, MetaEstimatorMixin, RegressorMixin, clone
+from sklearn.exceptions import UnsetMetadataPassedError
 from sklearn.linear_model import (
     ARDRegression,
     BayesianRidge,
@@ -35,7 +38,9 @@ from sklearn.linear_model import (
 )
 from sklearn.pipeline import Pipeline
 from sklearn.utils import get_tags
+from sklearn.utils.metadata_routing import MetadataRouter, MethodMapping, process_routing
 from sklearn.utils.metaestimators import available_if
+from sklearn.utils.parallel import Parallel, delayed
 from sklearn.utils.validation import (
     check_array,
     check_consistent_length,
@@ -44,9 +49,15 @@ from sklearn.utils.validation import (
 )
 
 from sklearn_ifog import _shrinkage, _table
-from sklearn_ifog._compat import HasMethods, StrOptions, _fit_context, _safe_indexing
+from sklearn_ifog._compat import (
+    HasMethods,
+    StrOptions,
+    _check_method_params,
+    _fit_context,
+    _routing_enabled,
+    _safe_indexing,
+)
 from sklearn_ifog.domain import OutsideCalibrationWarning
-from sklearn_ifog.pipeline import CompensationPipeline
 from sklearn_ifog.rbf import RBFNetRegressor
 from sklearn_ifog.rbf._basis import gaussian_design, tail_features
 
@@ -190,19 +201,6 @@ def _with_weights(model, W):
     return model
 
 
-def _raw_predictions(model):
-    """``model`` predicting without its ``outside`` policy, for held-out scoring.
-
-    Partial pooling compares a unit's own model with its shrunk output layer on held-out
-    runs; the shrunk layer is scored as raw linear algebra (:mod:`sklearn_ifog._shrinkage`),
-    so the own model is scored raw too: the comparison is between the two fits, and whichever
-    is kept gets the same domain and fallback (the unit's) at prediction time.
-    """
-    if isinstance(model, CompensationPipeline):
-        model.set_params(outside="none")
-    return model
-
-
 def _label(value):
     """A unit label as a plain Python value (numpy scalars unwrapped), for dict keys."""
     return value.item() if isinstance(value, np.generic) else value
@@ -261,6 +259,46 @@ def _rows_needed(model):
     return MIN_UNIT_ROWS, "one row holds no temperature change"
 
 
+def _fit_unit_model(estimator, X, y, unit, column, params):
+    """A clone of ``estimator`` fitted on one unit's rows (a joblib task); errors name it."""
+    try:
+        return clone(estimator).fit(X, y, **params)
+    except UnsetMetadataPassedError:
+        raise  # scikit-learn's own routing error, as it is
+    except ValueError as error:
+        raise ValueError(f"unit {unit!r} (column {column!r}): {error}") from error
+
+
+def _own_score(model, X, Y, folds):
+    """Held-out mean squared error of a unit's own model, one run out at a time.
+
+    The model is fitted once on all of the unit's rows; each fold re-solves its output layer
+    without the held-out rows, as the network solves it (its ridge ``alpha`` per row on the
+    Gaussian weights, its tail penalty on the tail, the intercept free; plain least squares
+    for a linear model) and predicts them, without the ``outside`` policy. The basis
+    (centres and widths) is the one learnt from all the rows, as the lot's is for the shrunk
+    layer: both candidates keep their basis and are compared on their output layers.
+    ``inf`` when the model is None or a fold leaves fewer rows than output weights.
+    """
+    if model is None:
+        return np.inf
+    final = _final_step(model)
+    Phi = layer_design(final, _layer_inputs(model, X))
+    penalty = np.zeros(Phi.shape[1])
+    if isinstance(final, RBFNetRegressor):
+        n_centers = np.shape(final.centers_)[0]
+        penalty[:n_centers] = final.alpha
+        penalty[n_centers:-1] = final.selection_path_.get("tail_alpha", 0.0)
+    zero = np.zeros((Phi.shape[1], Y.shape[1]))
+    sse = 0.0
+    for test in folds:
+        if np.count_nonzero(~test) < Phi.shape[1]:
+            return np.inf
+        (weights,) = _shrinkage.solve_shrunk(Phi[~test], Y[~test], zero, np.sqrt(penalty), [1.0])
+        sse += float(np.square(Y[test] - Phi[test] @ weights).sum())
+    return sse / Y.size
+
+
 # --------------------------------------------------------------------------------------------
 # The estimator
 # --------------------------------------------------------------------------------------------
@@ -317,6 +355,22 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         output layer with its own model, and units with a single run share one strength
         (see Notes). None: every unit counts as a single run. The column is left in X for
         the estimator.
+    handle_unknown : {"error", "lot"}, default="error"
+        How :meth:`predict` (and :meth:`calibration_distance`, :meth:`outside_calibration`)
+        treat the rows of a unit not seen in fit (nor added by :meth:`add_units`):
+        ``"error"``, a ValueError naming it; ``"lot"``, the lot's model
+        (``lot_estimator_``, with its calibration domain), as a production line compensates
+        a new gyro before its own calibration. ``"lot"`` needs a lot model: with
+        ``pooling="none"`` it is a ValueError at fit.
+    n_jobs : int, default=None
+        Number of units' models fitted at once (``"none"``, and the units' own models of
+        ``"partial"``), through :class:`sklearn.utils.parallel.Parallel`: ``None`` one at a
+        time unless in a :func:`joblib.parallel_config` context, ``-1`` all cores. The
+        fitted models do not depend on it; with ``joblib.parallel_config(backend="dask")``
+        the units' fits go to a Dask cluster.
+    verbose : int, default=0
+        Above 0, one line on stderr as each unit's model (and the lot's) is fitted, with the
+        count and the seconds since the step started: the progress of a long lot.
 
     Attributes
     ----------
@@ -343,10 +397,17 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         a single run); None otherwise.
     own_scores_ : dict or None
         ``"partial"``: unit -> held-out mean squared error of the unit's own model on the
-        same held-out runs (None for a unit with a single run, and for a final regressor
-        other than the RBF network: it is not a candidate there); None otherwise.
+        same held-out runs, its output layer re-solved without each (see Notes; None for a
+        unit with a single run, and for a final regressor other than the RBF network: it
+        is not a candidate there); None otherwise.
     shrinkage_grid_ : ndarray or None
         ``"partial"``: the strengths tried, increasing; None otherwise.
+    shrinkage_scale_ : ndarray or None
+        ``"partial"``: the column scales ``s_j`` of the penalty (see Notes), kept for
+        :meth:`add_units`; None otherwise.
+    own_wins_ : bool or None
+        ``"partial"``: whether the held-out comparison gave the units with several runs
+        their own models (see Notes; :meth:`add_units` follows it); None otherwise.
     n_folds_ : dict or None
         ``"partial"``: unit -> number of held-out runs (0 for a single run).
     n_features_in_ : int
@@ -401,19 +462,22 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
 
     With the RBF network, whose basis (centres and widths) is learnt, a unit unlike the
     lot, or with enough runs, can be better served by its own network than by any weights
-    on the lot's basis. The units with two runs or more are therefore scored, one run held
-    out at a time, both with their own model (fitted as with ``"none"`` on the other runs;
-    one fit of ``estimator`` per held-out run) and with their chosen strength (each fold's
-    prior the lot's output layer re-solved without the held-out rows, since the lot model
-    saw them); when the own models' summed squared error is the lower, every one of these
-    units keeps its own model. Both candidates are scored without the ``outside`` policy
-    (the own model's folds with ``outside="none"``, as the shrunk layer is scored by linear
-    algebra): the comparison is between the two fits, and whichever is kept gets the same
-    domain and fallback, the unit's. The choice is made for the lot, not unit by unit, because
-    one unit's few held-out runs give a noisy comparison; and the own model's error,
-    fitted on ``r - 1`` of a unit's ``r`` runs, is scaled by ``(r - 1) / r`` before the
-    comparison, because a model that learns its basis from the unit's rows alone gains
-    more from the held-out run than a shrunk output layer does. A linear final
+    on the lot's basis. The units with two runs or more therefore get their own model
+    (fitted as with ``"none"``, once, on all their rows) and are scored, one run held out
+    at a time, both with it and with their chosen strength. Each candidate keeps its basis
+    and re-solves its output layer without the held-out rows: the own model's on its own
+    basis as the network solves it (its ridge ``alpha``), the shrunk layer with its fold's
+    prior the lot's output layer re-solved without the held-out rows (the lot model saw
+    them). Both are scored as raw
+    linear algebra, without the ``outside`` policy: the comparison is between the two fits,
+    and whichever is kept gets its domain and fallback at prediction time. When the own
+    models' summed squared error is the lower, every one of these units keeps its own
+    model. The choice is made for the lot, not unit by unit, because one unit's few
+    held-out runs give a noisy comparison. Earlier releases refitted the whole own model
+    per held-out run (one fit of ``estimator`` per run of every unit, about 20 x the cost of
+    ``"none"`` for units of 20 runs) and scaled its error by ``(r - 1) / r``; scoring the
+    output layer costs one fit per unit (``benchmarks/bench_scale.py``), and
+    ``benchmarks/bench_unitwise.py`` scores the choice on seeds 5-7. A linear final
     regressor's own fit is the strength-0 end of the same ridge path, so it is not a
     separate candidate. Held-out blocks of a single run are not used at all: within one
     run they favoured the lot (a held-out block is a stretch of the thermal test the rest
@@ -448,7 +512,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     >>> model.predict(X.assign(unit=7))
     Traceback (most recent call last):
     ...
-    ValueError: unit 7 (column 'unit' of X) was not seen in fit; the fitted units are [0, 1, 2].
+    ValueError: unit 7 (column 'unit' of X) was not seen in fit; the fitted units are [0, 1, 2]...
     """
 
     _parameter_constraints: ClassVar[dict] = {
@@ -456,13 +520,29 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         "unit": [str, Integral],
         "pooling": [StrOptions(set(POOLING))],
         "run": [str, Integral, None],
+        "handle_unknown": [StrOptions({"error", "lot"})],
+        "n_jobs": [Integral, None],
+        "verbose": ["verbose"],
     }
 
-    def __init__(self, estimator, *, unit="unit", pooling="partial", run="run"):
+    def __init__(
+        self,
+        estimator,
+        *,
+        unit="unit",
+        pooling="partial",
+        run="run",
+        handle_unknown="error",
+        n_jobs=None,
+        verbose=0,
+    ):
         self.estimator = estimator
         self.unit = unit
         self.pooling = pooling
         self.run = run
+        self.handle_unknown = handle_unknown
+        self.n_jobs = n_jobs
+        self.verbose = verbose
 
     # -- reading X ------------------------------------------------------------------------
 
@@ -503,7 +583,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         # the wrapped estimator validates its own parameters
         prefer_skip_nested_validation=False
     )
-    def fit(self, X, y):
+    def fit(self, X, y, **fit_params):
         """Fit one model per unit (and the lot's model for ``"full"`` and ``"partial"``).
 
         Parameters
@@ -513,6 +593,14 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             Rows of a run contiguous and in time order.
         y : array-like of shape (n_samples,) or (n_samples, n_outputs)
             The drift target, e.g. ``rate - reference``.
+        **fit_params : dict
+            Passed to ``estimator.fit`` (the lot's fit with all rows, a unit's with its
+            rows: arrays of one value per row are cut per unit). With
+            ``sklearn.set_config(enable_metadata_routing=True)`` only what ``estimator``
+            requests is routed to it (e.g.
+            ``RBFNetRegressor().set_fit_request(groups=True)``), and anything else is
+            scikit-learn's error. The shrunk output layers of ``"partial"`` are solved
+            without them.
 
         Returns
         -------
@@ -537,14 +625,138 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         """
         state = dict(vars(self))
         try:
-            return self._fit(X, y)
+            return self._fit(X, y, fit_params)
         except BaseException:
             # nothing of a refused fit is kept: a fitted model stays as it was
             vars(self).clear()
             vars(self).update(state)
             raise
 
-    def _fit(self, X, y):
+    def add_units(self, X, y):
+        """Calibrate new units against the fitted lot, without refitting the lot.
+
+        The production-line case: the lot is fitted once, and each new gyro is calibrated
+        on its own (often single) run. Every unit of X must be new. With ``"partial"``,
+        each new unit's output layer is shrunk towards the lot's as :meth:`fit` would: its
+        strength from its marginal likelihood (a single-run unit's from the sum of its
+        log-likelihood and those of the lot's single-run units, whose shared strength is
+        not changed), a unit with two runs or more that the evidence puts far from the lot
+        or, when ``own_wins_``, any such unit with the RBF network, keeps its own model;
+        with ``"none"`` each new unit gets its own model; with ``"full"`` the lot's.
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_columns)
+            The new units' thermal-test rows, with the columns seen in fit.
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            Their drift target.
+
+        Returns
+        -------
+        self : UnitwiseRegressor
+            With the new units in ``units_``, ``estimators_`` and, for ``"partial"``, the
+            per-unit dictionaries of strengths and evidence.
+
+        Raises
+        ------
+        ValueError
+            If a unit of X was already fitted (named), or a new unit cannot be calibrated
+            (named, as in :meth:`fit`). A refused call leaves the estimator as it was.
+        TypeError
+            If the new unit ids are not of the kind of the fitted ones (e.g. the string
+            ``"7"`` among integers).
+        """
+        check_is_fitted(self)
+        state = {
+            name: copy.copy(value) if isinstance(value, dict) else value
+            for name, value in vars(self).items()
+        }
+        try:
+            return self._add_units(X, y)
+        except BaseException:
+            vars(self).clear()
+            vars(self).update(state)
+            raise
+
+    def _add_units(self, X, y):
+        X_inner, units, X = self._split_unit(X, reset=False)
+        y = check_array(y, ensure_2d=False, dtype=np.float64, input_name="y")
+        check_consistent_length(X, y)
+        new = np.unique(units)
+        if _id_kind(new[0]) != _id_kind(self.units_[0]):
+            raise TypeError(
+                f"the new units of column {self.unit!r} ({_label(new[0])!r}) are not of the "
+                f"kind of the fitted ones ({_label(self.units_[0])!r})."
+            )
+        fitted = [_label(unit) for unit in new if _label(unit) in self.estimators_]
+        if fitted:
+            raise ValueError(
+                f"unit(s) {fitted[:10]} (column {self.unit!r} of X) were already fitted; "
+                "add_units calibrates new units only (refit the lot to change a fitted one)."
+            )
+        rows = {_label(unit): np.flatnonzero(units == unit) for unit in new}
+        if self.pooling == "none":
+            models = self._fit_units(rows, X_inner, y)
+        elif self.pooling == "full":
+            models = dict.fromkeys(rows, self.lot_estimator_)
+        else:
+            models = self._add_partial(X_inner, y, self._runs(X, X.shape[0]), rows)
+        self.estimators_.update(models)
+        self.units_ = np.unique(np.concatenate([self.units_, new]))
+        return self
+
+    def _add_partial(self, X_inner, y, runs, rows):
+        """The new units' models under ``"partial"`` (see :meth:`add_units`)."""
+        lot = self.lot_estimator_
+        final = _final_step(lot)
+        Phi = layer_design(final, _layer_inputs(lot, X_inner))
+        prior = layer_weights(final)
+        scale, grid = self.shrinkage_scale_, self.shrinkage_grid_
+        Y = y.reshape(y.shape[0], -1)
+        lot_single = [unit for unit, folds in self.n_folds_.items() if folds == 0]
+        models, several = {}, []
+        for unit, index in rows.items():
+            evidence = _shrinkage.log_evidence(Phi[index], Y[index], prior, scale, grid)
+            self.shrinkage_evidence_[unit] = evidence
+            self.own_scores_[unit] = None
+            n_runs = np.unique(runs[index]).size
+            if n_runs < 2:
+                total = evidence + sum(self.shrinkage_evidence_[u] for u in lot_single)
+                self.shrinkage_[unit] = _shrinkage.pick_strength(-total, grid)
+                self.shrinkage_scores_[unit] = None
+                self.n_folds_[unit] = 0
+                continue
+            several.append(unit)
+            self.shrinkage_[unit] = _shrinkage.pick_strength(-evidence, grid)
+            # the lot never saw these rows: every fold's prior is the lot's layer itself
+            folds = _shrinkage.cv_folds(runs[index])
+            _, scores = _shrinkage.choose_shrinkage(
+                Phi[index], Y[index], prior, scale, folds, grid
+            )
+            self.shrinkage_scores_[unit] = scores
+            self.n_folds_[unit] = len(folds)
+        learns_basis = isinstance(final, RBFNetRegressor)
+        owners = {
+            unit
+            for unit in several
+            if (self.own_wins_ and learns_basis)
+            or rows[unit].size * self.shrinkage_[unit] <= OWN_MODEL_SPREAD**-2
+        }
+        own_models = self._fit_units(
+            {unit: rows[unit] for unit in owners}, X_inner, y, too_few="none"
+        )
+        for unit, index in rows.items():
+            if own_models.get(unit) is not None:
+                self.shrinkage_[unit] = None
+                models[unit] = own_models[unit]
+                continue
+            (weights,) = _shrinkage.solve_shrunk(
+                Phi[index], Y[index], prior, scale, [self.shrinkage_[unit]]
+            )
+            models[unit] = _with_weights(lot, weights)
+        return models
+
+    def _fit(self, X, y, fit_params):
         if y is None:
             raise ValueError(
                 f"{type(self).__name__} requires y to be passed, but the target y is None."
@@ -555,53 +767,90 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         if self.pooling == "partial":
             _check_partial(self.estimator)
             runs = self._runs(X, X.shape[0])
+        if self.handle_unknown == "lot" and self.pooling == "none":
+            raise ValueError(
+                "handle_unknown='lot' predicts a unit not seen in fit with the lot's model, "
+                "and pooling='none' fits none; use pooling='partial' or 'full', or "
+                "handle_unknown='error'."
+            )
         self.units_ = np.unique(units)
         rows = {_label(unit): np.flatnonzero(units == unit) for unit in self.units_}
+        params = (
+            process_routing(self, "fit", **fit_params).estimator.fit
+            if _routing_enabled()
+            else fit_params
+        )
         self.lot_estimator_ = None
         self.shrinkage_ = self.shrinkage_scores_ = self.shrinkage_grid_ = None
-        self.n_folds_ = self.own_scores_ = None
+        self.shrinkage_evidence_ = self.n_folds_ = self.own_scores_ = None
+        self.shrinkage_scale_ = self.own_wins_ = None
         if self.pooling == "none":
-            self.estimators_ = {
-                unit: self._fit_unit(unit, X_inner, y, index) for unit, index in rows.items()
-            }
+            self.estimators_ = self._fit_units(rows, X_inner, y, params=params)
             return self
-        lot = clone(self.estimator).fit(X_inner, y)
+        started = time.perf_counter()
+        lot = clone(self.estimator).fit(X_inner, y, **params)
+        self._report(f"lot model fitted on {len(rows)} units", started)
         self.lot_estimator_ = lot
         if self.pooling == "full":
             self.estimators_ = dict.fromkeys(rows, lot)
             return self
-        self._fit_partial(lot, X_inner, y, runs, rows)
+        self._fit_partial(lot, X_inner, y, runs, rows, params)
         return self
 
-    def _fit_unit(self, unit, X_inner, y, index, *, too_few="raise"):
-        """The unit's own model, fitted on its rows alone; a unit it cannot be is named.
+    def _fit_units(self, rows, X_inner, y, *, params=None, too_few="raise"):
+        """Every unit's own model, fitted on its rows alone (``n_jobs`` at once).
 
-        A unit with fewer rows than the model needs is a ValueError, or None with
-        ``too_few="none"``.
+        ``rows``: unit -> its row indices. A unit with fewer rows than its model needs is a
+        ValueError naming it, or maps to None with ``too_few="none"``; a unit whose model
+        cannot be fitted is a ValueError naming it. ``params``: the fit parameters of
+        ``estimator`` for all the rows of ``X_inner`` (cut per unit here).
         """
+        fitting = [unit for unit, index in rows.items() if index.size >= MIN_UNIT_ROWS]
+        started = time.perf_counter()
+        fitted = {}
+        results = Parallel(n_jobs=self.n_jobs, return_as="generator")(
+            delayed(_fit_unit_model)(
+                self.estimator,
+                _safe_indexing(X_inner, rows[unit]),
+                _safe_indexing(y, rows[unit]),
+                unit,
+                self.unit,
+                _check_method_params(X_inner, params or {}, rows[unit]),
+            )
+            for unit in fitting
+        )
+        for unit, model in zip(fitting, results, strict=True):
+            fitted[unit] = model
+            self._report(f"unit {unit!r} fitted ({len(fitted)} of {len(fitting)})", started)
+        return {
+            unit: self._enough_rows(unit, index.size, fitted.get(unit), too_few)
+            for unit, index in rows.items()
+        }
+
+    def _report(self, what, started):
+        """One progress line on stderr with ``verbose``: what was done, seconds since start."""
+        if self.verbose:
+            elapsed = time.perf_counter() - started
+            print(f"[{type(self).__name__}] {what}, {elapsed:.1f} s", file=sys.stderr, flush=True)
+
+    def _enough_rows(self, unit, n_rows, model, too_few):
+        """``model`` if the unit's ``n_rows`` determine it; else None or a ValueError."""
         needed, why = MIN_UNIT_ROWS, "one row holds no temperature change"
-        model = None
-        if index.size >= needed:
-            try:
-                model = clone(self.estimator).fit(
-                    _safe_indexing(X_inner, index), _safe_indexing(y, index)
-                )
-            except ValueError as error:
-                raise ValueError(f"unit {unit!r} (column {self.unit!r}): {error}") from error
+        if model is not None:
             needed, why = _rows_needed(model)
-        if index.size >= needed:
+        if n_rows >= needed:
             return model
         if too_few == "none":
             return None
         raise ValueError(
-            f"unit {unit!r} (column {self.unit!r} of X) has {index.size} row"
-            f"{'' if index.size == 1 else 's'}; a model fitted on a unit's rows alone, as "
+            f"unit {unit!r} (column {self.unit!r} of X) has {n_rows} row"
+            f"{'' if n_rows == 1 else 's'}; a model fitted on a unit's rows alone, as "
             f"pooling={self.pooling!r} does, needs at least {needed} here ({why}). "
             "Calibrate the unit on more rows, or use pooling='partial', which shrinks the "
             "lot's model towards the unit's rows."
         )
 
-    def _fit_partial(self, lot, X_inner, y, runs, rows):
+    def _fit_partial(self, lot, X_inner, y, runs, rows, params):
         final = _final_step(lot)
         Phi = layer_design(final, _layer_inputs(lot, X_inner))
         prior = layer_weights(final)
@@ -610,9 +859,10 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         lot_sums = _shrinkage.lot_statistics(Phi, Y, prior)
         grid = _shrinkage.SHRINKAGE_GRID
         self.shrinkage_grid_ = grid.copy()
+        self.shrinkage_scale_ = scale
         self.estimators_, self.shrinkage_, self.shrinkage_evidence_ = {}, {}, {}
         self.shrinkage_scores_, self.own_scores_, self.n_folds_ = {}, {}, {}
-        single, several = [], {}  # units with one run; units with more -> their run count
+        single, several, folds_of = [], {}, {}  # units with one run; with more: runs, folds
         for unit, index in rows.items():
             evidence = _shrinkage.log_evidence(Phi[index], Y[index], prior, scale, grid)
             self.shrinkage_evidence_[unit] = evidence
@@ -624,37 +874,59 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 continue
             several[unit] = n_runs
             self.shrinkage_[unit] = _shrinkage.pick_strength(-evidence, grid)
-            folds = _shrinkage.cv_folds(runs[index])
+            folds_of[unit] = _shrinkage.cv_folds(runs[index])
             _, scores = _shrinkage.choose_shrinkage(
-                Phi[index], Y[index], prior, scale, folds, grid, lot=lot_sums
+                Phi[index], Y[index], prior, scale, folds_of[unit], grid, lot=lot_sums
             )
             self.shrinkage_scores_[unit] = scores
-            self.n_folds_[unit] = len(folds)
-            # a basis the network learns is a unit's own model apart from the lot's; a
-            # linear model's own fit is (near) strength 0 on the lot's features already
-            learns_basis = isinstance(final, RBFNetRegressor)
-            self.own_scores_[unit] = (
-                self._own_score(X_inner, y, index, folds) if learns_basis else None
-            )
+            self.n_folds_[unit] = len(folds_of[unit])
         if single:
             # one run says little about how far its unit lies from the lot: one strength
             # for all single-run units, from the sum of their log-evidences
             total = sum(self.shrinkage_evidence_[unit] for unit in single)
             self.shrinkage_.update(dict.fromkeys(single, _shrinkage.pick_strength(-total, grid)))
-        own = self._own_wins(several, rows, grid)
+        # A basis the network learns makes a unit's own model a candidate apart from the lot's
+        # (a linear model's own fit is the strength-0 end of the ridge path already): every
+        # unit with several runs gets its own model, fitted once, scored on held-out runs.
+        learns_basis = isinstance(final, RBFNetRegressor)
+        own_models = (
+            self._fit_units(
+                {unit: rows[unit] for unit in several}, X_inner, y, params=params, too_few="none"
+            )
+            if learns_basis
+            else {}
+        )
+        for unit in several:
+            self.own_scores_[unit] = (
+                _own_score(
+                    own_models[unit],
+                    _safe_indexing(X_inner, rows[unit]),
+                    Y[rows[unit]],
+                    folds_of[unit],
+                )
+                if learns_basis
+                else None
+            )
+        own = self.own_wins_ = self._own_wins(several, rows, grid)
         far = {
             unit
             for unit in several
             if rows[unit].size * self.shrinkage_[unit] <= OWN_MODEL_SPREAD**-2
         }
+        far_models = self._fit_units(
+            {unit: rows[unit] for unit in far if unit not in own_models},
+            X_inner,
+            y,
+            params=params,
+            too_few="none",
+        )
+        own_models.update(far_models)
         for unit, index in rows.items():
-            if unit in several and (own or unit in far):
-                own_model = self._fit_unit(unit, X_inner, y, index, too_few="none")
-                # a unit too small to determine its own model keeps the shrunk weights
-                if own_model is not None:
-                    self.shrinkage_[unit] = None
-                    self.estimators_[unit] = own_model
-                    continue
+            # a unit too small to determine its own model keeps the shrunk weights
+            if unit in several and (own or unit in far) and own_models[unit] is not None:
+                self.shrinkage_[unit] = None
+                self.estimators_[unit] = own_models[unit]
+                continue
             (weights,) = _shrinkage.solve_shrunk(
                 Phi[index], Y[index], prior, scale, [self.shrinkage_[unit]]
             )
@@ -668,48 +940,29 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     def _own_wins(self, several, rows, grid):
         """Whether the units with several runs are better served by their own models.
 
-        One choice for all of them: the held-out squared errors of their own models
-        (scaled by ``(r - 1) / r`` for a unit of ``r`` runs, see Notes) summed against
-        those of their chosen strengths.
+        One choice for all of them: the held-out squared errors of their own models summed
+        against those of their chosen strengths.
         """
         own_total = shrunk_total = 0.0
-        for unit, n_runs in several.items():
+        for unit in several:
             if self.own_scores_[unit] is None:
                 return False
             size = rows[unit].size
             position = int(np.flatnonzero(grid == self.shrinkage_[unit])[0])
-            own_total += self.own_scores_[unit] * size * (n_runs - 1) / n_runs
+            own_total += self.own_scores_[unit] * size
             shrunk_total += self.shrinkage_scores_[unit][position] * size
         return bool(several) and own_total < shrunk_total
 
-    def _own_score(self, X_inner, y, index, folds):
-        """Held-out mean squared error of the unit's own model, fitted fold by fold."""
-        sse, n_held = 0.0, 0
-        for test in folds:
-            try:
-                model = _raw_predictions(clone(self.estimator)).fit(
-                    _safe_indexing(X_inner, index[~test]), y[index[~test]]
-                )
-            except ValueError:  # e.g. too few rows for the model: not a candidate
-                return np.inf
-            if np.count_nonzero(~test) < _rows_needed(model)[0]:
-                return np.inf  # not determined by the unit's rows: not a candidate either
-            with warnings.catch_warnings():
-                # a held-out run outside the other runs' domain is expected here
-                warnings.simplefilter("ignore", OutsideCalibrationWarning)
-                prediction = np.asarray(
-                    model.predict(_safe_indexing(X_inner, index[test])), dtype=np.float64
-                )
-            sse += float(
-                np.square(y[index[test]] - prediction.reshape(y[index[test]].shape)).sum()
-            )
-            n_held += y[index[test]].size
-        return sse / n_held
-
     def _units_of(self, X):
-        """(X without the unit column, the unit of every row); every unit seen in fit."""
+        """(X without the unit column, the unit of every row); every unit known.
+
+        A unit is known when seen in fit (or added by :meth:`add_units`), or when
+        ``handle_unknown="lot"`` (the lot's model predicts it).
+        """
         check_is_fitted(self)
         X_inner, units, _ = self._split_unit(X, reset=False)
+        if self.handle_unknown == "lot" and self.lot_estimator_ is not None:
+            return X_inner, units
         known = set(self.estimators_)
         for unit in np.unique(units):
             if _label(unit) not in known:
@@ -717,15 +970,20 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 more = "" if self.units_.size <= 10 else f" and {self.units_.size - 10} more"
                 raise ValueError(
                     f"unit {_label(unit)!r} (column {self.unit!r} of X) was not seen in fit; "
-                    f"the fitted units are {fitted}{more}."
+                    f"the fitted units are {fitted}{more}. Calibrate it with add_units, or "
+                    "predict it with the lot's model (handle_unknown='lot')."
                 )
         return X_inner, units
+
+    def _model_of(self, unit):
+        """The model of ``unit``: its own, or the lot's for a unit not seen in fit."""
+        return self.estimators_.get(_label(unit), self.lot_estimator_)
 
     def _dispatch(self, X_inner, units, method):
         """``method`` of every unit's model on the unit's rows, row i for input row i."""
         present = np.unique(units)
         if self.lot_estimator_ is not None and all(
-            self.estimators_[_label(unit)] is self.lot_estimator_ for unit in present
+            self._model_of(unit) is self.lot_estimator_ for unit in present
         ):
             # One model for every unit here ("full"): one call, the lot model's own answer.
             return np.asarray(getattr(self.lot_estimator_, method)(X_inner))
@@ -733,7 +991,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         for unit in present:
             index = np.flatnonzero(units == unit)
             part = np.asarray(
-                getattr(self.estimators_[_label(unit)], method)(_safe_indexing(X_inner, index))
+                getattr(self._model_of(unit), method)(_safe_indexing(X_inner, index))
             )
             if output is None:
                 output = np.empty((units.shape[0], *part.shape[1:]), dtype=part.dtype)
@@ -800,9 +1058,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         if present.size > _LISTED_UNITS:
             parts.append(f"and {present.size - _LISTED_UNITS} more units")
         worst = int(np.argmax(np.where(flags, distance, -np.inf)))
-        policies = sorted(
-            {str(getattr(self.estimators_[_label(unit)], "outside", "?")) for unit in present}
-        )
+        policies = sorted({str(getattr(self._model_of(unit), "outside", "?")) for unit in present})
         warnings.warn(
             f"Rows lie outside their unit's calibration domain in {present.size} of "
             f"{np.unique(units).size} units ({'; '.join(parts)}); largest distance "
@@ -859,6 +1115,21 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         """
         X_inner, units = self._units_of(X)
         return self._dispatch(X_inner, units, "outside_calibration").astype(bool)
+
+    def get_metadata_routing(self):
+        """The metadata routing of this object: ``fit`` parameters go to ``estimator.fit``.
+
+        See scikit-learn's metadata routing user guide.
+
+        Returns
+        -------
+        routing : MetadataRouter
+            What ``fit`` routes to ``estimator``.
+        """
+        return MetadataRouter(owner=self).add(
+            estimator=self.estimator,
+            method_mapping=MethodMapping().add(caller="fit", callee="fit"),
+        )
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

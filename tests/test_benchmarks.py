@@ -112,6 +112,11 @@ QUICK_RUNS = {
         ["extrapolation_quick.md", "extrapolation_quick.json"],
         True,
     ),
+    "bench_scale": (
+        ["--quick", "--out", "{out}"],
+        ["scale_quick.md", "scale_quick.json"],
+        True,
+    ),
     "simulator_compensation_check": (
         ["--quick", "--out", "{out}"],
         ["simulator_compensation_quick.md"],

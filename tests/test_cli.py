@@ -718,12 +718,14 @@ def test_fit_per_unit_then_compensate_report_export(lot_csv, tmp_path, capsys):
     assert main([*args, "-o", str(model_path)]) == 0
     captured = capsys.readouterr()
     assert "warning" not in captured.err
+    assert "[UnitwiseRegressor] lot model fitted on 3 units" in captured.err  # progress
     assert "per unit" in captured.out
     table_lines = [line for line in captured.out.splitlines() if "linear (partial)" in line]
     assert len(table_lines) == 3  # one row per unit
     model, metadata = load_model(model_path, return_metadata=True)
     assert isinstance(model, UnitwiseRegressor)
     assert model.pooling == "partial"
+    assert model.verbose == 0  # the progress was for the command line only
     assert model.units_.tolist() == [0, 1, 2]
     assert metadata["extra"]["columns"]["unit"] == "unit"
     assert sorted(metadata["extra"]["cross_validation"]["units"]) == ["0", "1", "2"]
@@ -760,7 +762,12 @@ def test_unit_errors_are_one_line(lot_csv, tmp_path, capsys):
     assert main([*base, "--pooling", "none"]) == 2
     assert "give --unit COL" in capsys.readouterr().err
     assert main([*base, "--unit", "unit", "--pooling", "none"]) == 0
-    capsys.readouterr()
+    progress = [line for line in capsys.readouterr().err.splitlines() if "fitted (" in line]
+    assert [line.split("fitted ")[1].split(",")[0] for line in progress] == [
+        "(1 of 3)",
+        "(2 of 3)",
+        "(3 of 3)",
+    ]
     other = tmp_path / "other.csv"
     _read(lot_csv).assign(unit=7).to_csv(other, index=False)
     out_csv = tmp_path / "out.csv"

@@ -23,8 +23,11 @@ network there by more than one standard error).
 
 The refined fits that lose beyond the margin are listed in ``KNOWN_LOSSES`` with their ratios,
 as ``python benchmarks/rbf_run_folds_check.py`` measures them (its "Refinement on held-out
-runs" table, the same cases; issue 12): those parametrised cases are strict xfails, so that
-a fix turns them into failures to be removed from the list.
+runs" table, the same cases; issue 12): those cases may lose, by at most 5 % more than the
+measured ratio (a regression beyond that fails), and every other case must stay within the
+margin. (They were strict xfails until layered seed 4's 1.029, 0.9 % past the margin, came
+out within it on another machine's floating point: a case that close to the margin cannot
+be a strict expectation either way.)
 """
 
 import sys
@@ -50,10 +53,11 @@ N_CENTERS = 10
 # Held-out MSD refined / OLS measured at 3688b23 (n_centers=10, criterion=None).
 SPLITS = ("row blocks", "run groups")
 KNOWN_LOSSES = {
-    ("varpro", "row blocks"): "lumped seed 3: 2.716, lumped seed 4: 1.522",
-    ("lm", "row blocks"): "layered seed 2: 1.089, layered seed 4: 1.031",
-    ("varpro", "run groups"): "layered seed 4: 1.029",
+    ("varpro", "row blocks"): {("lumped", 3): 2.716, ("lumped", 4): 1.522},
+    ("lm", "row blocks"): {("layered", 2): 1.089, ("layered", 4): 1.031},
+    ("varpro", "run groups"): {("layered", 4): 1.029},
 }
+KNOWN_LOSS_SLACK = 1.05  # a known loss may come out up to 5 % worse than measured
 
 
 def _fit(refine, seed, X, y, split="row blocks"):
@@ -109,27 +113,20 @@ def refined(fits):
     return get
 
 
-def _mode_param(mode, split):
-    marks = []
-    if (mode, split) in KNOWN_LOSSES:
-        marks.append(
-            pytest.mark.xfail(
-                strict=True,
-                reason=f"refine={mode!r} ({split}) loses to OLS on held-out runs "
-                f"({KNOWN_LOSSES[mode, split]}); issue 12",
-            )
-        )
-    return pytest.param(mode, split, marks=marks)
-
-
-@pytest.mark.parametrize(
-    ("mode", "split"), [_mode_param(mode, split) for split in SPLITS for mode in MODES]
-)
+@pytest.mark.parametrize("split", SPLITS)
+@pytest.mark.parametrize("mode", MODES)
 def test_refined_network_never_worse_than_ols_on_held_out_runs(refined, mode, split):
+    known = KNOWN_LOSSES.get((mode, split), {})
     ratios = {case: row["ratio"] for case, row in refined(mode, split).items()}
-    losses = {case: round(r, 4) for case, r in ratios.items() if r > 1.0 + TIE_MARGIN}
+    bounds = {case: known.get(case, 1.0 + TIE_MARGIN) for case in ratios}
+    bounds = {
+        case: bound * KNOWN_LOSS_SLACK if case in known else bound
+        for case, bound in bounds.items()
+    }
+    losses = {case: round(r, 4) for case, r in ratios.items() if r > bounds[case]}
     assert not losses, (
-        f"refine={mode!r} ({split}) worse than OLS by more than {TIE_MARGIN:.0%}: {losses}"
+        f"refine={mode!r} ({split}) worse than OLS beyond its bound (the {TIE_MARGIN:.0%} "
+        f"margin, or a known loss ({known}) x {KNOWN_LOSS_SLACK}): {losses}"
     )
 
 

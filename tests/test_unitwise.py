@@ -16,7 +16,13 @@ from sklearn_ifog import (
 from sklearn_ifog import _shrinkage as shrinkage
 from sklearn_ifog._compat import InvalidParameterError
 from sklearn_ifog.datasets import make_thermal_campaign
-from sklearn_ifog.unitwise import OWN_MODEL_SPREAD, _layer_inputs, layer_design, layer_weights
+from sklearn_ifog.unitwise import (
+    OWN_MODEL_SPREAD,
+    _layer_inputs,
+    _own_score,
+    layer_design,
+    layer_weights,
+)
 
 
 @pytest.fixture(scope="module")
@@ -194,10 +200,9 @@ def test_log_evidence_is_the_gaussian_marginal_likelihood():
     assert shrinkage.log_evidence(Phi, Y, prior, scale, [0.0])[0] == -np.inf
 
 
-def test_own_models_are_chosen_for_the_lot_on_scaled_held_out_errors(lot):
+def test_own_models_are_chosen_for_the_lot_on_held_out_errors(lot):
     """RBF network: every multi-run unit keeps its own model, or only those the evidence
-    puts far from the lot do, as the held-out errors say (the own model's scaled by
-    (r - 1) / r)."""
+    puts far from the lot do, as the summed held-out errors say."""
     X, y = lot.data, lot.target.to_numpy().copy()
     odd = _unit_rows(lot, 1)
     y[odd] = -5.0 * y[odd] + 0.3
@@ -207,7 +212,7 @@ def test_own_models_are_chosen_for_the_lot_on_scaled_held_out_errors(lot):
     far = []
     for unit in range(4):
         size = _unit_rows(lot, unit).sum()
-        own_total += model.own_scores_[unit] * size * 2 / 3  # three runs a unit
+        own_total += model.own_scores_[unit] * size
         # the chosen strength is the evidence's, whether or not the own model was kept
         lam = shrinkage.pick_strength(-model.shrinkage_evidence_[unit], grid)
         shrunk_total += model.shrinkage_scores_[unit][grid == lam][0] * size
@@ -226,25 +231,59 @@ def test_own_models_are_chosen_for_the_lot_on_scaled_held_out_errors(lot):
             np.testing.assert_array_equal(final.centers_, lot_final.centers_)
 
 
-def test_own_wins_follows_the_scaled_sums():
-    """The lot-level choice itself, on given scores: the scaling decides a close call."""
+def test_own_wins_follows_the_summed_errors():
+    """The lot-level choice itself, on given scores: the sums decide, weighted by rows."""
     model = UnitwiseRegressor(_rbf())
     grid = shrinkage.SHRINKAGE_GRID
-    rows = {"a": np.arange(10), "b": np.arange(10)}
+    rows = {"a": np.arange(10), "b": np.arange(30)}
     model.shrinkage_ = {"a": grid[3], "b": grid[5]}
     model.shrinkage_scores_ = {"a": np.full(grid.size, 1.0), "b": np.full(grid.size, 1.0)}
-    # unscaled, own 1.2 > shrunk 1.0; scaled by (2 - 1) / 2 it is 0.6 < 1.0
-    model.own_scores_ = {"a": 1.2, "b": 1.2}
+    model.own_scores_ = {"a": 1.2, "b": 0.9}
+    # rows weigh: 10 * 1.2 + 30 * 0.9 = 39 < 40
     assert model._own_wins({"a": 2, "b": 2}, rows, grid)
-    # with many runs the scaling fades: (10 - 1) / 10 * 1.2 > 1.0
-    assert not model._own_wins({"a": 10, "b": 10}, rows, grid)
+    model.own_scores_ = {"a": 1.2, "b": 0.95}  # 12 + 28.5 = 40.5 > 40
+    assert not model._own_wins({"a": 2, "b": 2}, rows, grid)
     # the sum decides, not each unit: one unit far better alone carries the other
-    model.own_scores_ = {"a": 0.1, "b": 1.5}
+    model.own_scores_ = {"a": 3.0, "b": 0.2}
     assert model._own_wins({"a": 3, "b": 3}, rows, grid)
     # no unit with several runs, or a model without an own score: never
     assert not model._own_wins({}, rows, grid)
-    model.own_scores_ = {"a": None, "b": 0.1}
+    model.own_scores_ = {"a": None, "b": 0.2}
     assert not model._own_wins({"a": 3, "b": 3}, rows, grid)
+
+
+def test_own_score_refits_the_output_layer_without_each_held_out_run(lot):
+    """The own model's held-out error: its basis kept, its output layer re-solved on the
+    other runs as the network solves it (ridge alpha per row on the Gaussian weights, the
+    tail and intercept free here), the held-out run predicted (checked by lstsq on the
+    augmented system)."""
+    rows = _unit_rows(lot, 0)
+    X, y = lot.data[rows].drop(columns="unit"), lot.target.to_numpy()[rows]
+    model = make_compensation_pipeline(
+        RBFNetRegressor(
+            n_centers=6, criterion=None, refine=None, alpha=1e-3, max_samples=400, random_state=0
+        )
+    ).fit(X, y)
+    final = model.steps[-1][1]
+    assert final.centers_.shape[0] == 6
+    runs = X["run"].to_numpy()
+    folds = shrinkage.cv_folds(runs)
+    assert len(folds) == 3
+    Phi = layer_design(final, _layer_inputs(model, X))
+    sse = 0.0
+    for test in folds:
+        n_train = np.count_nonzero(~test)
+        ridge = np.zeros((6, Phi.shape[1]))
+        ridge[:, :6] = np.sqrt(n_train * 1e-3) * np.eye(6)
+        A = np.vstack([Phi[~test], ridge])
+        b = np.r_[y[~test], np.zeros(6)]
+        weights = np.linalg.lstsq(A, b, rcond=None)[0]
+        sse += float(np.sum(np.square(y[test] - Phi[test] @ weights)))
+    score = _own_score(model, X, y[:, None], folds)
+    np.testing.assert_allclose(score, sse / y.size, rtol=1e-6)
+    # a fold leaving fewer rows than output weights cannot score the model
+    assert _own_score(model, X.iloc[:3], y[:3, None], [np.array([True, False, False])]) == np.inf
+    assert _own_score(None, X, y[:, None], folds) == np.inf
 
 
 def test_partial_with_identical_units_gives_the_lot_model(lot):
@@ -601,3 +640,20 @@ def test_compare_regressors_by_unit_scores_each_unit(lot):
         errors.append(np.mean((y[test] - fitted.predict(X[test])) ** 2))
     np.testing.assert_allclose(summary.loc[("none", 2), "msd_after"], np.mean(errors))
     assert set(folds["group"]) == {0, 1, 2, 3}
+
+
+def test_a_refit_with_another_pooling_leaves_no_partial_attribute(lot):
+    """After set_params(pooling=...) and a refit, nothing of the earlier partial fit stays."""
+    model = UnitwiseRegressor(_linear(), pooling="partial").fit(lot.data, lot.target)
+    assert set(model.shrinkage_evidence_) == {0, 1, 2, 3}
+    for pooling in ("none", "full"):
+        model.set_params(pooling=pooling).fit(lot.data, lot.target)
+        for name in (
+            "shrinkage_",
+            "shrinkage_evidence_",
+            "shrinkage_scores_",
+            "own_scores_",
+            "shrinkage_grid_",
+            "n_folds_",
+        ):
+            assert getattr(model, name) is None, name

@@ -270,7 +270,14 @@ def _build_pipeline(columns, args):
         return pipeline
     from sklearn_ifog import UnitwiseRegressor
 
-    return UnitwiseRegressor(pipeline, unit=columns.unit, pooling=args.pooling, run=columns.run)
+    return UnitwiseRegressor(
+        pipeline,
+        unit=columns.unit,
+        pooling=args.pooling,
+        run=columns.run,
+        n_jobs=args.n_jobs,
+        verbose=1,  # a line per unit on stderr: a lot of a hundred units takes minutes
+    )
 
 
 def _warn_several_units(frame, args, path):
@@ -288,6 +295,7 @@ def _warn_several_units(frame, args, path):
 
 def _unit_cross_validation(args, model, X, target, frame, columns, path):
     """Per-unit table: leave one run of a unit out at a time (each unit needs two runs)."""
+    from sklearn.base import clone
     from sklearn.dummy import DummyRegressor
     from sklearn.model_selection import LeaveOneGroupOut
 
@@ -316,7 +324,8 @@ def _unit_cross_validation(args, model, X, target, frame, columns, path):
     candidates = {
         "raw": DummyRegressor(strategy="constant", constant=0.0),
         "bias": UnitwiseRegressor(DummyRegressor(), unit=columns.unit, pooling="none"),
-        f"{args.model} ({args.pooling})": model,
+        # the folds quietly: the progress lines are the final fit's
+        f"{args.model} ({args.pooling})": clone(model).set_params(verbose=0),
     }
     try:
         with _held_out_outside_counted() as outside:
@@ -424,6 +433,8 @@ def command_fit(args):
         pipeline.fit(X, target, **fit_params)
     except (ValueError, TypeError) as error:
         raise InputError(f"{path}: {one_line(error)}") from None
+    if "verbose" in pipeline.get_params():
+        pipeline.set_params(verbose=0)  # the saved model refits quietly
     prediction = np.asarray(pipeline.predict(X), dtype=np.float64).reshape(-1)
     msd_before = float(mean_squared_deviation(target, np.zeros_like(target)))
     msd_after = float(mean_squared_deviation(target, prediction))
@@ -468,7 +479,9 @@ def _conformal(args, pipeline, frame, columns, path):
             f"{path}: --interval needs at least two runs to calibrate on, column "
             f"{columns.run!r} has {n_runs}"
         )
-    model = ConformalRegressor(pipeline, coverage=args.interval, cv=min(5, n_runs))
+    model = ConformalRegressor(
+        pipeline, coverage=args.interval, cv=min(5, n_runs), n_jobs=args.n_jobs
+    )
     return model, {"groups": runs}
 
 

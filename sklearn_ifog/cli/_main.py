@@ -125,7 +125,13 @@ def _build_parser():
     )
     fit.add_argument("--model", choices=("rbf", "linear"), default="rbf", help="regressor")
     fit.add_argument("--random-state", type=int, default=0, help="seed of the RBF network")
-    fit.add_argument("--n-jobs", type=int, default=None, help="parallel CV jobs")
+    fit.add_argument(
+        "--n-jobs",
+        type=int,
+        default=None,
+        help="parallel jobs: cross-validation folds, the units of --unit and the folds of "
+        "--interval (default: one at a time; -1: all cores)",
+    )
     fit.add_argument(
         "--interval",
         type=float,

@@ -1,0 +1,262 @@
+"""A production line's scale: what a lot of gyros costs to fit, serially and in parallel.
+
+Measures ``UnitwiseRegressor`` around the default pipeline
+(``make_compensation_pipeline(RBFNetRegressor(random_state=0))``) on simulated lots of similar
+units (``make_thermal_campaign``, one azimuth, ``--runs`` runs of about 280 rows per unit,
+``lot_spread=0.2``), every ratio from timings taken in this run, one after the other:
+
+- ``pooling="none"`` on 10, 30 and 100 units, and the exponent of its fit time against the
+  number of units (least squares on the logs);
+- ``pooling="partial"`` (the default) on 10 units against ``"none"`` on the same lot, and on
+  100 units in seconds;
+- ``n_jobs=2`` against serial (``n_jobs=None``) on 30 units with ``"none"``, the worker
+  processes started beforehand (their start-up timed on its own), with the cores this
+  process sees, the load average before the run, and how many cores a serial fit already
+  keeps busy (numpy's BLAS threads);
+- a two-worker Dask ``LocalCluster`` (``joblib.parallel_config(backend="dask")``) against
+  serial on 10 units: the largest absolute difference of the predictions.
+
+Targets (issue 26; a FAIL line each, exit 1 when one fails):
+
+- ``"partial"`` fit <= 3 x ``"none"`` on 10 units;
+- 100 units with the default pooling in <= 300 s;
+- ``"none"``: fitted exponent of time against units <= 1.1;
+- ``n_jobs=2`` <= 0.6 x serial on 30 units (meaningful on an idle machine with two cores or
+  more: the cores and the load are printed beside it);
+- Dask equal to serial within 1e-12.
+
+The network's own scale (fit and predict at 1e6 rows against its peers) is measured by
+``rbf_scale_check.py``.
+
+Run (about 10 minutes on two cores)::
+
+    .venv/bin/python benchmarks/bench_scale.py
+
+``--quick`` (CI): 3, 4 and 6 units of 3 runs at 300 s sampling, the same targets (which need
+not hold at that size). Writes ``benchmarks/results/scale[_quick].md`` and ``.json``
+(``--out DIR`` elsewhere).
+"""
+
+import argparse
+import json
+import os
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import joblib
+import numpy as np
+
+from sklearn_ifog import RBFNetRegressor, UnitwiseRegressor, make_compensation_pipeline
+from sklearn_ifog._io import write_text_files
+from sklearn_ifog.datasets import make_thermal_campaign
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _verdict import exit_code, target_line
+
+RESULTS = Path(__file__).resolve().parent / "results"
+LOT_SPREAD = 0.2
+PARTIAL_RATIO = 3.0  # "partial" fit <= 3 x "none"
+LARGE_LOT_SECONDS = 300.0  # 100 units with the default pooling
+UNIT_EXPONENT = 1.1  # "none": time ~ units ** exponent
+PARALLEL_RATIO = 0.6  # n_jobs=2 against serial
+DASK_TOLERANCE = 1e-12
+
+
+def lot(n_units, n_runs, sampling_period):
+    """The simulated lot: X, y."""
+    return make_thermal_campaign(
+        n_units=n_units,
+        n_runs=n_runs,
+        azimuths=(0.0,),
+        sampling_period=sampling_period,
+        lot_spread=LOT_SPREAD,
+        random_state=0,
+        return_X_y=True,
+    )
+
+
+def timed_fit(X, y, pooling, n_jobs=None, cpu=None):
+    """(seconds, fitted model) of one UnitwiseRegressor fit; ``cpu``: a dict that receives
+    the CPU seconds of this process (BLAS threads included, worker processes not)."""
+    model = UnitwiseRegressor(
+        make_compensation_pipeline(RBFNetRegressor(random_state=0)), pooling=pooling, n_jobs=n_jobs
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        before = os.times()
+        start = time.perf_counter()
+        model.fit(X, y)
+        after = os.times()
+    if cpu is not None:
+        cpu["seconds"] = (after.user + after.system) - (before.user + before.system)
+    return time.perf_counter() - start, model
+
+
+def dask_difference(X, y):
+    """Largest |prediction difference| between a two-worker Dask cluster and serial."""
+    import distributed
+
+    _, serial = timed_fit(X, y, "none")
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster),
+        joblib.parallel_config(backend="dask"),
+    ):
+        _, spread = timed_fit(X, y, "none", n_jobs=-1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        return float(np.max(np.abs(spread.predict(X) - serial.predict(X))))
+
+
+def measure(units, n_runs, sampling_period, log=print):
+    """Every timing of the module docstring, in turn."""
+    small, middle, large = units
+    record = {"cores": os.cpu_count(), "load_before": os.getloadavg()[0], "none": {}}
+    lots = {n: lot(n, n_runs, sampling_period) for n in units}
+    record["rows_per_unit"] = int(lots[small][0].shape[0] / small)
+    cpu = {}
+    for n in units:
+        record["none"][n], _ = timed_fit(*lots[n], "none", cpu=cpu)
+        log(f"none, {n} units: {record['none'][n]:.1f} s")
+    # cores a serial fit keeps busy (numpy's BLAS threads): what n_jobs can still add
+    record["serial_cores_used"] = cpu["seconds"] / record["none"][large]
+    record["partial_small"], partial = timed_fit(*lots[small], "partial")
+    record["own_models_small"] = sum(v is None for v in partial.shrinkage_.values())
+    log(f"partial, {small} units: {record['partial_small']:.1f} s")
+    record["partial_large"], _ = timed_fit(*lots[large], "partial")
+    log(f"partial, {large} units: {record['partial_large']:.1f} s")
+    record["load_parallel"] = os.getloadavg()[0]
+    # the worker processes start, and import the package, once per session (loky reuses
+    # them): a two-unit fit starts them beforehand, so that the ratio is the fits' (the
+    # start-up is timed and reported on its own)
+    X_small, y_small = lots[small]
+    two = X_small["unit"].isin(np.unique(X_small["unit"])[:2]).to_numpy()
+    record["worker_startup"], _ = timed_fit(X_small[two], y_small[two], "none", n_jobs=2)
+    record["parallel_middle"], _ = timed_fit(*lots[middle], "none", n_jobs=2)
+    log(f"none with n_jobs=2, {middle} units: {record['parallel_middle']:.1f} s")
+    record["dask_difference"] = dask_difference(*lots[small])
+    log(f"dask against serial: {record['dask_difference']:.3g}")
+    logs = np.log([float(n) for n in units])
+    times = np.log([record["none"][n] for n in units])
+    record["unit_exponent"] = float(np.polyfit(logs, times, 1)[0])
+    return record
+
+
+def checks(record, units):
+    small, middle, large = units
+    ratio_partial = record["partial_small"] / record["none"][small]
+    ratio_parallel = record["parallel_middle"] / record["none"][middle]
+    return [
+        (
+            ratio_partial <= PARTIAL_RATIO,
+            f"partial fit <= {PARTIAL_RATIO:g} x none on {small} units ({ratio_partial:.3f})",
+        ),
+        (
+            record["partial_large"] <= LARGE_LOT_SECONDS,
+            f"{large} units with the default pooling in <= {LARGE_LOT_SECONDS:g} s "
+            f"({record['partial_large']:.1f} s)",
+        ),
+        (
+            record["unit_exponent"] <= UNIT_EXPONENT,
+            f"none: fit time ~ units ** exponent, exponent <= {UNIT_EXPONENT:g} "
+            f"({record['unit_exponent']:.3f})",
+        ),
+        (
+            ratio_parallel <= PARALLEL_RATIO,
+            f"n_jobs=2 <= {PARALLEL_RATIO:g} x serial on {middle} units ({ratio_parallel:.3f}; "
+            f"{record['cores']} cores seen, load {record['load_parallel']:.2f}, a serial fit "
+            f"keeps {record['serial_cores_used']:.2f} cores busy)",
+        ),
+        (
+            record["dask_difference"] <= DASK_TOLERANCE,
+            f"two-worker Dask cluster equal to serial within {DASK_TOLERANCE:g} "
+            f"({record['dask_difference']:.3g})",
+        ),
+    ]
+
+
+def markdown(record, units, lines, command, seconds):
+    small, middle, large = units
+    best = min(1.0, record["serial_cores_used"] / 2.0)  # the same CPU time over two cores
+    out = [
+        "# A production line's scale",
+        "",
+        f"Command: `{command}` ({seconds:.0f} s). {record['cores']} cores seen, load average "
+        f"{record['load_before']:.2f} before the run; about {record['rows_per_unit']} rows per "
+        "unit. See the script's docstring for the lots and the targets.",
+        "",
+        "| fit | units | seconds | per unit |",
+        "|---|---|---|---|",
+    ]
+    for n in units:
+        out.append(f"| none | {n} | {record['none'][n]:.2f} | {record['none'][n] / n:.3f} |")
+    out.append(
+        f"| partial | {small} | {record['partial_small']:.2f} | "
+        f"{record['partial_small'] / small:.3f} |"
+    )
+    out.append(
+        f"| partial | {large} | {record['partial_large']:.2f} | "
+        f"{record['partial_large'] / large:.3f} |"
+    )
+    out.append(
+        f"| none, n_jobs=2 | {middle} | {record['parallel_middle']:.2f} | "
+        f"{record['parallel_middle'] / middle:.3f} |"
+    )
+    out += [
+        "",
+        f"Units keeping their own model under partial pooling on {small} units: "
+        f"{record['own_models_small']}. A serial fit of {large} units kept "
+        f"{record['serial_cores_used']:.2f} cores busy on average (numpy's BLAS threads), so "
+        f"two processes can at best bring it to about {best:.2f} of its time here; starting "
+        f"the two worker processes (a two-unit fit) took {record['worker_startup']:.1f} s "
+        "(once per session, not in the ratio).",
+        "",
+        "## Targets",
+        "",
+        *(f"- {line}" for line in lines),
+    ]
+    return "\n".join(out) + "\n"
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="CI mode: small lots")
+    parser.add_argument("--runs", type=int, default=20, help="runs per unit (full mode)")
+    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
+    args = parser.parse_args(argv)
+    if args.quick:
+        units, n_runs, period = (3, 4, 6), 3, 300.0
+    else:
+        units, n_runs, period = (10, 30, 100), args.runs, 60.0
+    start = time.perf_counter()
+    record = measure(units, n_runs, period)
+    seconds = time.perf_counter() - start
+    verdicts = checks(record, units)
+    lines = [target_line(ok, text) for ok, text in verdicts]
+    command = "python benchmarks/bench_scale.py" + (" --quick" if args.quick else "")
+    stem = "scale_quick" if args.quick else "scale"
+    args.out.mkdir(parents=True, exist_ok=True)
+    payload = {
+        "units": units,
+        "runs_per_unit": n_runs,
+        "sampling_period": period,
+        "record": {k: v for k, v in record.items() if k != "none"},
+        "none": {str(n): t for n, t in record["none"].items()},
+        "checks": [{"pass": bool(ok), "target": text} for ok, text in verdicts],
+    }
+    write_text_files(
+        {
+            args.out / f"{stem}.json": json.dumps(payload, indent=1),
+            args.out / f"{stem}.md": markdown(record, units, lines, command, seconds),
+        }
+    )
+    print("\n".join(lines))
+    return exit_code(ok for ok, _ in verdicts)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
