@@ -60,6 +60,10 @@ transition seen heating only), so safety decided for the narrowest width of the 
 Also printed (not a target): the fallback's evidence, per case, against what the line in T
 does outside the calibrated temperatures, and how a threshold on that evidence would fare
 (:func:`evidence_markdown`): whether the calibration can tell when a slope extrapolates.
+And an alternative policy measured beside the blend (not a target, not the default): the
+network's deviation from the fallback clamped to ``c`` times the half-range it spans on the
+calibration rows (:func:`deviation_clamp`, ``c`` in ``CLAMP_FACTORS``), with each target's
+failures counted for it and for the blend (:func:`clamp_markdown`).
 
 Run (about 5 min on two cores)::
 
@@ -99,6 +103,10 @@ REAL_AXES = ("gyro_x", "gyro_y", "gyro_z")
 SWEEP_WIDTHS = (1.0, 3.0, 10.0, 30.0)
 SHARED_RAMP_RATE = 1.0  # degC/min, every run of the shared-profile case
 SWEEP_MARGINS = (0.1, 0.5, 1.0, 1.5, 2.0)
+# An alternative policy measured beside the blend (not the default): the network's
+# deviation from the fallback clipped to c times the half-range it spans on the calibration
+# rows (about their centre), on every row.
+CLAMP_FACTORS = (1.0, 1.5, 2.0, 3.0)
 # Thresholds on the fallback's evidence (the line's squared error over the constant's at the
 # worse calibrated extreme): the rule of ``fit_fallback`` keeps the slope at 0.25.
 EVIDENCE_THRESHOLDS = (0.1, 0.25, 0.5, 1.0, 2.0)
@@ -114,6 +122,35 @@ UNCHANGED_RATIO = 1.02  # what the policy may cost where calibration and use sha
 
 def _network(**params):
     return RBFNetRegressor(random_state=0, **params)
+
+
+def deviation_clamp(model, X_cal, X_op):
+    """The alternative policy's predictions of ``X_op``, one per ``CLAMP_FACTORS`` entry.
+
+    The fitted ``model``'s network (``outside="none"``) minus its fallback, clipped on every
+    row to ``c`` times the half-range that difference spans on the calibration rows (about
+    its centre), plus the fallback: where the calibration saw the network stay near the
+    fallback, it may not leave it far anywhere else. A firmware-friendly clamp on the
+    output, where the ``"clip"`` policy clamps the inputs.
+    """
+    features_cal = model.steps[0][1].transform(X_cal)
+    features_op = model.steps[0][1].transform(X_op)
+    policy = model.outside
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model.set_params(outside="none")
+        network_cal, network_op = model.predict(X_cal), model.predict(X_op)
+        model.set_params(outside=policy)
+    base_cal = model.fallback_.predict(features_cal)[:, 0]
+    base_op = model.fallback_.predict(features_op)[:, 0]
+    deviation = network_cal - base_cal
+    centre = (deviation.max() + deviation.min()) / 2
+    half = (deviation.max() - deviation.min()) / 2
+    return {
+        f"clamp {c:g}": base_op
+        + np.clip(network_op - base_op, centre - c * half, centre + c * half)
+        for c in CLAMP_FACTORS
+    }
 
 
 def peers(X_cal, y_cal, X_op):
@@ -145,6 +182,7 @@ def peers(X_cal, y_cal, X_op):
     for width in SWEEP_WIDTHS:
         weight = fallback_weight(distance, default.margin, width)
         sweep[f"blend width {width:g}"] = (1.0 - weight) * none + weight * fallback
+    sweep.update(deviation_clamp(default, X_cal, X_op))
     return predictions, sweep, default, features
 
 
@@ -261,6 +299,8 @@ def shared_profile_case(physics, seed, sampling_period, n_runs):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             squared["default"] += float(np.sum((y[held] - model.predict(X[held])) ** 2))
+            for name, clamped in deviation_clamp(model, X[~held], X[held]).items():
+                squared[name] = squared.get(name, 0.0) + float(np.sum((y[held] - clamped) ** 2))
             model.set_params(outside="none")
             free = model.predict(X[held])
         squared["default, outside='none'"] += float(np.sum((y[held] - free) ** 2))
@@ -303,8 +343,9 @@ def real_case(split, axis):
     y = table[axis].to_numpy()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        predictions, _, model, _ = peers(X[calibrate], y[calibrate], X[~calibrate])
+        predictions, sweep, model, _ = peers(X[calibrate], y[calibrate], X[~calibrate])
         flags = model.outside_calibration(X[~calibrate])
+    predictions.update({name: p for name, p in sweep.items() if name.startswith("clamp")})
     held = y[~calibrate]
     everything = np.ones(held.shape[0], dtype=bool)
     return {
@@ -502,8 +543,74 @@ def markdown(simulated, shared, real, sweep_only, lines, command, seconds):
                 + " |"
             )
     out += evidence_markdown(simulated)
+    out += clamp_markdown(simulated, shared, real)
     out += ["", "## Verdict", "", *lines, ""]
     return "\n".join(out)
+
+
+def clamp_markdown(simulated, shared, real):
+    """The targets' failures of the default blend beside the deviation clamp's.
+
+    Counted on this run's cases with the targets' own thresholds (see :func:`checks`); the
+    clamp's predictions are :func:`deviation_clamp`'s. Not a verdict: the clamp is an
+    alternative measured for the record of the issue "Safe outside the calibration".
+    """
+    policies = {"blend (default)": None, **{f"clamp {c:g}": f"clamp {c:g}" for c in CLAMP_FACTORS}}
+    header = [
+        "",
+        "## An alternative policy: the network's deviation from the fallback clamped",
+        "",
+        "Failures of each target on this run's cases (the blend's are the verdict's; "
+        "'clamp c': the network's deviation from the fallback clipped to c times its "
+        "calibrated half-range).",
+        "",
+        "| policy | outside T (<= 1.5 x min(uncompensated, line)) | outside T (<= uncompensated "
+        "where the line is) | first rule (<= 1.05 x uncompensated) | new rates (<= 1.2 x "
+        "line) | shared profiles (<= 1.02 x outside='none') | real recording |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    rows = []
+    for policy, key in policies.items():
+        counts = {name: [0, 0] for name in ("outside", "line", "first", "rates", "shared", "real")}
+
+        def count(name, failed, counts=counts):
+            counts[name][0] += bool(failed)
+            counts[name][1] += 1
+
+        for record in simulated.values():
+            for cell in record.values():
+                groups = {
+                    group: (cell["scores"][group], cell["sweep"][group])
+                    for group in ("outside T", "new rates")
+                }
+                for group, (scores, sweep) in groups.items():
+                    if not scores["rows"]:
+                        continue
+                    ours = scores["default"] if key is None else sweep[key]
+                    count("first", ours > NEVER_WORSE * scores["uncompensated"])
+                    if group == "outside T":
+                        best = min(scores["uncompensated"], scores["line in T"])
+                        count("outside", ours > OUTSIDE_RATIO * best)
+                        if scores["line in T"] <= scores["uncompensated"]:
+                            count("line", ours > scores["uncompensated"])
+                    else:
+                        count("rates", ours > RATE_RATIO * scores["line in T"])
+        for cell in shared.values():
+            costs = cell["msd/floor"]
+            ours = costs["default"] if key is None else costs[key]
+            count("shared", ours > UNCHANGED_RATIO * costs["default, outside='none'"])
+        for (split, axis), cell in real.items():
+            scores = cell["scores"]
+            ours = scores["default"] if key is None else scores[key]
+            if split.endswith("bursts"):
+                count("real", ours > INTERLEAVED_RATIO * scores["default, outside='none'"])
+                continue
+            count("real", ours > scores["uncompensated"])
+            if axis != "gyro_z":
+                count("real", ours > OUTSIDE_RATIO * scores["line in T"])
+        cells = [f"{failed} of {total}" if total else "-" for failed, total in counts.values()]
+        rows.append(f"| {policy} | " + " | ".join(cells) + " |")
+    return header + rows
 
 
 def evidence_markdown(simulated):
