@@ -777,3 +777,30 @@ def test_unit_errors_are_one_line(lot_csv, tmp_path, capsys):
     assert "not seen in fit" in err
     assert len(err.strip().splitlines()) == 1
     assert not out_csv.exists()
+
+
+def test_fit_per_unit_with_intervals_saves_a_quiet_model(lot_csv, tmp_path, capsys):
+    from sklearn_ifog import ConformalRegressor, UnitwiseRegressor
+
+    model_path = tmp_path / "lot.joblib"
+    args = ["fit", str(lot_csv), *FIT_ARGS, "--unit", "unit", "--model", "linear"]
+    assert main([*args, "--pooling", "none", "--interval", "0.9", "-o", str(model_path)]) == 0
+    err = capsys.readouterr().err
+    assert "[UnitwiseRegressor] unit 2 fitted (3 of 3)" in err
+    model = load_model(model_path)
+    assert isinstance(model, ConformalRegressor)
+    assert isinstance(model.estimator, UnitwiseRegressor)
+    assert model.estimator.verbose == 0
+    assert model.estimator_.verbose == 0
+    # the saved lot with intervals compensates, bounds per row
+    out_csv = tmp_path / "out.csv"
+    assert (
+        main(
+            ["compensate", str(model_path), str(lot_csv), "-o", str(out_csv), "--interval", "0.9"]
+        )
+        == 0
+    )
+    result = _read(out_csv)
+    frame = _read(lot_csv)
+    bounds = model.predict_interval(frame[["unit", "temperature", "time", "run"]])
+    np.testing.assert_allclose(result["drift_lower"], bounds[:, 0], rtol=0, atol=1e-12)

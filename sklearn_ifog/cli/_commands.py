@@ -433,8 +433,7 @@ def command_fit(args):
         pipeline.fit(X, target, **fit_params)
     except (ValueError, TypeError) as error:
         raise InputError(f"{path}: {one_line(error)}") from None
-    if "verbose" in pipeline.get_params():
-        pipeline.set_params(verbose=0)  # the saved model refits quietly
+    _quiet_units(pipeline)
     prediction = np.asarray(pipeline.predict(X), dtype=np.float64).reshape(-1)
     msd_before = float(mean_squared_deviation(target, np.zeros_like(target)))
     msd_after = float(mean_squared_deviation(target, prediction))
@@ -449,13 +448,31 @@ def command_fit(args):
     save_model(pipeline, args.output, metadata=metadata)
     what = args.model
     if columns.unit is not None:
-        what = f"{len(pipeline.units_)} {args.model} models ({args.pooling} pooling)"
+        lot = getattr(pipeline, "estimator_", pipeline)  # inside ConformalRegressor or not
+        what = f"{len(lot.units_)} {args.model} models ({args.pooling} pooling)"
     print(
         f"\nFitted {what} on {X.shape[0]} rows of {path}: training MSD "
         f"{msd_before:.3g} -> {msd_after:.3g} (deg/h)^2 (reduction {msd_before / msd_after:.3g}x)."
     )
     print(f"Wrote the model to {args.output}")
     return EXIT_OK
+
+
+def _quiet_units(model):
+    """Every UnitwiseRegressor of the fitted ``model`` set back to ``verbose=0``.
+
+    The progress lines were for the ``fit`` command; the saved model (and its fitted clones
+    inside a ConformalRegressor) refits quietly.
+    """
+    from sklearn_ifog import UnitwiseRegressor
+
+    parts = [model, getattr(model, "estimator", None), getattr(model, "estimator_", None)]
+    folds = getattr(model, "estimators_", None)  # a ConformalRegressor's fold models
+    if isinstance(folds, list):
+        parts += folds
+    for part in parts:
+        if isinstance(part, UnitwiseRegressor):
+            part.set_params(verbose=0)
 
 
 def _check_coverage(value, option="--interval"):
