@@ -295,19 +295,20 @@ def test_deterministic(method):
     assert first.history == second.history
 
 
+@pytest.mark.parametrize("seed", range(10))
 @pytest.mark.parametrize("method", METHODS)
-def test_multi_output(method):
+def test_multi_output(method, seed):
     """Two outputs of different scales: the refinement cuts the loss by 30 % or more.
 
-    Checked once on problem seeds 0-9, each with start seed one more: holds on each for
-    "varpro" (0.012 to 0.019 of the start loss) and "gd" (0.23 to 0.55), and for "lm" on
-    seeds 0-5 and 7-9 (0.019 to 0.20); on seed 6 "lm" stops after two iterations at 0.78:
-    its second step gains 3e-7 of a loss of 0.65, which its stopping rule (gain below
-    ``tol`` times the loss) takes for convergence. Reported as a suspected bug of the
-    "lm" stopping rule, not narrowed here; the suite's seed 0 is not affected.
+    On problem seeds 0-9, each with start seed one more. "lm" used to stop on seed 6 after
+    two iterations, far above the bound: its second step, accepted only after the damping
+    had been raised by orders of magnitude (a poorly conditioned JᵀJ), gained almost
+    nothing, and its stopping rule took that small gain for convergence. A small gain now
+    counts only at a step near Gauss-Newton's (damping at most 1); this test fails on seed 6
+    with the earlier rule.
     """
-    Z, Y = smooth_problem(n_outputs=2)
-    start = starting_network(Z, Y, width=0.3)
+    Z, Y = smooth_problem(n_outputs=2, seed=seed)
+    start = starting_network(Z, Y, width=0.3, seed=seed + 1)
     result = refine_network(
         Z,
         Y,

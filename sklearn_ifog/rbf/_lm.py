@@ -22,6 +22,8 @@ from sklearn_ifog.rbf._refine_core import (
 
 #: Target size, in float64 entries, of one row block of the Jacobian.
 _BLOCK_ENTRIES = 2**21
+#: Largest damping (relative to JᵀJ's diagonal) at which a small gain counts as convergence.
+_CONVERGED_DAMPING = 1.0
 
 
 def full_residuals(
@@ -247,6 +249,7 @@ def refine_lm(data, start, tracker, max_iter, tol):
             actual = loss - new_loss
             if np.isfinite(new_loss) and actual > 0 and predicted > 0:
                 rho = actual / predicted
+                step_damping = damping
                 damping *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
                 accepted = True
                 break
@@ -257,7 +260,10 @@ def refine_lm(data, start, tracker, max_iter, tol):
             converged = True  # no descent step even at large damping: a stationary point
             break
         small_step = np.linalg.norm(step) <= tol * (np.linalg.norm(theta) + tol)
-        small_gain = actual <= tol * loss
+        # A small gain is convergence only near a Gauss-Newton step: a step accepted after
+        # the damping was raised far (a poorly conditioned JᵀJ) gains little because it is
+        # short, and the damping falls again after it.
+        small_gain = actual <= tol * loss and step_damping <= _CONVERGED_DAMPING
         theta, loss = candidate, new_loss
         net = _unpack(theta, *shape)
         if tracker.update(net, loss, data.val_loss(net)) and tracker.has_val:
