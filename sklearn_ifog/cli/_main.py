@@ -30,19 +30,8 @@ def command_demo(args):
     return EXIT_OK
 
 
-def _build_parser():
-    from sklearn_ifog import __version__
-
-    parser = argparse.ArgumentParser(
-        prog=PROGRAM,
-        description="Learn and remove the temperature drift of fibre-optic gyroscopes.",
-    )
-    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
-    parser.add_argument(
-        "--debug", action="store_true", help="show the traceback of internal errors"
-    )
-    commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-
+def _add_demo(commands):
+    """The ``demo`` command: simulate, compare, plot and report."""
     demo = commands.add_parser(
         "demo", help="simulate a thermal-test campaign, compare models, write plots and a report"
     )
@@ -57,6 +46,9 @@ def _build_parser():
     demo.add_argument("--n-jobs", type=int, default=None, help="parallel jobs (default: cores)")
     demo.set_defaults(handler=command_demo)
 
+
+def _add_fit(commands):
+    """The ``fit`` command: fit a drift model to a thermal-test CSV and save it."""
     fit = commands.add_parser(
         "fit",
         help="fit a drift model to a thermal-test CSV",
@@ -149,6 +141,9 @@ def _build_parser():
     )
     fit.set_defaults(handler=command_fit)
 
+
+def _add_compensate(commands):
+    """The ``compensate`` command: add the drift and the compensated rate to a CSV."""
     compensate = commands.add_parser(
         "compensate",
         help="add the predicted drift and the compensated rate to a CSV",
@@ -175,6 +170,9 @@ def _build_parser():
     )
     compensate.set_defaults(handler=command_compensate)
 
+
+def _add_report(commands):
+    """The ``report`` command: a compensation's metrics and figures."""
     report = commands.add_parser(
         "report",
         help="MSD, bias stability, Allan deviation and plots of a compensation",
@@ -190,6 +188,9 @@ def _build_parser():
     report.add_argument("--out", required=True, metavar="DIR")
     report.set_defaults(handler=command_report)
 
+
+def _add_export(commands):
+    """The ``export`` command: a model as C99 source or JSON."""
     export = commands.add_parser(
         "export",
         help="write a model as C99 source or JSON (a per-unit model: one C source per unit, "
@@ -202,6 +203,26 @@ def _build_parser():
     export.add_argument("--precision", choices=("double", "float"), default="double")
     export.add_argument("--prefix", default="ifog", help="C identifier prefix")
     export.set_defaults(handler=command_export)
+
+
+def _build_parser():
+    from sklearn_ifog import __version__
+
+    parser = argparse.ArgumentParser(
+        prog=PROGRAM,
+        description="Learn and remove the temperature drift of fibre-optic gyroscopes.",
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    parser.add_argument(
+        "--debug", action="store_true", help="show the traceback of internal errors"
+    )
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    _add_demo(commands)
+    _add_fit(commands)
+    _add_compensate(commands)
+    _add_report(commands)
+    _add_export(commands)
     return parser
 
 
