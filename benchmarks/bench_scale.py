@@ -28,7 +28,7 @@ Targets (issue 26; a FAIL line each, exit 1 when one fails):
 The network's own scale (fit and predict at 1e6 rows against its peers) is measured by
 ``rbf_scale_check.py``.
 
-Run (about 10 minutes on two cores)::
+Run (about 3 minutes on two cores)::
 
     .venv/bin/python benchmarks/bench_scale.py
 
