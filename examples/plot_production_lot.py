@@ -123,7 +123,7 @@ ax.set_yscale("log")
 ax.set_xlabel("calibration runs of the new unit")
 ax.set_ylabel("test MSD / noise floor")
 ax.set_title("A new gyro calibrated against a fitted lot")
-ax.legend(loc="center right")
+ax.legend(loc="lower left")
 fig.tight_layout()
 
 # %%
