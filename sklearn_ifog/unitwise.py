@@ -632,7 +632,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             vars(self).update(state)
             raise
 
-    def add_units(self, X, y):
+    def add_units(self, X, y, **fit_params):
         """Calibrate new units against the fitted lot, without refitting the lot.
 
         The production-line case: the lot is fitted once, and each new gyro is calibrated
@@ -650,6 +650,10 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             The new units' thermal-test rows, with the columns seen in fit.
         y : array-like of shape (n_samples,) or (n_samples, n_outputs)
             Their drift target.
+        **fit_params : dict
+            Passed to ``estimator.fit`` for every model fitted on a new unit's rows (cut per
+            unit), routed as :meth:`fit` routes them (with metadata routing enabled, only
+            what ``estimator`` requests for ``fit``).
 
         Returns
         -------
@@ -672,13 +676,13 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             for name, value in vars(self).items()
         }
         try:
-            return self._add_units(X, y)
+            return self._add_units(X, y, fit_params)
         except BaseException:
             vars(self).clear()
             vars(self).update(state)
             raise
 
-    def _add_units(self, X, y):
+    def _add_units(self, X, y, fit_params):
         X_inner, units, X = self._split_unit(X, reset=False)
         y = check_array(y, ensure_2d=False, dtype=np.float64, input_name="y")
         check_consistent_length(X, y)
@@ -695,17 +699,22 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 "add_units calibrates new units only (refit the lot to change a fitted one)."
             )
         rows = {_label(unit): np.flatnonzero(units == unit) for unit in new}
+        params = (
+            process_routing(self, "fit", **fit_params).estimator.fit
+            if _routing_enabled()
+            else fit_params
+        )
         if self.pooling == "none":
-            models = self._fit_units(rows, X_inner, y)
+            models = self._fit_units(rows, X_inner, y, params=params)
         elif self.pooling == "full":
             models = dict.fromkeys(rows, self.lot_estimator_)
         else:
-            models = self._add_partial(X_inner, y, self._runs(X, X.shape[0]), rows)
+            models = self._add_partial(X_inner, y, self._runs(X, X.shape[0]), rows, params)
         self.estimators_.update(models)
         self.units_ = np.unique(np.concatenate([self.units_, new]))
         return self
 
-    def _add_partial(self, X_inner, y, runs, rows):
+    def _add_partial(self, X_inner, y, runs, rows, params):
         """The new units' models under ``"partial"`` (see :meth:`add_units`)."""
         lot = self.lot_estimator_
         final = _final_step(lot)
@@ -743,7 +752,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             or rows[unit].size * self.shrinkage_[unit] <= OWN_MODEL_SPREAD**-2
         }
         own_models = self._fit_units(
-            {unit: rows[unit] for unit in owners}, X_inner, y, too_few="none"
+            {unit: rows[unit] for unit in owners}, X_inner, y, params=params, too_few="none"
         )
         for unit, index in rows.items():
             if own_models.get(unit) is not None:

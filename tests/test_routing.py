@@ -152,3 +152,25 @@ def test_without_routing_fit_parameters_go_to_the_inner_fit(lot):
         X, y, regressor__sample_weight=weight
     )
     np.testing.assert_allclose(model.estimators_[2][-1].coef_, direct[-1].coef_, rtol=1e-10)
+
+
+def test_add_units_passes_and_routes_fit_parameters_as_fit_does(lot):
+    X, y = lot.data, lot.target.to_numpy()
+    new = (X["unit"] == 2).to_numpy()
+    weight = np.linspace(0.5, 2.0, int(new.sum()))
+    direct = make_compensation_pipeline(LinearRegression()).fit(
+        X[new].drop(columns="unit"), y[new], regressor__sample_weight=weight
+    )
+    model = UnitwiseRegressor(make_compensation_pipeline(LinearRegression()), pooling="none")
+    model.fit(X[~new], y[~new]).add_units(X[new], y[new], regressor__sample_weight=weight)
+    np.testing.assert_allclose(model.estimators_[2][-1].coef_, direct[-1].coef_, rtol=1e-10)
+    with sklearn.config_context(enable_metadata_routing=True):
+        inner = make_compensation_pipeline(LinearRegression().set_fit_request(sample_weight=True))
+        routed = UnitwiseRegressor(inner, pooling="none").fit(X[~new], y[~new])
+        routed.add_units(X[new], y[new], sample_weight=weight)
+        np.testing.assert_allclose(routed.estimators_[2][-1].coef_, direct[-1].coef_, rtol=1e-10)
+        unrequested = UnitwiseRegressor(make_compensation_pipeline(LinearRegression()))
+        unrequested.set_params(pooling="none").fit(X[~new], y[~new])
+        with pytest.raises(UnsetMetadataPassedError, match="sample_weight"):
+            unrequested.add_units(X[new], y[new], sample_weight=weight)
+        assert 2 not in unrequested.estimators_
