@@ -120,7 +120,7 @@ def measure(units, n_runs, sampling_period, log=print):
     record["rows_per_unit"] = int(lots[small][0].shape[0] / small)
     cpu = {}
     for n in units:
-        record["none"][n], _ = timed_fit(*lots[n], "none", cpu=cpu)
+        record["none"][n], _ = timed_fit(*lots[n], "none", cpu=cpu if n == large else None)
         log(f"none, {n} units: {record['none'][n]:.1f} s")
     # cores a serial fit keeps busy (numpy's BLAS threads): what n_jobs can still add
     record["serial_cores_used"] = cpu["seconds"] / record["none"][large]

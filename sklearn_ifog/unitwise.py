@@ -723,7 +723,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         scale, grid = self.shrinkage_scale_, self.shrinkage_grid_
         Y = y.reshape(y.shape[0], -1)
         lot_single = [unit for unit, folds in self.n_folds_.items() if folds == 0]
-        models, several = {}, []
+        several = []
         for unit, index in rows.items():
             evidence = _shrinkage.log_evidence(Phi[index], Y[index], prior, scale, grid)
             self.shrinkage_evidence_[unit] = evidence
@@ -754,16 +754,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         own_models = self._fit_units(
             {unit: rows[unit] for unit in owners}, X_inner, y, params=params, too_few="none"
         )
-        for unit, index in rows.items():
-            if own_models.get(unit) is not None:
-                self.shrinkage_[unit] = None
-                models[unit] = own_models[unit]
-                continue
-            (weights,) = _shrinkage.solve_shrunk(
-                Phi[index], Y[index], prior, scale, [self.shrinkage_[unit]]
-            )
-            models[unit] = _with_weights(lot, weights)
-        return models
+        return self._unit_models(lot, Phi, Y, prior, scale, rows, owners, own_models)
 
     def _fit(self, X, y, fit_params):
         if y is None:
@@ -869,7 +860,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         grid = _shrinkage.SHRINKAGE_GRID
         self.shrinkage_grid_ = grid.copy()
         self.shrinkage_scale_ = scale
-        self.estimators_, self.shrinkage_, self.shrinkage_evidence_ = {}, {}, {}
+        self.shrinkage_, self.shrinkage_evidence_ = {}, {}
         self.shrinkage_scores_, self.own_scores_, self.n_folds_ = {}, {}, {}
         single, several, folds_of = [], {}, {}  # units with one run; with more: runs, folds
         for unit, index in rows.items():
@@ -930,11 +921,20 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             too_few="none",
         )
         own_models.update(far_models)
+        owners = {unit for unit in several if own or unit in far}
+        self.estimators_ = self._unit_models(lot, Phi, Y, prior, scale, rows, owners, own_models)
+
+    def _unit_models(self, lot, Phi, Y, prior, scale, rows, owners, own_models):
+        """Every unit's model under ``"partial"``: its own model if it is one of ``owners``
+        and ``own_models`` has one for it (its ``shrinkage_`` then None), else the lot's
+        model with the unit's shrunk output layer."""
+        models = {}
         for unit, index in rows.items():
             # a unit too small to determine its own model keeps the shrunk weights
-            if unit in several and (own or unit in far) and own_models[unit] is not None:
+            own_model = own_models.get(unit) if unit in owners else None
+            if own_model is not None:
                 self.shrinkage_[unit] = None
-                self.estimators_[unit] = own_models[unit]
+                models[unit] = own_model
                 continue
             (weights,) = _shrinkage.solve_shrunk(
                 Phi[index], Y[index], prior, scale, [self.shrinkage_[unit]]
@@ -944,7 +944,8 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             # domain (at commit 0bba43d), `python benchmarks/bench_unitwise.py --jobs 2` (then on
             # seeds 0-2) had "partial" up to 8.6 x the better of "none" and "full" on similar
             # lots.
-            self.estimators_[unit] = _with_weights(lot, weights)
+            models[unit] = _with_weights(lot, weights)
+        return models
 
     def _own_wins(self, several, rows, grid):
         """Whether the units with several runs are better served by their own models.
