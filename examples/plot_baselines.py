@@ -3,7 +3,7 @@ The RBF network against baseline regressors
 ===========================================
 
 Is a Gaussian RBF network worth it for thermal compensation? One call of
-:func:`~sklearn_ifog.model_selection.compare_regressors` cross-validates it against the
+:func:`~sklearn_ifog.comparison.compare_regressors` cross-validates it against the
 models a gyro engineer would otherwise reach for — no compensation, a bias calibration, a
 linear thermal model, polynomial ridge regression, a multi-layer perceptron, kernel methods
 — plus an imitation of MATLAB's ``newrb``, all on the same features and the same folds.
@@ -17,15 +17,16 @@ linear thermal model, polynomial ridge regression, a multi-layer perceptron, ker
 import matplotlib.pyplot as plt
 import numpy as np
 
+from sklearn_ifog.comparison import default_regressors
 from sklearn_ifog.datasets import make_thermal_campaign
-from sklearn_ifog.model_selection import LeaveOneAzimuthOut, default_regressors
+from sklearn_ifog.model_selection import LeaveOneAzimuthOut
 
 X, y = make_thermal_campaign(n_units=2, n_runs=2, random_state=3, return_X_y=True)
 print(f"{len(X)} samples, {X['run'].nunique()} runs")
 # sphinx_gallery_thumbnail_number = 1
 
 # %%
-# :func:`~sklearn_ifog.model_selection.default_regressors` returns the default set as a
+# :func:`~sklearn_ifog.comparison.default_regressors` returns the default set as a
 # dict, to edit. Every entry but the two dummies is a Pipeline ThermalFeatures →
 # StandardScaler → regressor (kernel methods fitted on a subsample). Add a ``newrb``-like
 # network: a width fixed by hand (``spread`` = 1 standard deviation), centres added until
@@ -54,7 +55,7 @@ print(list(regressors))
 # Cross-validate them all
 # -----------------------
 # Every (model, fold) pair is an independent joblib task.
-from sklearn_ifog.model_selection import compare_regressors
+from sklearn_ifog.comparison import compare_regressors
 
 summary, folds = compare_regressors(
     X, y, regressors=regressors, cv=LeaveOneAzimuthOut(), n_jobs=2, return_folds=True

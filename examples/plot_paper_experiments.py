@@ -8,7 +8,7 @@ and checks it on five runs at another: Table 2 (one unit, trained at azimuth 0°
 and 135°: the raw output, the "traditional" model on (T, ΔT) and the "modified" model on
 (T, ΔT, T·ΔT)). Here the same design runs on a simulated campaign, with
 :func:`sklearn_ifog.experiments.run_paper_experiments`, and the package's models are then
-compared with the usual baselines by :func:`sklearn_ifog.model_selection.compare_regressors`.
+compared with the usual baselines by :func:`sklearn_ifog.comparison.compare_regressors`.
 
 MSD is the mean squared deviation of the output from the known input rate, in (deg/h)².
 """
@@ -22,10 +22,11 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+from sklearn_ifog.comparison import compare_regressors
 from sklearn_ifog.compensation import compensate
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.experiments import run_paper_experiments
-from sklearn_ifog.model_selection import LeaveOneAzimuthOut, compare_regressors
+from sklearn_ifog.model_selection import LeaveOneAzimuthOut
 
 campaign = make_thermal_campaign(random_state=0)
 frame = campaign.frame
@@ -101,7 +102,7 @@ fig.tight_layout()
 # Leave one azimuth out, on the first unit: every model is trained on the unit's runs at
 # three headings and tested on the fourth. ``"raw"`` is no compensation, ``"bias"``
 # subtracts the training mean; the rest are pipelines ThermalFeatures → StandardScaler →
-# regressor (:func:`~sklearn_ifog.model_selection.default_regressors`).
+# regressor (:func:`~sklearn_ifog.comparison.default_regressors`).
 first_unit = (campaign.data["unit"] == unit).to_numpy()
 X, y = campaign.data[first_unit], campaign.target[first_unit]
 summary = compare_regressors(X, y, cv=LeaveOneAzimuthOut(), n_jobs=-1, verbose=1)

@@ -77,9 +77,10 @@ models = {
 # -------------------------------
 # Leave one azimuth out within each unit, as in the paper: train on a gyro's runs at three
 # headings, compensate its runs at the fourth.
-# :func:`~sklearn_ifog.model_selection.compare_regressors` fits every (model, fold) pair and
+# :func:`~sklearn_ifog.comparison.compare_regressors` fits every (model, fold) pair and
 # tabulates the mean squared deviation (MSD) before and after.
-from sklearn_ifog.model_selection import LeaveOneAzimuthOut, compare_regressors
+from sklearn_ifog.comparison import compare_regressors
+from sklearn_ifog.model_selection import LeaveOneAzimuthOut
 
 X, y = campaign.data, campaign.target
 summary, folds = compare_regressors(

@@ -2,7 +2,7 @@
 
 Public names only: the feature transformer, the RBF network, the recommended pipeline, the
 per-unit meta-estimator, the calibration domain and model persistence. The rest lives in the
-submodules (``datasets``, ``metrics``, ``model_selection``, ``export``, ...).
+submodules (``datasets``, ``metrics``, ``model_selection``, ``comparison``, ``export``, ...).
 """
 
 __version__ = "0.1.0.dev0"

@@ -32,7 +32,7 @@ from sklearn_ifog._io import atomic_path
 __all__ = ["TRUSTED_TYPES", "ModelVersionWarning", "load_model", "save_model"]
 
 #: Types, beyond those :mod:`skops.io` trusts by default, that the package's models and the
-#: default models of :func:`sklearn_ifog.model_selection.compare_regressors` are made of, and
+#: default models of :func:`sklearn_ifog.comparison.compare_regressors` are made of, and
 #: no more. Pass it as ``trusted=`` to :func:`skops.io.load` (:func:`load_model` does so by
 #: default). Found with :func:`skops.io.get_untrusted_types` on the fitted models; skops
 #: already trusts scikit-learn's estimators, numpy arrays and dtypes, and Python builtins.
@@ -42,10 +42,13 @@ TRUSTED_TYPES = [
     "sklearn_ifog.domain.CalibrationDomain",
     "sklearn_ifog.domain.Fallback",
     "sklearn_ifog.features.ThermalFeatures",
-    "sklearn_ifog.model_selection.SubsampledRegressor",
     "sklearn_ifog.pipeline.CompensationPipeline",
     "sklearn_ifog.rbf._network.RBFNetRegressor",
+    "sklearn_ifog.subsampled.SubsampledRegressor",
     "sklearn_ifog.unitwise.UnitwiseRegressor",
+    # where SubsampledRegressor used to be defined: files saved then name it so (the name
+    # still resolves to the same class)
+    "sklearn_ifog.model_selection.SubsampledRegressor",
     # the kernel of compare_regressors' Gaussian process baseline (kernels are not estimators,
     # so skops does not trust them by default)
     "sklearn.gaussian_process.kernels.ConstantKernel",

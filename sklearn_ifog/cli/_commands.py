@@ -300,7 +300,7 @@ def _unit_cross_validation(args, model, X, target, frame, columns, path):
     from sklearn.model_selection import LeaveOneGroupOut
 
     from sklearn_ifog import UnitwiseRegressor
-    from sklearn_ifog.model_selection import compare_regressors
+    from sklearn_ifog.comparison import compare_regressors
 
     units = _labels(frame, columns.unit, "--unit", path)
     if columns.run is None:
@@ -369,7 +369,7 @@ def _cross_validate(args, pipeline, X, target, splitter, groups, path):
     """compare_regressors of the pipeline against no compensation and a constant bias."""
     from sklearn.dummy import DummyRegressor
 
-    from sklearn_ifog.model_selection import compare_regressors
+    from sklearn_ifog.comparison import compare_regressors
 
     candidates = {
         "raw": DummyRegressor(strategy="constant", constant=0.0),

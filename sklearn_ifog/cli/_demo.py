@@ -108,7 +108,7 @@ def _simulate(size, settings):
 
 def _regressors(settings):
     """The models the demo compares: default_regressors, those of the size."""
-    from sklearn_ifog.model_selection import default_regressors
+    from sklearn_ifog.comparison import default_regressors
 
     regressors = default_regressors(
         max_kernel_samples=settings["max_kernel_samples"], random_state=_SEED
@@ -123,7 +123,8 @@ def _compare_models(campaign, regressors, n_jobs, advance):
     import pandas as pd
     from sklearn.exceptions import ConvergenceWarning
 
-    from sklearn_ifog.model_selection import LeaveOneAzimuthOut, compare_regressors
+    from sklearn_ifog.comparison import compare_regressors
+    from sklearn_ifog.model_selection import LeaveOneAzimuthOut
 
     cv = LeaveOneAzimuthOut(within_unit=True)
     summaries, folds = [], []
