@@ -1,24 +1,30 @@
 """RBFNetRegressor: the network formula, selection choices, weights, robustness, persistence."""
 
+import ast
+import dataclasses
 import io
 import itertools
+import re
 import warnings
+from pathlib import Path
 
 import joblib
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
-from sklearn.exceptions import ConvergenceWarning
+from sklearn.exceptions import ConvergenceWarning, NotFittedError
 from sklearn.linear_model import LinearRegression
 from sklearn.preprocessing import PolynomialFeatures
 
 from sklearn_ifog import RBFNetRegressor
+from sklearn_ifog.rbf import _network as network_module
 from sklearn_ifog.rbf._basis import (
     gaussian_design,
     n_tail_features,
     predict_network,
     tail_features,
 )
+from sklearn_ifog.rbf._network import network_of
 from sklearn_ifog.rbf._ols import width_grid
 from sklearn_ifog.rbf._select import WIDTH_MULTIPLES
 
@@ -73,14 +79,126 @@ def test_fitted_network_value_is_what_predict_evaluates(n_outputs):
     X, y, _ = _smooth(300, seed=2)
     Y = y if n_outputs == 1 else np.column_stack([y, 2 * y - X[:, 0]])
     model = RBFNetRegressor(refine=None, tail="linear", random_state=0).fit(X, Y)
-    network = model._network()
+    network = network_of(model)
     assert network.coef.shape == (n_outputs, model.widths_.shape[0])
     assert network.tail_coef.shape == (n_outputs, 3)
     assert network.intercept.shape == (n_outputs,)
     assert network.tail_degree == model.tail_degree_ == 1
     X_new = np.random.default_rng(6).uniform(-1.5, 1.5, size=(40, 3))
-    expected = predict_network((X_new - model.x_mean_) / model.x_scale_, *network)
+    Z_new = (X_new - model.x_mean_) / model.x_scale_
+    expected = network.predict(Z_new)
     assert_array_equal(model.predict(X_new), expected[:, 0] if n_outputs == 1 else expected)
+    # The record's fields are predict_network's arguments, by name.
+    assert_array_equal(predict_network(Z_new, **network._asdict()), expected)
+    # The old private name stays an alias until its callers outside rbf switch.
+    for name in network._fields:
+        assert_array_equal(getattr(model._network(), name), getattr(network, name))
+
+
+def test_network_of_an_unfitted_regressor_raises():
+    with pytest.raises(NotFittedError):
+        network_of(RBFNetRegressor())
+
+
+def test_fit_options_hold_every_parameter_by_name():
+    """The record the estimator hands to the numerics is its parameters, none dropped."""
+    params = dict(
+        n_centers=7,
+        width=0.5,
+        refine="lm",
+        alpha=0.1,
+        tail_alpha="auto",
+        criterion="bic",
+        goal=0.2,
+        tail="quadratic",
+        max_candidates=30,
+        candidates="random",
+        max_samples=50,
+        validation_fraction=0.3,
+        max_iter=3,
+        tol=1e-3,
+        learning_rate=0.2,
+        random_state=4,
+    )
+    model = RBFNetRegressor(**params)
+    assert set(params) == set(model.get_params())  # every parameter has a non-default above
+    options = model._fit_options()
+    assert {f.name: getattr(options, f.name) for f in dataclasses.fields(options)} == params
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        options.alpha = 1.0
+
+
+@pytest.mark.parametrize("refine", ["varpro", None])
+def test_selection_path_has_the_documented_keys_in_order(refine):
+    X, y, _ = _smooth(300)
+    model = RBFNetRegressor(refine=refine, random_state=0).fit(X, y)
+    keys = list(model.selection_path_)
+    refined = ["refine_rejected", "refined"] if refine else ["refined"]
+    assert keys == [
+        "err",
+        "tail_err",
+        "train_mse",
+        "val_mse",
+        "dof",
+        "criterion",
+        "criterion_name",
+        "n_centers",
+        "widths_tried",
+        "width_scores",
+        "tail_alpha",
+        "tail_alphas_tried",
+        "tail_degree",
+        "tail_scores",
+        *refined,
+    ]
+    assert model.selection_path_["tail_degree"] == model.tail_degree_
+
+
+# Names that hold a Network (or FittedNetwork) in sklearn_ifog/rbf, and the functions that
+# return one: what must never be unpacked or splatted by position there.
+_NETWORK_NAMES = re.compile(r"network|^net$|^start$|^original$|^candidate$|^_unpack$", re.I)
+
+
+def _holds_a_network(node):
+    if isinstance(node, ast.Name):
+        return bool(_NETWORK_NAMES.search(node.id))
+    if isinstance(node, ast.Attribute):
+        return bool(_NETWORK_NAMES.search(node.attr))
+    if isinstance(node, ast.Call):
+        return _holds_a_network(node.func)
+    return False
+
+
+def _positional_network_reads(source):
+    """Lines of ``source`` that splat, unpack or iterate a network by position."""
+    lines = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Starred) and _holds_a_network(node.value):
+            lines.append(node.lineno)
+        elif isinstance(node, ast.Assign) and isinstance(node.targets[0], ast.Tuple):
+            if _holds_a_network(node.value):
+                lines.append(node.lineno)
+        elif isinstance(node, (ast.For, ast.comprehension)) and _holds_a_network(node.iter):
+            lines.append(getattr(node, "lineno", getattr(node.iter, "lineno", 0)))
+    return lines
+
+
+def test_network_records_are_read_by_name_in_rbf():
+    offenders = {
+        path.name: lines
+        for path in sorted(Path(network_module.__file__).parent.glob("*.py"))
+        if (lines := _positional_network_reads(path.read_text()))
+    }
+    assert offenders == {}
+    # The check itself catches the forms it is for.
+    for bad in (
+        "predict_network(Z, *network)",
+        "y = f(Z, *self._fitted_network())",
+        "centers, widths, coef, tail, b = network",
+        "centers, _, coef, tail, b = _unpack(theta, K, d, m, n_tail)",
+        "[a for a in start]",
+    ):
+        assert _positional_network_reads(bad), bad
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

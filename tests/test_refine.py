@@ -9,6 +9,7 @@ from sklearn.utils import check_random_state
 from sklearn_ifog.rbf import _varpro
 from sklearn_ifog.rbf._basis import (
     WIDTH_LIMITS,
+    Network,
     gaussian_design,
     n_tail_features,
     predict_network,
@@ -45,17 +46,21 @@ def starting_network(Z, Y, n_centers=8, width=1.0, tail=True, alpha=0.0, seed=1)
     coef, tail_coef, intercept = solve_output_weights(
         gaussian_design(Z, centers, widths), T, Y, alpha=alpha
     )
-    return centers, widths, coef, tail_coef, intercept
+    return Network(
+        centers=centers, widths=widths, coef=coef, tail_coef=tail_coef, intercept=intercept
+    )
 
 
 def loss(Z, Y, network, alpha=0.0, sample_weight=None):
     sw = np.ones(Z.shape[0]) if sample_weight is None else sample_weight
-    pred = predict_network(Z, *network)
-    return (sw @ np.square(pred - Y).sum(axis=1) + alpha * np.sum(network[2] ** 2)) / sw.sum()
+    pred = network.predict(Z)
+    return (sw @ np.square(pred - Y).sum(axis=1) + alpha * np.sum(network.coef**2)) / sw.sum()
 
 
-def as_network(result):
-    return result.network
+def assert_same_arrays(got, expected):
+    """Every array of two networks equal, field by field."""
+    for name in Network._fields:
+        np.testing.assert_array_equal(getattr(got, name), getattr(expected, name))
 
 
 def central_difference(fun, theta, step=1e-6):
@@ -138,15 +143,21 @@ def test_full_jacobian_matches_finite_differences(jacobian_problem, alpha, tail)
 
     def unpack(theta):
         c, lw, w, t, b = np.split(theta, sizes)
-        return c.reshape(K, d), np.exp(lw), w.reshape(m, K), t.reshape(m, n_tail), b
+        return Network(
+            centers=c.reshape(K, d),
+            widths=np.exp(lw),
+            coef=w.reshape(m, K),
+            tail_coef=t.reshape(m, n_tail),
+            intercept=b,
+        )
 
     def residuals(theta):
-        return full_residuals(Z, Y, *unpack(theta), sample_weight=sw, alpha=alpha)
+        return full_residuals(Z, Y, unpack(theta), sample_weight=sw, alpha=alpha)
 
     theta = np.concatenate(
         [centers.ravel(), np.log(widths), coef.ravel(), tail_coef.ravel(), intercept]
     )
-    J = full_jacobian(Z, *unpack(theta), sample_weight=sw, alpha=alpha)
+    J = full_jacobian(Z, unpack(theta), sample_weight=sw, alpha=alpha)
     assert J.shape == (m * (Z.shape[0] + (K if alpha else 0)), theta.size)
     assert_relative_close(J, central_difference(residuals, theta))
 
@@ -157,9 +168,11 @@ def test_residual_norms_are_the_loss(jacobian_problem):
     coef, tail_coef, intercept = solve_output_weights(
         gaussian_design(Z, centers, widths), Z, Y, sample_weight=sw, alpha=alpha
     )
-    network = (centers, widths, coef, tail_coef, intercept)
+    network = Network(
+        centers=centers, widths=widths, coef=coef, tail_coef=tail_coef, intercept=intercept
+    )
     expected = loss(Z, Y, network, alpha=alpha, sample_weight=sw) * sw.sum()
-    r_full = full_residuals(Z, Y, *network, sample_weight=sw, alpha=alpha)
+    r_full = full_residuals(Z, Y, network, sample_weight=sw, alpha=alpha)
     r_varpro = varpro_residuals(Z, Y, centers, widths, sample_weight=sw, alpha=alpha)
     np.testing.assert_allclose(r_full @ r_full, expected, rtol=1e-10)
     # The projected residual is the full one at the ridge-optimal weights.
@@ -178,14 +191,14 @@ def test_refinement_reduces_training_loss_from_a_poor_start(method):
     result = refine_network(
         Z,
         Y,
-        *start,
+        start,
         method=method,
         max_iter=60,
         learning_rate=LEARNING_RATE[method],
         random_state=0,
     )
     start_loss = loss(Z, Y, start)
-    final_loss = loss(Z, Y, as_network(result))
+    final_loss = loss(Z, Y, result.network)
     assert result.improved
     assert final_loss < 0.5 * start_loss
     assert result.history["train_loss"][0] == pytest.approx(start_loss)
@@ -201,29 +214,29 @@ def test_varpro_with_subspace_trust_region_steps(monkeypatch):
     """Checked once on problem seeds 0-9, each with start seed one more (holds on each)."""
     Z, Y = smooth_problem()
     start = starting_network(Z, Y, width=0.3)
-    exact = refine_network(Z, Y, *start, method="varpro", max_iter=30, random_state=0)
+    exact = refine_network(Z, Y, start, method="varpro", max_iter=30, random_state=0)
     monkeypatch.setattr(_varpro, "EXACT_TRUST_REGION_MAX_ENTRIES", 0)
-    subspace = refine_network(Z, Y, *start, method="varpro", max_iter=30, random_state=0)
+    subspace = refine_network(Z, Y, start, method="varpro", max_iter=30, random_state=0)
     assert not np.array_equal(subspace.network.centers, exact.network.centers)
-    assert loss(Z, Y, as_network(subspace)) < 0.5 * loss(Z, Y, start)
+    assert loss(Z, Y, subspace.network) < 0.5 * loss(Z, Y, start)
 
 
 @pytest.mark.parametrize("method", METHODS)
 def test_quadratic_tail(method):
     """Checked once on problem seeds 0-9, each with start seed one more (holds on each)."""
     Z, Y = smooth_problem()
-    centers, widths = starting_network(Z, Y, width=0.3)[:2]
+    start = starting_network(Z, Y, width=0.3)
     coef, tail_coef, intercept = solve_output_weights(
-        gaussian_design(Z, centers, widths), tail_features(Z, 2), Y
+        gaussian_design(Z, start.centers, start.widths), tail_features(Z, 2), Y
     )
-    start = (centers, widths, coef, tail_coef, intercept)
+    start = start._replace(coef=coef, tail_coef=tail_coef, intercept=intercept)
     # The quadratic columns are larger than the inputs: "gd" needs a smaller step.
     result = refine_network(
-        Z, Y, *start, method=method, max_iter=30, learning_rate=0.1, random_state=0
+        Z, Y, start, method=method, max_iter=30, learning_rate=0.1, random_state=0
     )
     assert result.network.tail_coef.shape == (1, 9)
     assert result.improved
-    assert loss(Z, Y, as_network(result)) < loss(Z, Y, start)
+    assert loss(Z, Y, result.network) < loss(Z, Y, start)
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -234,7 +247,7 @@ def test_early_stopping_never_worse_on_validation(method):
     result = refine_network(
         Z_train,
         Y_train,
-        *start,
+        start,
         method=method,
         Z_val=Z_val,
         Y_val=Y_val,
@@ -243,7 +256,7 @@ def test_early_stopping_never_worse_on_validation(method):
         random_state=0,
     )
     start_val = loss(Z_val, Y_val, start)
-    final_val = loss(Z_val, Y_val, as_network(result))
+    final_val = loss(Z_val, Y_val, result.network)
     assert final_val <= start_val
     assert result.history["val_loss"][0] == pytest.approx(start_val)
     # The returned network is the best iterate by validation loss.
@@ -257,12 +270,13 @@ def test_falls_back_to_the_start_when_nothing_improves(method):
     start = starting_network(Z, Y, width=0.5)
     # Validation targets that the starting network fits exactly: nothing can beat it.
     Z_val = Z[:100] + 0.1
-    Y_val = predict_network(Z_val, *start)
+    Y_val = start.predict(Z_val)
     result = refine_network(
-        Z, Y, *start, method=method, Z_val=Z_val, Y_val=Y_val, max_iter=10, random_state=0
+        Z, Y, start, method=method, Z_val=Z_val, Y_val=Y_val, max_iter=10, random_state=0
     )
     assert not result.improved
-    for got, expected in zip(as_network(result), start, strict=True):
+    for name in Network._fields:
+        got, expected = getattr(result.network, name), getattr(start, name)
         np.testing.assert_array_equal(got, expected)
         assert got is not expected
 
@@ -271,7 +285,7 @@ def test_converged_false_when_stopped_by_max_iter():
     Z, Y = smooth_problem()
     start = starting_network(Z, Y, width=3.0)
     for method in METHODS:
-        result = refine_network(Z, Y, *start, method=method, max_iter=2, tol=0.0, random_state=0)
+        result = refine_network(Z, Y, start, method=method, max_iter=2, tol=0.0, random_state=0)
         assert result.n_iter == 2
         assert not result.converged
 
@@ -288,10 +302,9 @@ def test_deterministic(method):
         max_samples=400,
         learning_rate=LEARNING_RATE[method],
     )
-    first = refine_network(Z, Y, *start, random_state=7, **kwargs)
-    second = refine_network(Z, Y, *start, random_state=7, **kwargs)
-    for a, b in zip(as_network(first), as_network(second), strict=True):
-        np.testing.assert_array_equal(a, b)
+    first = refine_network(Z, Y, start, random_state=7, **kwargs)
+    second = refine_network(Z, Y, start, random_state=7, **kwargs)
+    assert_same_arrays(first.network, second.network)
     assert first.history == second.history
 
 
@@ -312,7 +325,7 @@ def test_multi_output(method, seed):
     result = refine_network(
         Z,
         Y,
-        *start,
+        start,
         method=method,
         max_iter=30,
         learning_rate=LEARNING_RATE[method],
@@ -321,7 +334,7 @@ def test_multi_output(method, seed):
     assert result.network.coef.shape == (2, 8)
     assert result.network.tail_coef.shape == (2, 3)
     assert result.network.intercept.shape == (2,)
-    assert loss(Z, Y, as_network(result)) < 0.7 * loss(Z, Y, start)
+    assert loss(Z, Y, result.network) < 0.7 * loss(Z, Y, start)
 
 
 def test_identical_outputs_get_identical_weights():
@@ -329,7 +342,7 @@ def test_identical_outputs_get_identical_weights():
     Y2 = np.hstack([Y, Y])
     start = starting_network(Z, Y2, width=3.0)
     for method in ("varpro", "lm"):
-        result = refine_network(Z, Y2, *start, method=method, max_iter=10, random_state=0)
+        result = refine_network(Z, Y2, start, method=method, max_iter=10, random_state=0)
         np.testing.assert_allclose(
             result.network.coef[0], result.network.coef[1], rtol=1e-7, atol=1e-9
         )
@@ -341,20 +354,23 @@ def test_integer_weights_equal_duplicated_rows(method):
     sw = np.tile([1.0, 2.0], 100)
     start = starting_network(Z, Y, width=2.0)
     weighted = refine_network(
-        Z, Y, *start, method=method, sample_weight=sw, max_iter=3, random_state=0
+        Z, Y, start, method=method, sample_weight=sw, max_iter=3, random_state=0
     )
     rows = np.repeat(np.arange(200), sw.astype(int))
-    duplicated = refine_network(
-        Z[rows], Y[rows], *start, method=method, max_iter=3, random_state=0
-    )
-    for a, b in zip(as_network(weighted), as_network(duplicated), strict=True):
-        np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-8)
+    duplicated = refine_network(Z[rows], Y[rows], start, method=method, max_iter=3, random_state=0)
+    for name in Network._fields:
+        np.testing.assert_allclose(
+            getattr(weighted.network, name),
+            getattr(duplicated.network, name),
+            rtol=1e-6,
+            atol=1e-8,
+        )
 
 
 def test_max_samples_refines_on_the_documented_subsample():
     Z, Y = smooth_problem(n=2000)
     start = starting_network(Z, Y)
-    result = refine_network(Z, Y, *start, method="lm", max_iter=1, max_samples=150, random_state=5)
+    result = refine_network(Z, Y, start, method="lm", max_iter=1, max_samples=150, random_state=5)
     rows = np.sort(check_random_state(5).choice(2000, size=150, replace=False))
     assert result.history["train_loss"][0] == pytest.approx(loss(Z[rows], Y[rows], start))
     assert result.history["train_loss"][0] != pytest.approx(loss(Z, Y, start))
@@ -367,7 +383,7 @@ def test_widths_stay_within_bounds(method):
     result = refine_network(
         Z,
         Y,
-        *start,
+        start,
         method=method,
         max_iter=20,
         learning_rate=LEARNING_RATE[method],
@@ -402,13 +418,15 @@ def test_nasty_inputs_give_finite_networks(method, case):
         coef, tail_coef, intercept = solve_output_weights(
             gaussian_design(Z, centers, widths), Z, Y
         )
-    start = (centers, widths, coef, tail_coef, intercept)
+    start = Network(
+        centers=centers, widths=widths, coef=coef, tail_coef=tail_coef, intercept=intercept
+    )
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)
         result = refine_network(
             Z,
             Y,
-            *start,
+            start,
             method=method,
             Z_val=Z[::3],
             Y_val=Y[::3],
@@ -416,11 +434,11 @@ def test_nasty_inputs_give_finite_networks(method, case):
             learning_rate=LEARNING_RATE[method],
             random_state=0,
         )
-        for array in as_network(result):
-            assert np.all(np.isfinite(array))
-        assert np.all(np.isfinite(predict_network(Z, *as_network(result))))
+        for name in Network._fields:
+            assert np.all(np.isfinite(getattr(result.network, name)))
+        assert np.all(np.isfinite(result.network.predict(Z)))
     assert np.all(np.isfinite(result.history["train_loss"]))
-    assert loss(Z[::3], Y[::3], as_network(result)) <= loss(Z[::3], Y[::3], start) + 1e-12
+    assert loss(Z[::3], Y[::3], result.network) <= loss(Z[::3], Y[::3], start) + 1e-12
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -428,10 +446,14 @@ def test_nasty_inputs_give_finite_networks(method, case):
 def test_units_of_the_target_do_not_matter(method, scale):
     Z, Y = smooth_problem()
     start = starting_network(Z, Y, width=0.3)
-    scaled_start = (*start[:2], *(a * scale for a in start[2:]))
+    scaled_start = start._replace(
+        coef=start.coef * scale,
+        tail_coef=start.tail_coef * scale,
+        intercept=start.intercept * scale,
+    )
     kwargs = dict(method=method, max_iter=10, learning_rate=LEARNING_RATE[method], random_state=0)
-    plain = refine_network(Z, Y, *start, **kwargs)
-    scaled = refine_network(Z, Y * scale, *scaled_start, **kwargs)
+    plain = refine_network(Z, Y, start, **kwargs)
+    scaled = refine_network(Z, Y * scale, scaled_start, **kwargs)
     assert plain.n_iter == scaled.n_iter
     np.testing.assert_allclose(scaled.network.centers, plain.network.centers, rtol=1e-6, atol=1e-8)
     np.testing.assert_allclose(scaled.network.widths, plain.network.widths, rtol=1e-6)
@@ -451,11 +473,13 @@ def test_network_without_gaussian_units(method):
     result = refine_network(
         Z,
         Y,
-        np.zeros((0, 3)),
-        np.zeros(0),
-        np.zeros((1, 0)),
-        np.zeros((1, 3)),
-        np.zeros(1),
+        Network(
+            centers=np.zeros((0, 3)),
+            widths=np.zeros(0),
+            coef=np.zeros((1, 0)),
+            tail_coef=np.zeros((1, 3)),
+            intercept=np.zeros(1),
+        ),
         method=method,
         Z_val=Z[:50],
         Y_val=Y[:50],
@@ -472,8 +496,8 @@ def test_network_without_gaussian_units(method):
 def test_one_dimensional_target_is_accepted():
     Z, Y = smooth_problem(n=200)
     start = starting_network(Z, Y)
-    one_d = refine_network(Z, Y[:, 0], *start, method="varpro", max_iter=3, random_state=0)
-    two_d = refine_network(Z, Y, *start, method="varpro", max_iter=3, random_state=0)
+    one_d = refine_network(Z, Y[:, 0], start, method="varpro", max_iter=3, random_state=0)
+    two_d = refine_network(Z, Y, start, method="varpro", max_iter=3, random_state=0)
     np.testing.assert_array_equal(one_d.network.centers, two_d.network.centers)
     assert one_d.network.coef.shape == (1, 8)
 
@@ -495,17 +519,9 @@ def test_one_dimensional_target_is_accepted():
 )
 def test_bad_input_raises(change, match):
     Z, Y = smooth_problem(n=200)
-    centers, widths, coef, tail_coef, intercept = starting_network(Z, Y)
-    kwargs = dict(
-        Z=Z,
-        Y=Y,
-        centers=centers,
-        widths=widths,
-        coef=coef,
-        tail_coef=tail_coef,
-        intercept=intercept,
-        method="lm",
-    )
+    start = starting_network(Z, Y)
+    network_change = {key: change.pop(key) for key in Network._fields if key in change}
+    kwargs = dict(Z=Z, Y=Y, network=start._replace(**network_change), method="lm")
     kwargs.update(change)
     with pytest.raises(ValueError, match=match):
         refine_network(**kwargs)

@@ -13,6 +13,7 @@ Every recursion runs through :func:`scipy.signal.lfilter`; the only Python loop 
 """
 
 from numbers import Integral, Real
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -70,6 +71,12 @@ COMPONENT_COLUMNS = (
     "angle_random_walk",
     "quantisation",
 )
+# The hidden per-row truth (``components``) each physics returns.
+_PHYSICS_COMPONENTS = {
+    "lumped": COMPONENT_COLUMNS,
+    "layered": LAYERED_COMPONENT_COLUMNS,
+    "layered_glass": LAYERED_COMPONENT_COLUMNS,
+}
 
 # Reference temperature of the Shupe coefficient and of the static-bias polynomial: the middle
 # of the usual -10..40 degC test range (reference paper, section 2.1).
@@ -600,91 +607,32 @@ default="paper"
         )
 
     rng = check_random_state(random_state)
-    if physics == "lumped":
-
-        def draw(unit):
-            return _draw_unit_params(rng, unit)
-
-        component_columns = COMPONENT_COLUMNS
-    else:
-
-        def draw(unit):
-            return draw_layered_params(
-                rng, unit, REFERENCE_TEMPERATURE, TURN_ON_BIAS_REPEATABILITY
-            )
-
-        component_columns = LAYERED_COMPONENT_COLUMNS
-    if lot_spread is None:
-        design_params = None
-        unit_params = [draw(unit) for unit in range(n_units)]
-    else:
-        design_params = draw(None)
-        unit_params = [
-            scatter_unit_params(design_params, unit, lot_spread, rng) for unit in range(n_units)
-        ]
-
-    blocks, component_blocks, run_params = [], [], []
-    run_id = 0
+    unit_params, design_params = _draw_units(physics, n_units, lot_spread, rng)
+    runs = []
     for params in unit_params:
         for azimuth in azimuth_values:
             reference_value = earth_rate(latitude, azimuth)
             for _ in range(n_runs):
-                name = profile_names[int(rng.randint(len(profile_names)))]
-                times, setpoints, rate_used = _chamber_profile(name, rng, ramp, low_high)
-                n_samples = int(np.floor(times[-1] / sampling_period)) + 1
-                time = np.arange(n_samples) * sampling_period
-                reference = np.full(n_samples, reference_value)
-                if physics == "lumped":
-                    setpoint = np.interp(time, times, setpoints)
-                    arrays = _simulate_run(
-                        params, setpoint, sampling_period, reference, noise, rng
-                    )
-                else:
-                    arrays = simulate_layered_run(
-                        params,
-                        times,
-                        setpoints,
-                        reference,
-                        sampling_period,
-                        noise,
-                        physics == "layered_glass",
-                        rng,
-                    )
-                blocks.append(
-                    {
-                        "unit": np.full(n_samples, params["unit"], dtype=np.int64),
-                        "run": np.full(n_samples, run_id, dtype=np.int64),
-                        "azimuth": np.full(n_samples, azimuth),
-                        "time": time,
-                        "temperature": arrays["temperature"],
-                        "rate": arrays["rate"],
-                        "reference": reference,
-                        "drift": arrays["drift"],
-                        "chamber_temperature": arrays["chamber_temperature"],
-                    }
+                run = _simulate_campaign_run(
+                    params,
+                    len(runs),
+                    azimuth,
+                    reference_value,
+                    profile=profile_names[int(rng.randint(len(profile_names)))],
+                    ramp_rate=ramp,
+                    temperature_range=low_high,
+                    sampling_period=sampling_period,
+                    noise=noise,
+                    physics=physics,
+                    rng=rng,
                 )
-                component_blocks.append({key: arrays[key] for key in component_columns})
-                run_params.append(
-                    {
-                        "unit": params["unit"],
-                        "run": run_id,
-                        "azimuth": float(azimuth),
-                        "profile": name,
-                        "ramp_rate": rate_used,
-                        "duration": float(time[-1]),
-                        "min_setpoint": float(setpoints.min()),
-                        "max_setpoint": float(setpoints.max()),
-                        "breakpoint_times": times,
-                        "breakpoint_temperatures": setpoints,
-                    }
-                )
-                run_id += 1
-
-    columns = {name: np.concatenate([block[name] for block in blocks]) for name in FRAME_COLUMNS}
+                runs.append(run)
+    component_columns = _PHYSICS_COMPONENTS[physics]
+    columns = {name: np.concatenate([run.columns[name] for run in runs]) for name in FRAME_COLUMNS}
     components = {
-        name: np.concatenate([block[name] for block in component_blocks])
-        for name in component_columns
+        name: np.concatenate([run.components[name] for run in runs]) for name in component_columns
     }
+    run_params = [run.params for run in runs]
     target_values = columns["rate"] - columns["reference"]
 
     if as_frame:
@@ -712,6 +660,105 @@ default="paper"
         components=components,
         DESCR=_DESCR,
     )
+
+
+def _draw_units(physics, n_units, lot_spread, rng):
+    """Every unit's true coefficients, and the lot's design (None without ``lot_spread``).
+
+    Independent units are drawn one after the other; a lot draws its design like one unit,
+    then scatters every unit around it (:func:`scatter_unit_params`).
+    """
+    if physics == "lumped":
+
+        def draw(unit):
+            return _draw_unit_params(rng, unit)
+
+    else:
+
+        def draw(unit):
+            return draw_layered_params(
+                rng, unit, REFERENCE_TEMPERATURE, TURN_ON_BIAS_REPEATABILITY
+            )
+
+    if lot_spread is None:
+        return [draw(unit) for unit in range(n_units)], None
+    design_params = draw(None)
+    unit_params = [
+        scatter_unit_params(design_params, unit, lot_spread, rng) for unit in range(n_units)
+    ]
+    return unit_params, design_params
+
+
+class _CampaignRun(NamedTuple):
+    """One simulated run: its rows (``FRAME_COLUMNS``), hidden components and parameters."""
+
+    columns: dict
+    components: dict
+    params: dict
+
+
+def _simulate_campaign_run(
+    params,
+    run_id,
+    azimuth,
+    reference_value,
+    *,
+    profile,
+    ramp_rate,
+    temperature_range,
+    sampling_period,
+    noise,
+    physics,
+    rng,
+):
+    """One run of one unit at one azimuth: its chamber profile, physics and gyro output.
+
+    ``profile`` is the run's profile name (already drawn), ``ramp_rate`` and
+    ``temperature_range`` are checked; ``rng`` continues the campaign's draws.
+    """
+    times, setpoints, rate_used = _chamber_profile(profile, rng, ramp_rate, temperature_range)
+    n_samples = int(np.floor(times[-1] / sampling_period)) + 1
+    time = np.arange(n_samples) * sampling_period
+    reference = np.full(n_samples, reference_value)
+    if physics == "lumped":
+        setpoint = np.interp(time, times, setpoints)
+        arrays = _simulate_run(params, setpoint, sampling_period, reference, noise, rng)
+    else:
+        arrays = simulate_layered_run(
+            params,
+            times,
+            setpoints,
+            reference,
+            sampling_period,
+            noise,
+            physics == "layered_glass",
+            rng,
+        )
+    columns = {
+        "unit": np.full(n_samples, params["unit"], dtype=np.int64),
+        "run": np.full(n_samples, run_id, dtype=np.int64),
+        "azimuth": np.full(n_samples, azimuth),
+        "time": time,
+        "temperature": arrays["temperature"],
+        "rate": arrays["rate"],
+        "reference": reference,
+        "drift": arrays["drift"],
+        "chamber_temperature": arrays["chamber_temperature"],
+    }
+    run_params = {
+        "unit": params["unit"],
+        "run": run_id,
+        "azimuth": float(azimuth),
+        "profile": profile,
+        "ramp_rate": rate_used,
+        "duration": float(time[-1]),
+        "min_setpoint": float(setpoints.min()),
+        "max_setpoint": float(setpoints.max()),
+        "breakpoint_times": times,
+        "breakpoint_temperatures": setpoints,
+    }
+    components = {key: arrays[key] for key in _PHYSICS_COMPONENTS[physics]}
+    return _CampaignRun(columns=columns, components=components, params=run_params)
 
 
 def noise_floor(frame, rows=None):

@@ -40,8 +40,9 @@ class Network(NamedTuple):
     """A Gaussian RBF network on standardised inputs, as one value.
 
     ``f(Z) = gaussian_design(Z, centers, widths) @ coef.T + tail_features(Z, tail_degree)
-    @ tail_coef.T + intercept``; the fields are in the order :func:`predict_network` takes
-    them, so ``predict_network(Z, *network)`` evaluates it.
+    @ tail_coef.T + intercept``, which :meth:`predict` evaluates. Read its fields by name
+    (the order is that of :func:`predict_network`'s arguments, which callers outside
+    ``rbf`` still rely on, but nothing in ``rbf`` does).
 
     Attributes
     ----------
@@ -60,8 +61,14 @@ class Network(NamedTuple):
     Examples
     --------
     >>> import numpy as np
-    >>> net = Network(np.zeros((1, 1)), np.ones(1), np.ones((1, 1)), np.zeros((1, 1)), np.zeros(1))
-    >>> net.tail_degree, predict_network(np.array([[1.0]]), *net).round(4)
+    >>> net = Network(
+    ...     centers=np.zeros((1, 1)),
+    ...     widths=np.ones(1),
+    ...     coef=np.ones((1, 1)),
+    ...     tail_coef=np.zeros((1, 1)),
+    ...     intercept=np.zeros(1),
+    ... )
+    >>> net.tail_degree, net.predict(np.array([[1.0]])).round(4)
     (1, array([[0.6065]]))
     """
 
@@ -78,7 +85,19 @@ class Network(NamedTuple):
 
     def copy(self):
         """A network holding copies of the arrays."""
-        return Network(*(np.array(a, copy=True) for a in self))
+        return Network(**{name: np.array(getattr(self, name), copy=True) for name in self._fields})
+
+    def predict(self, Z, *, chunk_rows=None):
+        """The network's output on standardised inputs ``Z``: :func:`predict_network`."""
+        return predict_network(
+            Z,
+            centers=self.centers,
+            widths=self.widths,
+            coef=self.coef,
+            tail_coef=self.tail_coef,
+            intercept=self.intercept,
+            chunk_rows=chunk_rows,
+        )
 
 
 def weighted_mean_std(A, sample_weight, *, pooled=False):

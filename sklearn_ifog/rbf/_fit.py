@@ -9,15 +9,14 @@ from sklearn.utils import check_random_state
 
 from sklearn_ifog.rbf._basis import (
     Network,
-    predict_network,
     solve_output_weights_chunked,
     standardisation,
 )
 from sklearn_ifog.rbf._ols import within_one_standard_error
 from sklearn_ifog.rbf._refine import refine_network
 from sklearn_ifog.rbf._select import (
-    SelectionOptions,
     select_network,
+    selection_path,
     split_rows,
     subsample,
     tail_degrees,
@@ -41,7 +40,11 @@ def beats_beyond_noise(candidate, start, Z_val, Y_val, sw_val):
     >>> Z = np.linspace(-1, 1, 200)[:, None]
     >>> def net(w):
     ...     return Network(
-    ...         np.zeros((1, 1)), np.ones(1), np.array([[w]]), np.zeros((1, 1)), np.zeros(1)
+    ...         centers=np.zeros((1, 1)),
+    ...         widths=np.ones(1),
+    ...         coef=np.array([[w]]),
+    ...         tail_coef=np.zeros((1, 1)),
+    ...         intercept=np.zeros(1),
     ...     )
     >>> Y = np.exp(-0.5 * Z**2)
     >>> bool(beats_beyond_noise(net(1.0), net(0.0), Z, Y, np.ones(200)))
@@ -50,10 +53,7 @@ def beats_beyond_noise(candidate, start, Z_val, Y_val, sw_val):
     False
     """
     losses = np.vstack(
-        [
-            np.square(Y_val - predict_network(Z_val, *network)).sum(axis=1)
-            for network in (start, candidate)
-        ]
+        [np.square(Y_val - network.predict(Z_val)).sum(axis=1) for network in (start, candidate)]
     )
     return not within_one_standard_error(losses, sw_val)[0]
 
@@ -85,33 +85,17 @@ class FittedNetwork(NamedTuple):
     path: dict
 
 
-def fit_network(
-    X,
-    Y,
-    sample_weight,
-    *,
-    n_centers,
-    width,
-    refine,
-    alpha,
-    criterion,
-    goal,
-    tail,
-    max_candidates,
-    candidates,
-    max_samples,
-    validation_fraction,
-    max_iter,
-    tol,
-    learning_rate,
-    random_state,
-    tail_alpha=0.0,
-    groups=None,
-):
-    """Fit a Gaussian RBF network: selection, refinement, output weights on all rows.
+class _Refinement(NamedTuple):
+    """Outcome of :func:`_refine_selected`."""
 
-    The settings are the parameters of :class:`~sklearn_ifog.RBFNetRegressor` (the one place
-    their defaults are given), already validated; see its documentation for what each does.
+    network: Network
+    n_iter: int
+    refined: bool
+    rejected: bool
+
+
+def fit_network(X, Y, sample_weight, options, *, groups=None):
+    """Fit a Gaussian RBF network: selection, refinement, output weights on all rows.
 
     Parameters
     ----------
@@ -121,9 +105,9 @@ def fit_network(
         Targets, float64, finite.
     sample_weight : ndarray of shape (n_samples,)
         Non-negative weights with a positive sum.
-    n_centers, width, refine, alpha, tail_alpha, criterion, goal, tail, max_candidates, \
-candidates, max_samples, validation_fraction, max_iter, tol, learning_rate, random_state
-        As in :class:`~sklearn_ifog.RBFNetRegressor`.
+    options : ~sklearn_ifog.rbf._options.FitOptions
+        The settings, as :class:`~sklearn_ifog.RBFNetRegressor`'s parameters of the same
+        names (the one place their defaults are given and what each does), validated.
     groups : ndarray of int of shape (n_samples,), default=None
         Group codes (``_select.group_codes``): held-out rows and folds are whole groups.
 
@@ -136,9 +120,10 @@ candidates, max_samples, validation_fraction, max_iter, tol, learning_rate, rand
     --------
     >>> import numpy as np
     >>> from sklearn_ifog import RBFNetRegressor
+    >>> from sklearn_ifog.rbf._options import FitOptions
     >>> X = np.linspace(-1, 1, 200)[:, None]
-    >>> params = RBFNetRegressor(refine=None, random_state=0).get_params()
-    >>> fitted = fit_network(X, 2 * X + 1, np.ones(200), **params)
+    >>> options = FitOptions(**RBFNetRegressor(refine=None, random_state=0).get_params())
+    >>> fitted = fit_network(X, 2 * X + 1, np.ones(200), options)
     >>> fitted.tail_degree, fitted.network.tail_coef.shape
     (1, (1, 1))
     """
@@ -149,25 +134,14 @@ candidates, max_samples, validation_fraction, max_iter, tol, learning_rate, rand
     Z /= x_scale
     Ys = np.subtract(Y, y_mean)
     Ys /= y_scale
-    rng = check_random_state(random_state)
-    options = SelectionOptions(
-        n_centers=n_centers,
-        width=width,
-        criterion=criterion,
-        goal=goal,
-        alpha=alpha,
-        max_candidates=max_candidates,
-        candidates=candidates,
-        max_samples=max_samples,
-        validation_fraction=validation_fraction,
-        tail_alpha=tail_alpha,
+    rng = check_random_state(options.random_state)
+    needs_blocks = options.criterion in ("holdout", "cv", None) or options.refine is not None
+    train, val = split_rows(
+        sw, options.validation_fraction, needs_blocks=needs_blocks, groups=groups
     )
-
-    needs_blocks = criterion in ("holdout", "cv", None) or refine is not None
-    train, val = split_rows(sw, validation_fraction, needs_blocks=needs_blocks, groups=groups)
-    sel_rows = subsample(train, max_samples, rng)
-    val_rows = subsample(val, max_samples, rng) if val is not None else None
-    degrees = tail_degrees(tail, X.shape[1], sel_rows.shape[0])
+    sel_rows = subsample(train, options.max_samples, rng)
+    val_rows = subsample(val, options.max_samples, rng) if val is not None else None
+    degrees = tail_degrees(options.tail, X.shape[1], sel_rows.shape[0])
     # Selection, refinement and the blocked solve work on small or skinny matrices, where
     # a multi-threaded BLAS spends more time synchronising than computing (3 to 20 times
     # slower on a loaded machine).
@@ -184,67 +158,87 @@ candidates, max_samples, validation_fraction, max_iter, tol, learning_rate, rand
             options=options,
             groups=groups,
         )
-        network, path = selection.network, selection.path
-        tail_degree = path["tail_degree"]
-        n_iter, refined = 0, False
-        if refine is not None and val_rows is not None and network.centers.shape[0]:
-            sw_sel = sw[sel_rows]
-            result = refine_network(
-                Z[sel_rows],
-                Ys[sel_rows],
-                *network,
-                method=refine,
-                sample_weight=sw_sel,
-                alpha=alpha * sw_sel.sum(),
-                Z_val=Z[val_rows],
-                Y_val=Ys[val_rows],
-                sample_weight_val=sw[val_rows],
-                max_iter=max_iter,
-                tol=tol,
-                learning_rate=learning_rate,
-                max_samples=None,
-                random_state=selection.random_state.randint(np.iinfo(np.int32).max),
-            )
-            # A best iterate at the starting centres and widths differs only in its output
-            # weights, which the solve on all rows below replaces: nothing was refined.
-            moved = not (
-                np.array_equal(result.network.centers, network.centers)
-                and np.array_equal(result.network.widths, network.widths)
-            )
-            n_iter, refined = int(result.n_iter), bool(result.improved) and moved
-            # Early stopping picked the refined iterate on the held-out rows themselves, so
-            # it must beat the OLS network there by more than their noise to be kept.
-            rejected = refined and not beats_beyond_noise(
-                result.network, network, Z[val_rows], Ys[val_rows], sw[val_rows]
-            )
-            path["refine_rejected"] = rejected
-            if rejected:
-                refined = False
-            else:
-                network = result.network
-            if not result.converged and not rejected:
-                warnings.warn(
-                    f"RBFNetRegressor: {refine!r} refinement stopped at "
-                    f"max_iter={max_iter} before converging; the best iterate was kept.",
-                    ConvergenceWarning,
-                    stacklevel=3,
-                )
+        network = selection.network
+        n_iter, refined, rejected = 0, False, None
+        if options.refine is not None and val_rows is not None and network.centers.shape[0]:
+            refinement = _refine_selected(selection, Z, Ys, sw, sel_rows, val_rows, options)
+            network, n_iter = refinement.network, refinement.n_iter
+            refined, rejected = refinement.refined, refinement.rejected
         coef, tail_coef, intercept = solve_output_weights_chunked(
             Z,
             Ys,
             network.centers,
             network.widths,
-            tail=tail_degree,
+            tail=selection.tail_degree,
             sample_weight=sw,
-            alpha=alpha * sw.sum(),
-            tail_alpha=path.get("tail_alpha", 0.0) * sw.sum(),
+            alpha=options.alpha * sw.sum(),
+            tail_alpha=selection.record.tail_alpha * sw.sum(),
         )
-    path["refined"] = refined
     tail_coef = tail_coef * y_scale[:, None]
-    if tail_degree == 0:
+    if selection.tail_degree == 0:
         # The export contract: no tail is a zero linear tail.
         tail_coef = np.zeros((Y.shape[1], X.shape[1]))
     network = network._replace(
         coef=coef * y_scale[:, None], tail_coef=tail_coef, intercept=intercept * y_scale + y_mean
     )
-    return FittedNetwork(network, tail_degree, x_mean, x_scale, n_iter, path)
+    return FittedNetwork(
+        network=network,
+        tail_degree=selection.tail_degree,
+        x_mean=x_mean,
+        x_scale=x_scale,
+        n_iter=n_iter,
+        path=selection_path(selection, refined=refined, refine_rejected=rejected),
+    )
+
+
+def _refine_selected(selection, Z, Ys, sw, sel_rows, val_rows, options):
+    """Refine the selected network; keep it only if it beats it beyond the held-out noise.
+
+    Refines on the selection rows, stopped early on the held-out rows (standardised targets
+    ``Ys``). Returns the network to solve the output weights of (the refined one, or the
+    selected one when the refinement moved nothing or was rejected), the iterations run,
+    whether the refinement was kept and whether it was rejected.
+    """
+    network = selection.network
+    sw_sel = sw[sel_rows]
+    result = refine_network(
+        Z[sel_rows],
+        Ys[sel_rows],
+        network,
+        method=options.refine,
+        sample_weight=sw_sel,
+        alpha=options.alpha * sw_sel.sum(),
+        Z_val=Z[val_rows],
+        Y_val=Ys[val_rows],
+        sample_weight_val=sw[val_rows],
+        max_iter=options.max_iter,
+        tol=options.tol,
+        learning_rate=options.learning_rate,
+        max_samples=None,
+        random_state=selection.random_state.randint(np.iinfo(np.int32).max),
+    )
+    # A best iterate at the starting centres and widths differs only in its output
+    # weights, which the solve on all rows replaces: nothing was refined.
+    moved = not (
+        np.array_equal(result.network.centers, network.centers)
+        and np.array_equal(result.network.widths, network.widths)
+    )
+    refined = bool(result.improved) and moved
+    # Early stopping picked the refined iterate on the held-out rows themselves, so
+    # it must beat the OLS network there by more than their noise to be kept.
+    rejected = refined and not beats_beyond_noise(
+        result.network, network, Z[val_rows], Ys[val_rows], sw[val_rows]
+    )
+    if not result.converged and not rejected:
+        warnings.warn(
+            f"RBFNetRegressor: {options.refine!r} refinement stopped at "
+            f"max_iter={options.max_iter} before converging; the best iterate was kept.",
+            ConvergenceWarning,
+            stacklevel=4,  # the estimator's fit (the frame that called it)
+        )
+    return _Refinement(
+        network=network if rejected else result.network,
+        n_iter=int(result.n_iter),
+        refined=refined and not rejected,
+        rejected=rejected,
+    )

@@ -41,11 +41,11 @@ def refine_gd(data, start, tracker, max_iter, tol, learning_rate, rng):
     def network(p):
         C, lw, W, A, b = p
         return Network(
-            C.copy(),
-            np.exp(lw),
-            W * y_scale[:, None],
-            A * y_scale[:, None],
-            b * y_scale,
+            centers=C.copy(),
+            widths=np.exp(lw),
+            coef=W * y_scale[:, None],
+            tail_coef=A * y_scale[:, None],
+            intercept=b * y_scale,
         )
 
     penalty = data.alpha / total

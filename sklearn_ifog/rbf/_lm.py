@@ -10,7 +10,7 @@ Nielsen's damping update).
 import numpy as np
 import scipy.linalg
 
-from sklearn_ifog.rbf._basis import Network, predict_network, tail_degree_from_size, tail_features
+from sklearn_ifog.rbf._basis import Network, tail_degree_from_size, tail_features
 from sklearn_ifog.rbf._refine_core import (
     center_bounds,
     check_weights,
@@ -26,9 +26,7 @@ _BLOCK_ENTRIES = 2**21
 _CONVERGED_DAMPING = 1.0
 
 
-def full_residuals(
-    Z, Y, centers, widths, coef, tail_coef, intercept, *, sample_weight=None, alpha=0.0
-):
+def full_residuals(Z, Y, network, *, sample_weight=None, alpha=0.0):
     """Residuals of the network with all parameters free.
 
     Parameters
@@ -37,9 +35,9 @@ def full_residuals(
         Standardised inputs.
     Y : ndarray of shape (n_samples, n_outputs)
         Targets.
-    centers, widths, coef, tail_coef, intercept : ndarray
-        The network (shapes as in :class:`~sklearn_ifog.rbf._basis.Network`); the tail's
-        degree follows from ``tail_coef.shape[1]`` (0, ``d`` or ``d + d (d + 1) / 2``).
+    network : ~sklearn_ifog.rbf._basis.Network
+        The network; the tail's degree follows from ``tail_coef.shape[1]`` (0, ``d`` or
+        ``d + d (d + 1) / 2``).
     sample_weight : ndarray of shape (n_samples,), default=None
         Non-negative sample weights.
     alpha : float, default=0.0
@@ -54,17 +52,22 @@ def full_residuals(
     --------
     >>> import numpy as np
     >>> Z = np.zeros((2, 1))
-    >>> full_residuals(
-    ...     Z, np.ones((2, 1)), Z[:1], np.ones(1), np.ones((1, 1)), np.zeros((1, 0)), np.zeros(1)
+    >>> network = Network(
+    ...     centers=Z[:1],
+    ...     widths=np.ones(1),
+    ...     coef=np.ones((1, 1)),
+    ...     tail_coef=np.zeros((1, 0)),
+    ...     intercept=np.zeros(1),
     ... )
+    >>> full_residuals(Z, np.ones((2, 1)), network)
     array([0., 0.])
     """
     Y = np.asarray(Y, dtype=np.float64).reshape(Z.shape[0], -1)
     root_w = np.sqrt(check_weights(sample_weight, Z.shape[0], "sample_weight"))
-    pred = predict_network(Z, centers, widths, coef, tail_coef, intercept)
+    pred = network.predict(Z)
     data = (pred - Y) * root_w[:, None]
     if alpha > 0:
-        data = np.vstack([data, np.sqrt(alpha) * coef.T])
+        data = np.vstack([data, np.sqrt(alpha) * network.coef.T])
     return data.T.ravel()
 
 
@@ -99,17 +102,15 @@ def _full_jacobian_rows(Z, root_w, centers, log_widths, coef, n_tail, alpha, act
     return J
 
 
-def full_jacobian(
-    Z, centers, widths, coef, tail_coef, intercept, *, sample_weight=None, alpha=0.0
-):
+def full_jacobian(Z, network, *, sample_weight=None, alpha=0.0):
     """Jacobian of :func:`full_residuals` w.r.t. all parameters.
 
     Parameters
     ----------
     Z : ndarray of shape (n_samples, n_features)
         Standardised inputs.
-    centers, widths, coef, tail_coef, intercept : ndarray
-        The network (shapes as in :class:`~sklearn_ifog.rbf._basis.Network`).
+    network : ~sklearn_ifog.rbf._basis.Network
+        The network (the Jacobian does not depend on its intercept).
     sample_weight : ndarray of shape (n_samples,), default=None
         Non-negative sample weights.
     alpha : float, default=0.0
@@ -125,12 +126,26 @@ def full_jacobian(
     --------
     >>> import numpy as np
     >>> Z = np.linspace(-1, 1, 5)[:, None]
-    >>> full_jacobian(Z, Z[:2], np.ones(2), np.ones((1, 2)), np.zeros((1, 1)), np.zeros(1)).shape
+    >>> network = Network(
+    ...     centers=Z[:2],
+    ...     widths=np.ones(2),
+    ...     coef=np.ones((1, 2)),
+    ...     tail_coef=np.zeros((1, 1)),
+    ...     intercept=np.zeros(1),
+    ... )
+    >>> full_jacobian(Z, network).shape
     (5, 8)
     """
-    del intercept  # the Jacobian does not depend on it; kept for a uniform signature
     root_w = np.sqrt(check_weights(sample_weight, Z.shape[0], "sample_weight"))
-    return _full_jacobian_rows(Z, root_w, centers, np.log(widths), coef, tail_coef.shape[1], alpha)
+    return _full_jacobian_rows(
+        Z,
+        root_w,
+        network.centers,
+        np.log(network.widths),
+        network.coef,
+        network.tail_coef.shape[1],
+        alpha,
+    )
 
 
 def _pack(network):
@@ -157,13 +172,20 @@ def _unpack(theta, K, d, m, n_tail):
     i += m * K
     tail_coef = theta[i : i + m * n_tail].reshape(m, n_tail)
     i += m * n_tail
-    return Network(centers, widths, coef, tail_coef, theta[i : i + m].copy())
+    return Network(
+        centers=centers,
+        widths=widths,
+        coef=coef,
+        tail_coef=tail_coef,
+        intercept=theta[i : i + m].copy(),
+    )
 
 
 def _normal_equations(Z, Y, root_w, theta, shape, alpha):
     """``JᵀJ`` and ``Jᵀr`` of the full problem, accumulated over row blocks."""
     K, d, m, n_tail = shape
-    centers, _, coef, tail_coef, intercept = _unpack(theta, K, d, m, n_tail)
+    network = _unpack(theta, K, d, m, n_tail)
+    centers, coef = network.centers, network.coef
     log_widths = theta[K * d : K * d + K]
     n_params = theta.size
     JtJ = np.zeros((n_params, n_params))
@@ -175,9 +197,9 @@ def _normal_equations(Z, Y, root_w, theta, shape, alpha):
         J = _full_jacobian_rows(
             Z[rows], root_w[rows], centers, log_widths, coef, n_tail, 0.0, activations
         )
-        pred = activations[1] @ coef.T + intercept
+        pred = activations[1] @ coef.T + network.intercept
         if n_tail:
-            pred += tail_features(Z[rows], tail_degree_from_size(n_tail, d)) @ tail_coef.T
+            pred += tail_features(Z[rows], tail_degree_from_size(n_tail, d)) @ network.tail_coef.T
         r = ((pred - Y[rows]) * root_w[rows, None]).T.ravel()
         JtJ += J.T @ J
         Jtr += J.T @ r

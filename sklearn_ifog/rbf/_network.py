@@ -8,8 +8,9 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from sklearn_ifog._compat import Interval, StrOptions, _check_sample_weight, _fit_context
-from sklearn_ifog.rbf._basis import SMALL_BATCH_ROWS, Network, predict_network
+from sklearn_ifog.rbf._basis import SMALL_BATCH_ROWS, Network
 from sklearn_ifog.rbf._fit import fit_network
+from sklearn_ifog.rbf._options import FitOptions
 from sklearn_ifog.rbf._refine import REFINE_METHODS
 from sklearn_ifog.rbf._select import SELECTION_CRITERIA, TAIL_DEGREES, group_codes
 
@@ -359,7 +360,7 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
         )
         sw = _check_sample_weight(sample_weight, X, dtype=np.float64, ensure_non_negative=True)
         codes = None if groups is None else group_codes(groups, X.shape[0])
-        fitted = fit_network(X, y.reshape(X.shape[0], -1), sw, groups=codes, **self.get_params())
+        fitted = fit_network(X, y.reshape(X.shape[0], -1), sw, self._fit_options(), groups=codes)
         network = fitted.network
         self.x_mean_, self.x_scale_ = fitted.x_mean, fitted.x_scale
         self.centers_, self.widths_ = network.centers, network.widths
@@ -375,26 +376,30 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
             self.intercept_ = network.intercept
         return self
 
-    def _network(self):
-        """The fitted network as a :class:`~sklearn_ifog.rbf._basis.Network` (2-D weights).
-
-        On the standardised inputs ``(X - x_mean_) / x_scale_``; what ``predict`` evaluates
-        and the exporters write.
-        """
-        check_is_fitted(self)
-        return self._fitted_network()
-
-    def _fitted_network(self):
-        """:meth:`_network` without the fitted check (the caller has made it)."""
-        coef = np.atleast_2d(np.asarray(self.coef_, dtype=np.float64))
-        n_outputs = coef.shape[0]
-        return Network(
-            centers=np.asarray(self.centers_, dtype=np.float64).reshape(-1, self.n_features_in_),
-            widths=np.broadcast_to(np.asarray(self.widths_, dtype=np.float64), coef.shape[1:]),
-            coef=coef,
-            tail_coef=np.asarray(self.tail_coef_, dtype=np.float64).reshape(n_outputs, -1),
-            intercept=np.broadcast_to(np.asarray(self.intercept_, dtype=np.float64), (n_outputs,)),
+    def _fit_options(self):
+        """The validated parameters as the :class:`~sklearn_ifog.rbf._options.FitOptions`."""
+        return FitOptions(
+            n_centers=self.n_centers,
+            width=self.width,
+            refine=self.refine,
+            alpha=self.alpha,
+            tail_alpha=self.tail_alpha,
+            criterion=self.criterion,
+            goal=self.goal,
+            tail=self.tail,
+            max_candidates=self.max_candidates,
+            candidates=self.candidates,
+            max_samples=self.max_samples,
+            validation_fraction=self.validation_fraction,
+            max_iter=self.max_iter,
+            tol=self.tol,
+            learning_rate=self.learning_rate,
+            random_state=self.random_state,
         )
+
+    def _network(self):
+        """Alias of :func:`network_of` ``(self)``, kept until its callers use that name."""
+        return network_of(self)
 
     def predict(self, X):
         """Predict with the network, in row blocks.
@@ -414,7 +419,7 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
             X = validate_data(self, X, reset=False)
         Z = np.subtract(X, self.x_mean_)
         Z /= self.x_scale_
-        Y = predict_network(Z, *self._fitted_network())
+        Y = _as_network(self).predict(Z)
         return Y[:, 0] if np.ndim(self.coef_) == 1 else Y
 
     def _is_small_plain_input(self, X):
@@ -440,3 +445,64 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
         tags = super().__sklearn_tags__()
         tags.target_tags.multi_output = True
         return tags
+
+
+def network_of(regressor):
+    """The fitted network of an ``RBFNetRegressor``, as one ``Network`` record.
+
+    The network (a :class:`~sklearn_ifog.rbf._basis.Network`) on the standardised inputs
+    ``(X - x_mean_) / x_scale_``, with 2-D weights (one row per output, even when ``y`` was
+    1-D) and a zero linear tail when the fitted one has none. It is what ``predict``
+    evaluates, and it serves several modules that read a fitted network: partial pooling
+    (``unitwise``), the compiled online path (``_compiled``) and the exports (``export``).
+    A private module's function rather than a public method, because ``Network`` is an
+    internal record of the package, not part of its public API.
+
+    Parameters
+    ----------
+    regressor : RBFNetRegressor
+        A fitted network regressor.
+
+    Returns
+    -------
+    network : Network
+        Its ``centers``, ``widths``, ``coef`` (n_outputs, n_centers), ``tail_coef``
+        (n_outputs, n_tail) and ``intercept`` (n_outputs,).
+
+    Raises
+    ------
+    sklearn.exceptions.NotFittedError
+        When ``regressor`` is not fitted.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn_ifog import RBFNetRegressor
+    >>> X = np.linspace(-1, 1, 200)[:, None]
+    >>> model = RBFNetRegressor(refine=None, random_state=0).fit(X, np.sin(3 * X[:, 0]))
+    >>> network = network_of(model)
+    >>> network.coef.shape == (1, model.centers_.shape[0])
+    True
+    >>> Z = (X - model.x_mean_) / model.x_scale_
+    >>> bool(np.array_equal(network.predict(Z)[:, 0], model.predict(X)))
+    True
+    """
+    check_is_fitted(regressor)
+    return _as_network(regressor)
+
+
+def _as_network(regressor):
+    """:func:`network_of` without the fitted check (the caller has made it)."""
+    coef = np.atleast_2d(np.asarray(regressor.coef_, dtype=np.float64))
+    n_outputs = coef.shape[0]
+    return Network(
+        centers=np.asarray(regressor.centers_, dtype=np.float64).reshape(
+            -1, regressor.n_features_in_
+        ),
+        widths=np.broadcast_to(np.asarray(regressor.widths_, dtype=np.float64), coef.shape[1:]),
+        coef=coef,
+        tail_coef=np.asarray(regressor.tail_coef_, dtype=np.float64).reshape(n_outputs, -1),
+        intercept=np.broadcast_to(
+            np.asarray(regressor.intercept_, dtype=np.float64), (n_outputs,)
+        ),
+    )

@@ -57,11 +57,7 @@ REFINE_METHODS = ("varpro", "lm", "gd")
 def refine_network(
     Z,
     Y,
-    centers,
-    widths,
-    coef,
-    tail_coef,
-    intercept,
+    network,
     *,
     method,
     sample_weight=None,
@@ -85,17 +81,12 @@ def refine_network(
         Standardised training inputs.
     Y : ndarray of shape (n_samples, n_outputs) or (n_samples,)
         Training targets.
-    centers : ndarray of shape (n_centers, n_features)
-        Starting centres (standardised units).
-    widths : ndarray of shape (n_centers,)
-        Starting widths (positive).
-    coef : ndarray of shape (n_outputs, n_centers)
-        Starting Gaussian weights.
-    tail_coef : ndarray of shape (n_outputs, n_tail)
-        Starting tail weights; ``n_tail`` is 0 (no tail), ``n_features`` (linear tail) or
-        ``d + d (d + 1) / 2`` (quadratic tail, see ``_basis.tail_features``).
-    intercept : ndarray of shape (n_outputs,)
-        Starting intercepts.
+    network : ~sklearn_ifog.rbf._basis.Network
+        The starting network: ``centers`` (n_centers, n_features) and positive ``widths``
+        (n_centers,), in standardised units; ``coef`` (n_outputs, n_centers); ``tail_coef``
+        (n_outputs, n_tail), where ``n_tail`` is 0 (no tail), ``n_features`` (linear tail)
+        or ``d + d (d + 1) / 2`` (quadratic tail, see ``_basis.tail_features``);
+        ``intercept`` (n_outputs,).
     method : {"varpro", "lm", "gd"}
         Variable projection, Levenberg–Marquardt on all parameters, or the reference paper's
         gradient rules.
@@ -129,13 +120,14 @@ def refine_network(
     Examples
     --------
     >>> import numpy as np
-    >>> from sklearn_ifog.rbf._basis import gaussian_design, solve_output_weights
+    >>> from sklearn_ifog.rbf._basis import Network, gaussian_design, solve_output_weights
     >>> rng = np.random.default_rng(0)
     >>> Z = rng.uniform(-1, 1, size=(200, 1))
     >>> Y = np.sin(3 * Z)
     >>> centers, widths = Z[:4], np.full(4, 2.0)
     >>> coef, tail, b = solve_output_weights(gaussian_design(Z, centers, widths), Z[:, :0], Y)
-    >>> res = refine_network(Z, Y, centers, widths, coef, tail, b, method="varpro")
+    >>> start = Network(centers=centers, widths=widths, coef=coef, tail_coef=tail, intercept=b)
+    >>> res = refine_network(Z, Y, start, method="varpro")
     >>> res.improved, res.history["train_loss"][-1] < 0.1 * res.history["train_loss"][0]
     (True, True)
     """
@@ -149,25 +141,25 @@ def refine_network(
     Y = as_float_array(Y, "Y")
     if Y.shape[0] != n:
         raise ValueError(f"Y has {Y.shape[0]} rows but Z has {n}.")
-    centers = as_float_array(centers, "centers")
+    centers = as_float_array(network.centers, "centers")
     K = centers.shape[0]
     if centers.shape[1] != d:
         raise ValueError(f"centers must have {d} columns (as Z), got {centers.shape[1]}.")
-    widths = as_float_array(widths, "widths", ndim=1)
+    widths = as_float_array(network.widths, "widths", ndim=1)
     if widths.shape != (K,) or np.any(widths <= 0):
         raise ValueError(f"widths must be {K} positive values, got shape {widths.shape}.")
     m = Y.shape[1]
-    coef = as_float_array(coef, "coef")
+    coef = as_float_array(network.coef, "coef")
     if coef.shape != (m, K):
         raise ValueError(f"coef must have shape ({m}, {K}), got {coef.shape}.")
-    tail_coef = as_float_array(tail_coef, "tail_coef")
+    tail_coef = as_float_array(network.tail_coef, "tail_coef")
     n_quadratic = n_tail_features(d, 2)
     if tail_coef.shape not in ((m, 0), (m, d), (m, n_quadratic)):
         raise ValueError(
             f"tail_coef must have shape ({m}, 0), ({m}, {d}) or ({m}, {n_quadratic}) (no, "
             f"linear or quadratic tail), got {tail_coef.shape}."
         )
-    intercept = as_float_array(np.reshape(intercept, -1), "intercept", ndim=1)
+    intercept = as_float_array(np.reshape(network.intercept, -1), "intercept", ndim=1)
     if intercept.shape != (m,):
         raise ValueError(f"intercept must have shape ({m},), got {intercept.shape}.")
     if not (alpha >= 0 and np.isfinite(alpha)):
@@ -219,8 +211,12 @@ def refine_network(
     _, y_scale = weighted_mean_std(Y, sw, pooled=True)
     if not (np.isfinite(y_scale) and y_scale > 0):
         y_scale = 1.0
-    original = Network(centers, widths, coef, tail_coef, intercept)
-    start = Network(centers, widths, coef / y_scale, tail_coef / y_scale, intercept / y_scale)
+    original = Network(
+        centers=centers, widths=widths, coef=coef, tail_coef=tail_coef, intercept=intercept
+    )
+    start = original._replace(
+        coef=coef / y_scale, tail_coef=tail_coef / y_scale, intercept=intercept / y_scale
+    )
     Y = Y / y_scale
     Yv = Yv / y_scale if has_val else None
     train0 = network_loss(Z, Y, sw, total, start, alpha)

@@ -21,7 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from sklearn_ifog.rbf._basis import WIDTH_LIMITS, Network, predict_network, squared_distances
+from sklearn_ifog.rbf._basis import WIDTH_LIMITS, Network, squared_distances
 
 #: Widths may move by at most this factor (up or down) from their starting values.
 WIDTH_RANGE = 100.0
@@ -64,7 +64,11 @@ class RefineResult:
     >>> import numpy as np
     >>> from sklearn_ifog.rbf._basis import Network
     >>> net = Network(
-    ...     np.zeros((1, 1)), np.ones(1), np.zeros((1, 1)), np.zeros((1, 0)), np.zeros(1)
+    ...     centers=np.zeros((1, 1)),
+    ...     widths=np.ones(1),
+    ...     coef=np.zeros((1, 1)),
+    ...     tail_coef=np.zeros((1, 0)),
+    ...     intercept=np.zeros(1),
     ... )
     >>> res = RefineResult(net, 0, True, False)
     >>> res.history
@@ -134,7 +138,7 @@ def center_bounds(Z, n_centers):
 def network_loss(Z, Y, sw, total, network, alpha):
     """Weighted sum of squares plus ridge penalty, divided by the total weight; inf if bad."""
     with np.errstate(all="ignore"):
-        pred = predict_network(Z, *network)
+        pred = network.predict(Z)
         value = (
             sw @ np.square(pred - Y).sum(axis=1) + alpha * np.sum(np.square(network.coef))
         ) / total

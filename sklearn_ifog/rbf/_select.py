@@ -53,21 +53,6 @@ MIN_ROWS_PER_TAIL_COLUMN = 10
 SELECTION_CRITERIA = ("cv", "holdout", "gcv", "bic", "aicc")
 
 
-class SelectionOptions(NamedTuple):
-    """The settings of :func:`select_network`: ``RBFNetRegressor``'s parameters of that name."""
-
-    n_centers: object
-    width: object
-    criterion: str | None
-    goal: float | None
-    alpha: float
-    max_candidates: int
-    candidates: str
-    max_samples: int
-    validation_fraction: float
-    tail_alpha: object = 0.0
-
-
 # Relative ridge penalties on the tail weights tried when ``tail_alpha="auto"``.
 TAIL_ALPHA_GRID = (0.0, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1)
 
@@ -99,13 +84,34 @@ class _WidthPath(NamedTuple):
     values: np.ndarray
 
 
+class SelectionRecord(NamedTuple):
+    """What the selection at one tail degree records (``RBFNetRegressor.selection_path_``).
+
+    The fields are the keys of ``selection_path_`` that the selection at the chosen tail
+    degree fills, in its order; see :func:`selection_path`, which assembles the whole record.
+    """
+
+    err: np.ndarray
+    tail_err: float
+    train_mse: np.ndarray
+    val_mse: np.ndarray
+    dof: np.ndarray
+    criterion: np.ndarray
+    criterion_name: str
+    n_centers: int
+    widths_tried: np.ndarray
+    width_scores: np.ndarray
+    tail_alpha: float
+    tail_alphas_tried: np.ndarray
+
+
 class _Trial(NamedTuple):
-    """The network chosen with one tail degree, and its criterion value."""
+    """The network chosen with one tail degree, its record and its criterion value."""
 
     score: float
     degree: int
     network: Network
-    path: dict
+    record: SelectionRecord
     random_state: np.random.RandomState
 
 
@@ -116,16 +122,65 @@ class Selection(NamedTuple):
     ----------
     network : Network
         The chosen network, on the standardised targets.
-    path : dict
-        The selection record (``RBFNetRegressor.selection_path_`` without ``"refined"``).
+    record : SelectionRecord
+        The selection's record at the chosen tail degree.
+    tail_degree : int
+        The chosen tail degree.
+    tail_scores : dict
+        Criterion value of the chosen network for each tail degree tried.
     random_state : numpy.random.RandomState
         The random state the chosen network was selected with, after selection (what the
         refinement draws its seed from).
     """
 
     network: Network
-    path: dict
+    record: SelectionRecord
+    tail_degree: int
+    tail_scores: dict
     random_state: np.random.RandomState
+
+
+def selection_path(selection, *, refined, refine_rejected=None):
+    """``RBFNetRegressor.selection_path_``: the one place where that dict is assembled.
+
+    Parameters
+    ----------
+    selection : Selection
+        What :func:`select_network` chose.
+    refined : bool
+        Whether the refinement was kept.
+    refine_rejected : bool or None, default=None
+        After a refinement: whether it was discarded for a held-out gain within one
+        standard error. None when no refinement ran (the key is then absent).
+
+    Returns
+    -------
+    path : dict
+        The fields of ``selection.record``, then ``"tail_degree"``, ``"tail_scores"``,
+        ``"refine_rejected"`` (after a refinement) and ``"refined"``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn_ifog import RBFNetRegressor
+    >>> from sklearn_ifog.rbf._options import FitOptions
+    >>> options = FitOptions(**RBFNetRegressor(criterion="holdout").get_params())
+    >>> Z = np.linspace(-2, 2, 200)[:, None]
+    >>> Y, sw, rng = np.sin(2 * Z), np.ones(200), np.random.RandomState(0)
+    >>> train, val = split_rows(sw, 0.2, needs_blocks=True)
+    >>> selection = select_network(
+    ...     Z, Y, sw, train, val, np.ones(1), rng, degrees=(1,), options=options
+    ... )
+    >>> list(selection_path(selection, refined=False))[-4:]
+    ['tail_alphas_tried', 'tail_degree', 'tail_scores', 'refined']
+    """
+    path = selection.record._asdict()
+    path["tail_degree"] = selection.tail_degree
+    path["tail_scores"] = selection.tail_scores
+    if refine_rejected is not None:
+        path["refine_rejected"] = refine_rejected
+    path["refined"] = refined
+    return path
 
 
 def group_codes(groups, n_samples):
@@ -330,8 +385,8 @@ def select_network(
         Seeds the candidate pool and the cross-validation subsamples.
     degrees : tuple of int
         Tail degrees to try (:func:`tail_degrees`).
-    options : SelectionOptions
-        The remaining settings.
+    options : ~sklearn_ifog.rbf._options.FitOptions
+        The remaining settings (those of the selection are read).
     groups : ndarray of int of shape (n_samples,), default=None
         Group code of every row (:func:`group_codes`): the cross-validation folds hold out
         whole groups (:func:`cv_folds`). None: contiguous row blocks.
@@ -348,41 +403,39 @@ def select_network(
     >>> Z = np.linspace(-2, 2, 200)[:, None]
     >>> Y = np.sin(2 * Z)
     >>> train, val = split_rows(np.ones(200), 0.2, needs_blocks=True)
-    >>> options = SelectionOptions(
-    ...     n_centers="auto",
-    ...     width="auto",
-    ...     criterion="holdout",
-    ...     goal=None,
-    ...     alpha=1e-4,
-    ...     max_candidates=300,
-    ...     candidates="kmeans++",
-    ...     max_samples=3000,
-    ...     validation_fraction=0.2,
-    ... )
+    >>> from sklearn_ifog import RBFNetRegressor
+    >>> from sklearn_ifog.rbf._options import FitOptions
+    >>> options = FitOptions(**RBFNetRegressor(criterion="holdout").get_params())
     >>> sel = select_network(
     ...     Z, Y, np.ones(200), train, val, np.ones(1), rng, degrees=(1,), options=options
     ... )
-    >>> sel.path["criterion_name"], sel.network.tail_degree
+    >>> sel.record.criterion_name, sel.network.tail_degree
     ('holdout', 1)
     """
     trials = []
     for degree in degrees:
         rng = copy.deepcopy(random_state) if len(degrees) > 1 else random_state
-        network, path, score = _select_at_degree(
+        network, record, score = _select_at_degree(
             Z, Y, sample_weight, sel_rows, val_rows, y_scale, rng, degree, options, groups
         )
-        trials.append(_Trial(score, degree, network, path, rng))
+        trials.append(
+            _Trial(score=score, degree=degree, network=network, record=record, random_state=rng)
+        )
     best = min(trials, key=lambda trial: (trial.score, trial.degree))
-    best.path["tail_degree"] = best.degree
-    best.path["tail_scores"] = {trial.degree: trial.score for trial in trials}
-    return Selection(best.network, best.path, best.random_state)
+    return Selection(
+        network=best.network,
+        record=best.record,
+        tail_degree=best.degree,
+        tail_scores={trial.degree: trial.score for trial in trials},
+        random_state=best.random_state,
+    )
 
 
 def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, options, groups):
     """OLS paths over the width grid, with a polynomial tail of degree ``degree``.
 
-    Returns the chosen network, its path record and its criterion value (lower is
-    better; comparable between tail degrees selected from the same random state).
+    Returns the chosen network, its :class:`SelectionRecord` and its criterion value (lower
+    is better; comparable between tail degrees selected from the same random state).
     """
     Z_sel, Y_sel, sw_sel = Z[sel_rows], Ys[sel_rows], sw[sel_rows]
     candidates = candidate_pool(
@@ -392,59 +445,29 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
         method=options.candidates,
         random_state=rng,
     )
-    n_candidates = candidates.shape[0]
-    if options.n_centers == "auto":
-        max_centers = min(AUTO_MAX_CENTERS, n_candidates)
-    else:
-        max_centers = min(options.n_centers, n_candidates)
-        if options.n_centers > n_candidates:
-            warnings.warn(
-                f"n_centers={options.n_centers} but only {n_candidates} distinct candidate "
-                f"rows are available; at most {n_candidates} centres will be used.",
-                UserWarning,
-                stacklevel=5,
-            )
-    if options.width == "auto":
-        widths_tried = width_grid(candidates, WIDTH_MULTIPLES)
-    else:
-        widths_tried = np.array([float(options.width)])
-    widths_tried = np.clip(widths_tried, *WIDTH_LIMITS)
-
+    max_centers = _max_centers(options.n_centers, candidates.shape[0])
+    widths_tried = _widths_tried(options.width, candidates)
     has_val = val_rows is not None
-    criterion = options.criterion
-    if criterion is None:
-        criterion = "holdout" if has_val else "gcv"
-    elif criterion in ("holdout", "cv") and not has_val:
-        criterion = "gcv"
-    alpha_sel = options.alpha * sw_sel.sum()
-    T_sel = tail_features(Z_sel, degree) if degree else None
-    D2_sel = squared_distances(Z_sel, candidates)
+    criterion = _criterion_used(options.criterion, has_val)
+    validation = None
     if has_val:
-        Z_val, Y_val, sw_val = Z[val_rows], Ys[val_rows], sw[val_rows]
-        D2_val = squared_distances(Z_val, candidates)
+        Z_val, sw_val = Z[val_rows], sw[val_rows]
         T_val = tail_features(Z_val, degree) if degree else None
+        validation = (squared_distances(Z_val, candidates), T_val, Ys[val_rows], sw_val)
     fixed_size = options.criterion is None and options.goal is None
     tail_alphas = tail_alphas_tried(options.tail_alpha, degree)
-    paths = []
-    workspace = Workspace()
-    for width in widths_tried:
-        path, fits_list = _select_and_score(
-            width,
-            D2_sel,
-            Y_sel,
-            T_sel,
-            sw_sel,
-            alpha_sel,
-            max_centers,
-            validation=(D2_val, T_val, Y_val, sw_val) if has_val else None,
-            tail_alphas=[ta * sw_sel.sum() for ta in tail_alphas],
-            workspace=workspace,
-        )
-        for ta, fits in zip(tail_alphas, fits_list, strict=True):
-            values = path_criterion(
-                fits, "holdout" if criterion == "cv" else criterion, sw_sel.sum()
-            )
-            paths.append(_WidthPath(width, ta, path, fits, values))
+    paths = _width_paths(
+        squared_distances(Z_sel, candidates),
+        Y_sel,
+        tail_features(Z_sel, degree) if degree else None,
+        sw_sel,
+        options.alpha * sw_sel.sum(),
+        max_centers,
+        widths_tried=widths_tried,
+        tail_alphas=tail_alphas,
+        validation=validation,
+        criterion="holdout" if criterion == "cv" else criterion,
+    )
     losses = None
     if criterion == "cv":
         losses, sw_losses = _cross_validated_losses(
@@ -472,7 +495,8 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
         ]
     else:
         choice = _choose(paths, criterion, fixed_size, sw_val if has_val else None)
-    width, tail_alpha, path, fits, values = paths[choice[0]]
+    chosen = paths[choice[0]]
+    path, fits, values = chosen.path, chosen.fits, chosen.values
     k = choice[1]
     if losses is None:
         if criterion == "holdout":
@@ -490,7 +514,7 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
     W = fits.weights[k]
     network = Network(
         centers=candidates[path.selected[:k]],
-        widths=np.full(k, width),
+        widths=np.full(k, chosen.width),
         coef=W[1 + n_tail :].T,
         tail_coef=W[1 : 1 + n_tail].T,
         intercept=W[0],
@@ -500,21 +524,100 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
         if has_val
         else np.full(len(values), np.nan)
     )
-    record = {
-        "err": path.err,
-        "tail_err": path.tail_err,
-        "train_mse": train_mse,
-        "val_mse": val_mse,
-        "dof": fits.dof,
-        "criterion": values,
-        "criterion_name": criterion,
-        "n_centers": k,
-        "widths_tried": widths_tried,
-        "width_scores": np.asarray(width_scores),
-        "tail_alpha": tail_alpha,
-        "tail_alphas_tried": np.asarray(tail_alphas),
-    }
+    record = SelectionRecord(
+        err=path.err,
+        tail_err=path.tail_err,
+        train_mse=train_mse,
+        val_mse=val_mse,
+        dof=fits.dof,
+        criterion=values,
+        criterion_name=criterion,
+        n_centers=k,
+        widths_tried=widths_tried,
+        width_scores=np.asarray(width_scores),
+        tail_alpha=chosen.tail_alpha,
+        tail_alphas_tried=np.asarray(tail_alphas),
+    )
     return network, record, score
+
+
+def _max_centers(n_centers, n_candidates):
+    """Largest number of centres of a path: ``n_centers`` capped by the candidate pool."""
+    if n_centers == "auto":
+        return min(AUTO_MAX_CENTERS, n_candidates)
+    if n_centers > n_candidates:
+        warnings.warn(
+            f"n_centers={n_centers} but only {n_candidates} distinct candidate "
+            f"rows are available; at most {n_candidates} centres will be used.",
+            UserWarning,
+            stacklevel=6,  # the estimator's fit (the frame that called it)
+        )
+    return min(n_centers, n_candidates)
+
+
+def _widths_tried(width, candidates):
+    """The shared widths to try: the grid for ``"auto"``, else ``width``; within limits."""
+    if width == "auto":
+        widths = width_grid(candidates, WIDTH_MULTIPLES)
+    else:
+        widths = np.array([float(width)])
+    return np.clip(widths, *WIDTH_LIMITS)
+
+
+def _criterion_used(criterion, has_val):
+    """The criterion after its fallback: without held-out rows, ``"gcv"``.
+
+    ``None`` (a fixed number of centres) still ranks the widths, on the held-out rows when
+    there are some.
+    """
+    if criterion is None:
+        return "holdout" if has_val else "gcv"
+    if criterion in ("holdout", "cv") and not has_val:
+        return "gcv"
+    return criterion
+
+
+def _width_paths(
+    D2,
+    Y,
+    T,
+    sample_weight,
+    alpha,
+    max_centers,
+    *,
+    widths_tried,
+    tail_alphas,
+    validation,
+    criterion,
+):
+    """The selection path at every width and relative tail penalty, with its criterion.
+
+    One :class:`_WidthPath` per (width, penalty), width-major; ``criterion`` is that of
+    :func:`~sklearn_ifog.rbf._ols.path_criterion` (``"holdout"`` scores the held-out rows of
+    ``validation``). The other arguments are those of :func:`_select_and_score`, with
+    ``tail_alphas`` relative (to the total weight).
+    """
+    paths = []
+    workspace = Workspace()
+    for width in widths_tried:
+        path, fits_list = _select_and_score(
+            width,
+            D2,
+            Y,
+            T,
+            sample_weight,
+            alpha,
+            max_centers,
+            validation=validation,
+            tail_alphas=[ta * sample_weight.sum() for ta in tail_alphas],
+            workspace=workspace,
+        )
+        for ta, fits in zip(tail_alphas, fits_list, strict=True):
+            values = path_criterion(fits, criterion, sample_weight.sum())
+            paths.append(
+                _WidthPath(width=width, tail_alpha=ta, path=path, fits=fits, values=values)
+            )
+    return paths
 
 
 def _select_and_score(

@@ -230,7 +230,13 @@ def refine_varpro(data, start, tracker, max_iter, tol):
     def network(x):
         centers, proj = state(x)
         coef, tail_coef, intercept = proj.split()
-        return Network(centers.copy(), np.exp(x[K * d :]), coef, tail_coef, intercept)
+        return Network(
+            centers=centers.copy(),
+            widths=np.exp(x[K * d :]),
+            coef=coef,
+            tail_coef=tail_coef,
+            intercept=intercept,
+        )
 
     def losses(x):
         _, proj = state(x)
