@@ -1,8 +1,9 @@
 """A fitted Pipeline's steps after ThermalFeatures, compiled to plain numpy arithmetic.
 
 :func:`compile_steps` reads the fitted parameters once (the export schema of
-:func:`sklearn_ifog.export._spec.describe_pipeline`: scalers, PolynomialFeatures, a linear
-regressor or :class:`~sklearn_ifog.RBFNetRegressor`) and returns a :class:`CompiledSteps` that
+:func:`sklearn_ifog._description.describe_pipeline`: scalers, PolynomialFeatures; the final
+regressor's :class:`~sklearn_ifog._output_layer.OutputLayer`, a linear regressor or
+:class:`~sklearn_ifog.RBFNetRegressor`) and returns a :class:`CompiledSteps` that
 evaluates them without scikit-learn's per-call validation: on a block of rows with the same
 operations as the estimators (so a whole run gives ``pipeline.predict`` bit for bit), and on
 one row with the fewest numpy calls. It also gives the final regressor's *output-layer
@@ -22,6 +23,8 @@ import math
 
 import numpy as np
 
+from sklearn_ifog._description import describe_pipeline
+from sklearn_ifog._output_layer import layer_kind, read_layer
 from sklearn_ifog.domain import (
     apply_policy,
     box_distance,
@@ -95,13 +98,14 @@ class _Linear:
 
     kind = "linear"
 
-    def __init__(self, regressor):
-        self.coef = np.asarray(regressor.coef_, dtype=np.float64)
-        self.intercept = np.asarray(regressor.intercept_, dtype=np.float64)
-        coef2 = np.atleast_2d(self.coef)
-        self.n_outputs = coef2.shape[0]
+    def __init__(self, layer):
+        # The regressor's own shapes (a 1-D coef_ and a scalar intercept_ for one output):
+        # the same matrix-vector product as its predict.
+        self.coef = layer.coef[0] if layer.single_output else layer.coef
+        self.intercept = layer.intercept[0] if layer.single_output else layer.intercept
+        self.n_outputs = layer.n_outputs
         # Output layer: the inputs, then 1.
-        self.weights = np.vstack([coef2.T, np.broadcast_to(self.intercept, (self.n_outputs,))])
+        self.weights = layer.weights
         self.bias_index = self.weights.shape[0] - 1
 
     def predict(self, X):
@@ -117,16 +121,18 @@ class _Network:
 
     kind = "rbf_network"
 
-    def __init__(self, regressor):
-        network = regressor._network()
+    def __init__(self, layer):
+        network = layer.network
         self.network = network
-        self.x_mean = np.asarray(regressor.x_mean_, dtype=np.float64)
-        self.x_scale = np.asarray(regressor.x_scale_, dtype=np.float64)
+        self.x_mean = np.asarray(layer.x_mean, dtype=np.float64)
+        self.x_scale = np.asarray(layer.x_scale, dtype=np.float64)
         self.centers = network.centers
         self.gain = -0.5 / np.square(network.widths)
-        self.degree = network.tail_degree
-        self.n_outputs = network.coef.shape[0]
-        self.weights = np.vstack([network.coef.T, network.tail_coef.T, network.intercept[None]])
+        # The stored tail (a network fitted without one carries a zero linear tail, which
+        # the recalibration may move).
+        self.degree = layer.tail_degree
+        self.n_outputs = layer.n_outputs
+        self.weights = layer.weights
         self.bias_index = self.weights.shape[0] - 1
         n_inputs = self.centers.shape[1]
         self.first, self.second = np.triu_indices(n_inputs)
@@ -136,7 +142,15 @@ class _Network:
 
     def predict(self, X):
         # As RBFNetRegressor.predict: the same function on the same standardised inputs.
-        return predict_network(self.standardise(X), *self.network)
+        network = self.network
+        return predict_network(
+            self.standardise(X),
+            centers=network.centers,
+            widths=network.widths,
+            coef=network.coef,
+            tail_coef=network.tail_coef,
+            intercept=network.intercept,
+        )
 
     def design(self, X):
         Z = self.standardise(X)
@@ -164,6 +178,9 @@ class _Network:
                 out += network.tail_coef[:, n_inputs:] @ (z[self.first] * z[self.second])
         out += network.intercept
         return out
+
+
+_FINALS = {"linear": _Linear, "rbf_network": _Network}
 
 
 class CompiledSteps:
@@ -238,21 +255,16 @@ def compile_steps(pipeline):
     >>> bool(np.allclose(compiled.predict(model[0].transform(X))[:, 0], model.predict(X)))
     True
     """
-    from sklearn_ifog.export._spec import LINEAR_REGRESSORS, describe_pipeline
-    from sklearn_ifog.rbf import RBFNetRegressor
-
     try:
         spec = describe_pipeline(pipeline)
     except (TypeError, ValueError):
         return None
     transforms = [_TRANSFORMS[step["op"]](step) for step in spec["steps"][:-1]]
     regressor = [s for s in pipeline.steps if s[1] not in (None, "passthrough")][-1][1]
-    if type(regressor) is RBFNetRegressor:
-        final = _Network(regressor)
-    elif type(regressor) in LINEAR_REGRESSORS:
-        final = _Linear(regressor)
-    else:  # pragma: no cover - describe_pipeline refuses these
+    evaluator = _FINALS.get(layer_kind(regressor))
+    if evaluator is None:  # pragma: no cover - describe_pipeline refuses these
         return None
+    final = evaluator(read_layer(regressor))
     return CompiledSteps(transforms, final, spec["single_output"], spec["steps"][:-1])
 
 

@@ -2,8 +2,8 @@
 
 The unit travels inside X as a column (like the run id), so scorers, ``cross_validate`` and
 ``GridSearchCV`` see one ordinary regressor. The numerics of partial pooling live in
-:mod:`sklearn_ifog._shrinkage`; this module holds the scikit-learn surface and the access to
-the output layer of the supported final regressors.
+:mod:`sklearn_ifog._shrinkage`, the access to the output layer of the supported final
+regressors in :mod:`sklearn_ifog._output_layer`; this module holds the scikit-learn surface.
 
 Every unit's model carries a calibration domain (a
 :class:`~sklearn_ifog.pipeline.CompensationPipeline` learns it at fit): with ``"none"`` (and
@@ -24,18 +24,6 @@ from typing import ClassVar
 import numpy as np
 from sklearn.base import BaseEstimator, MetaEstimatorMixin, RegressorMixin, clone
 from sklearn.exceptions import UnsetMetadataPassedError
-from sklearn.linear_model import (
-    ARDRegression,
-    BayesianRidge,
-    ElasticNet,
-    ElasticNetCV,
-    HuberRegressor,
-    Lasso,
-    LassoCV,
-    LinearRegression,
-    Ridge,
-    RidgeCV,
-)
 from sklearn.pipeline import Pipeline
 from sklearn.utils import get_tags
 from sklearn.utils.metadata_routing import MetadataRouter, MethodMapping, process_routing
@@ -57,27 +45,25 @@ from sklearn_ifog._compat import (
     _routing_enabled,
     _safe_indexing,
 )
+from sklearn_ifog._output_layer import (
+    LINEAR_REGRESSORS,
+    final_step,
+    has_output_layer,
+    layer_design,
+    layer_weights,
+    supported_names,
+    with_weights,
+)
 from sklearn_ifog.domain import OutsideCalibrationWarning
 from sklearn_ifog.rbf import RBFNetRegressor
-from sklearn_ifog.rbf._basis import gaussian_design, tail_features
 
 __all__ = ["UnitwiseRegressor"]
 
 POOLING = ("none", "partial", "full")
 
-# Final regressors whose output layer is linear in known features: "partial" shrinks it.
-LINEAR_OUTPUT = (
-    LinearRegression,
-    Ridge,
-    RidgeCV,
-    Lasso,
-    LassoCV,
-    ElasticNet,
-    ElasticNetCV,
-    BayesianRidge,
-    ARDRegression,
-    HuberRegressor,
-)
+# Final regressors whose output layer is linear in known features: "partial" shrinks it (and
+# RBFNetRegressor's). The exports' list, kept importable here under its former name.
+LINEAR_OUTPUT = LINEAR_REGRESSORS
 
 # A unit with two runs or more keeps its own model when the evidence puts its spread from
 # the lot, per output-layer column, at OWN_MODEL_SPREAD noise standard deviations or more
@@ -102,23 +88,23 @@ _LISTED_UNITS = 10
 
 
 # --------------------------------------------------------------------------------------------
-# The output layer of a fitted model: design, weights, and a copy with new weights
+# The output layer of a fitted model (sklearn_ifog._output_layer): what pooling needs of it
 # --------------------------------------------------------------------------------------------
 
-
-def _final_step(estimator):
-    """The last estimator of a Pipeline (the estimator itself otherwise)."""
-    return estimator.steps[-1][1] if isinstance(estimator, Pipeline) else estimator
+# Kept importable here under their former names (tests and benchmarks use them); layer_design
+# and layer_weights too, imported above.
+_final_step = final_step
+_with_weights = with_weights
 
 
 def _check_partial(estimator):
-    final = _final_step(estimator)
-    if not isinstance(final, (RBFNetRegressor, *LINEAR_OUTPUT)):
-        names = ", ".join(cls.__name__ for cls in (RBFNetRegressor, *LINEAR_OUTPUT))
+    final = final_step(estimator)
+    if not has_output_layer(final):
         raise ValueError(
             f"pooling='partial' shrinks a linear output layer towards the lot's; the final "
             f"regressor {type(final).__name__} has none. Use pooling='none' or 'full', or a "
-            f"final regressor among: {names} (alone or as the last step of a Pipeline)."
+            f"final regressor among: {supported_names()} (alone or as the last step of a "
+            "Pipeline)."
         )
 
 
@@ -127,78 +113,6 @@ def _layer_inputs(model, X):
     if isinstance(model, Pipeline):
         X = model[:-1].transform(X)
     return np.asarray(X, dtype=np.float64)
-
-
-def layer_design(final, X):
-    """The output-layer design of a fitted final regressor, intercept column last.
-
-    Parameters
-    ----------
-    final : RBFNetRegressor or linear regressor
-        Fitted.
-    X : ndarray of shape (n_samples, n_features)
-        Its inputs.
-
-    Returns
-    -------
-    Phi : ndarray of shape (n_samples, n_columns)
-        RBF network: the Gaussian activations, the tail regressors, then ones; linear
-        model: the inputs, then ones.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from sklearn.linear_model import LinearRegression
-    >>> from sklearn_ifog.unitwise import layer_design
-    >>> X = np.arange(6.0).reshape(3, 2)
-    >>> layer_design(LinearRegression().fit(X, X[:, 0]), X)[:, -1]
-    array([1., 1., 1.])
-    """
-    ones = np.ones((X.shape[0], 1))
-    if isinstance(final, RBFNetRegressor):
-        Z = (X - final.x_mean_) / final.x_scale_
-        network = final._network()
-        parts = [gaussian_design(Z, network.centers, network.widths)]
-        if final.tail_degree_ > 0:
-            parts.append(tail_features(Z, final.tail_degree_))
-        return np.hstack([*parts, ones])
-    return np.hstack([X, ones])
-
-
-def layer_weights(final):
-    """The weights of the output layer, shape (n_columns, n_outputs), as :func:`layer_design`."""
-    if isinstance(final, RBFNetRegressor):
-        network = final._network()
-        blocks = [network.coef]
-        if final.tail_degree_ > 0:
-            blocks.append(network.tail_coef)
-        blocks.append(network.intercept[:, None])
-        return np.hstack(blocks).T
-    coef = np.atleast_2d(np.asarray(final.coef_, dtype=np.float64))
-    intercept = np.broadcast_to(np.asarray(final.intercept_, dtype=np.float64), coef.shape[:1])
-    return np.hstack([coef, intercept[:, None]]).T
-
-
-def _with_weights(model, W):
-    """A deep copy of the fitted ``model`` whose output layer has the weights ``W``."""
-    model = copy.deepcopy(model)
-    final = _final_step(model)
-    one_d = np.ndim(final.coef_) == 1
-    W = W.T  # (n_outputs, n_columns)
-    intercept = W[:, -1]
-    if isinstance(final, RBFNetRegressor):
-        n_centers = np.atleast_2d(final.coef_).shape[1]
-        coef = W[:, :n_centers]
-        tail = np.zeros_like(np.atleast_2d(final.tail_coef_))
-        if final.tail_degree_ > 0:
-            tail = W[:, n_centers:-1]
-        final.coef_ = coef[0].copy() if one_d else coef.copy()
-        final.tail_coef_ = tail[0].copy() if one_d else tail.copy()
-    else:
-        coef = W[:, :-1]
-        final.coef_ = coef[0].copy() if one_d else coef.copy()
-    final.intercept_ = float(intercept[0]) if np.ndim(final.intercept_) == 0 else intercept.copy()
-    return model
 
 
 def _label(value):
@@ -246,8 +160,8 @@ def _check_ids(labels, key, param):
 
 def _rows_needed(model):
     """(rows a unit needs for the fitted ``model`` to be determined by them, why)."""
-    final = _final_step(model)
-    if isinstance(final, (RBFNetRegressor, *LINEAR_OUTPUT)):
+    final = final_step(model)
+    if has_output_layer(final):
         n_weights = layer_weights(final).shape[0]
         if not isinstance(final, RBFNetRegressor) and not getattr(final, "fit_intercept", True):
             n_weights -= 1  # layer_weights carries an intercept row of zeros
@@ -282,7 +196,7 @@ def _own_score(model, X, Y, folds):
     """
     if model is None:
         return np.inf
-    final = _final_step(model)
+    final = final_step(model)
     Phi = layer_design(final, _layer_inputs(model, X))
     penalty = np.zeros(Phi.shape[1])
     if isinstance(final, RBFNetRegressor):
@@ -342,7 +256,8 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         For ``pooling="partial"`` its final regressor (the estimator itself or the last step
         of a Pipeline) must have a linear output layer: :class:`~sklearn_ifog.RBFNetRegressor`
         or a linear model (LinearRegression, Ridge, RidgeCV, Lasso, LassoCV, ElasticNet,
-        ElasticNetCV, BayesianRidge, ARDRegression, HuberRegressor).
+        ElasticNetCV, Lars, LassoLars, BayesianRidge, ARDRegression, HuberRegressor,
+        SGDRegressor, QuantileRegressor, TheilSenRegressor: the ones the exports write).
     unit : str or int, default="unit"
         The unit column of X: a name (DataFrames) or a position. It is removed from X
         before the estimator sees it, so integer column positions inside ``estimator``
@@ -717,7 +632,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     def _add_partial(self, X_inner, y, runs, rows, params):
         """The new units' models under ``"partial"`` (see :meth:`add_units`)."""
         lot = self.lot_estimator_
-        final = _final_step(lot)
+        final = final_step(lot)
         Phi = layer_design(final, _layer_inputs(lot, X_inner))
         prior = layer_weights(final)
         scale, grid = self.shrinkage_scale_, self.shrinkage_grid_
@@ -851,7 +766,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         )
 
     def _fit_partial(self, lot, X_inner, y, runs, rows, params):
-        final = _final_step(lot)
+        final = final_step(lot)
         Phi = layer_design(final, _layer_inputs(lot, X_inner))
         prior = layer_weights(final)
         scale = _shrinkage.design_scale(Phi)
@@ -944,7 +859,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             # domain (at commit 0bba43d), `python benchmarks/bench_unitwise.py --jobs 2` (then on
             # seeds 0-2) had "partial" up to 8.6 x the better of "none" and "full" on similar
             # lots.
-            models[unit] = _with_weights(lot, weights)
+            models[unit] = with_weights(lot, weights)
         return models
 
     def _own_wins(self, several, rows, grid):

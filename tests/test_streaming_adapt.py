@@ -23,6 +23,7 @@ from sklearn_ifog._rls import (
 )
 from sklearn_ifog.datasets import age_campaign, make_thermal_campaign, noise_floor
 from sklearn_ifog.streaming import StreamingCompensator
+from sklearn_ifog.streaming._features import NEW_RUN, sequential_features
 
 RTOL = 1e-12
 MODES = [None, "bias", "output"]
@@ -304,10 +305,11 @@ def test_square_root_recursion_keeps_the_digits(models, campaign, forgetting):
     # The same design rows and targets as the compensator's.
     features = np.vstack(
         [
-            compensator._sequential_features(
+            sequential_features(
+                compensator._row_function,
                 run[["temperature"]].to_numpy(),
                 run["time"].to_numpy(),
-                {"has_history": False, "temperature": None, "last_time": None, "deficit": None},
+                NEW_RUN,
             )[0]
             for _, run in campaign.groupby("run", sort=False)
         ]
@@ -316,8 +318,8 @@ def test_square_root_recursion_keeps_the_digits(models, campaign, forgetting):
     target = (rate - np.where(has, reference, 0.0).astype(float))[:, None]
     prior = compensator._prior
     exact = _square_root_form(
-        prior["weights"].astype(np.longdouble),
-        prior["factor"].astype(np.longdouble),
+        prior.weights.astype(np.longdouble),
+        prior.factor.astype(np.longdouble),
         design.astype(np.longdouble),
         target.astype(np.longdouble),
         has,
@@ -326,8 +328,8 @@ def test_square_root_recursion_keeps_the_digits(models, campaign, forgetting):
     scale = np.max(np.abs(exact))
     square_root_error = np.max(np.abs(drift - exact))
     assert square_root_error <= 1e-12 * scale
-    P0 = prior["factor"] @ prior["factor"].T
-    covariance_form = _covariance_form(prior["weights"], P0, design, target, has, forgetting)
+    P0 = prior.factor @ prior.factor.T
+    covariance_form = _covariance_form(prior.weights, P0, design, target, has, forgetting)
     covariance_error = np.max(np.abs(covariance_form[:, 0] - exact))
     assert covariance_error > 10 * square_root_error
 
@@ -340,7 +342,7 @@ def test_covariance_stays_bounded_and_is_reset_when_it_overflows(models, campaig
     compensator.update(campaign, rate, reference)
     state = compensator.get_state()
     S = np.array(state["rls"]["covariance_factor"])
-    S0 = compensator._prior["factor"]
+    S0 = compensator._prior.factor
     assert state["rls"]["n_resets"] == 0
     # P = S S' is symmetric and positive semi-definite by construction; the wind-up is
     # bounded by the start.

@@ -1,729 +1,31 @@
-"""Export of a fitted compensation Pipeline to self-contained C99 (header + source)."""
+"""Export of a fitted compensation Pipeline to self-contained C99 (header + source).
 
-import math
+:func:`render_c` fills the templates of :mod:`sklearn_ifog.export._templates` with the
+description of :func:`sklearn_ifog._description.describe_pipeline`: the steps' C
+(:mod:`sklearn_ifog.export._c_steps`), the front end, domain and recalibration parts
+(:mod:`sklearn_ifog.export._c_parts`), written with :mod:`sklearn_ifog.export._c_writer`.
+"""
+
 import re
 from pathlib import Path
 
-import numpy as np
-
-from sklearn_ifog._contract import get_term, uses_rate
+from sklearn_ifog._compiled import compile_steps
+from sklearn_ifog._description import describe_pipeline
 from sklearn_ifog._io import write_text_files
-from sklearn_ifog.export._spec import describe_pipeline
-from sklearn_ifog.export._templates import (
-    ADAPT_FUNCTIONS,
-    BLEND_FUNCTION,
-    CLIP_ONCE,
-    CLIP_ROUNDS,
-    DOMAIN_BEYOND,
-    DOMAIN_BOX,
-    DOMAIN_COMMENT,
-    DOMAIN_DEFINE,
-    DOMAIN_FIELDS,
-    DOMAIN_FLAG,
-    DOMAIN_GUARDED,
-    DOMAIN_PRECISION,
-    DOMAIN_PROJECT,
-    DOMAIN_PROTOTYPES,
-    HEADER,
-    POLICY_TEXT,
-    SOURCE,
-    TEMPERATURE_DEFINE,
+from sklearn_ifog.export._c_parts import (
+    adaptation_parts,
+    domain_parts,
+    features_body,
+    state_parts,
 )
+from sklearn_ifog.export._c_steps import RENDERERS
+from sklearn_ifog.export._c_writer import Writer, c_comment, format_c_literal
+from sklearn_ifog.export._templates._source import HEADER, SOURCE
+from sklearn_ifog.streaming._recalibration import check_adaptation, recalibration_prior
+
+__all__ = ["format_c_literal", "render_c", "to_c", "to_c_units"]
 
 _IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
-_VALUES_PER_LINE = 4
-
-
-def format_c_literal(value, precision="double"):
-    """A C floating literal that reads back to exactly ``value`` in the given precision.
-
-    ``double``: Python's shortest round-trip ``repr`` (at most 17 significant digits).
-    ``float``: the value rounded to single precision, written with 9 significant digits (the
-    round-trip count for IEEE single) and an ``f`` suffix; values below the smallest normal
-    float are written as zero so no compiler warns about an underflowing constant.
-
-    Parameters
-    ----------
-    value : float
-        A finite value.
-    precision : {"double", "float"}, default="double"
-        The C type the literal is for.
-
-    Returns
-    -------
-    literal : str
-        The C literal.
-
-    Examples
-    --------
-    >>> from sklearn_ifog.export._c import format_c_literal
-    >>> format_c_literal(0.1), format_c_literal(0.1, "float"), format_c_literal(2.0, "float")
-    ('0.1', '0.100000001f', '2.0f')
-    """
-    value = float(value)
-    if not np.isfinite(value):
-        raise ValueError(f"Cannot write {value!r} as a C literal: not finite.")
-    if precision == "double":
-        text = repr(value)
-        if "e" not in text and "." not in text:
-            text += ".0"
-        return text
-    if abs(value) > float(np.finfo(np.float32).max):
-        raise ValueError(f"Cannot write {value!r} as a C float: it overflows single precision.")
-    single = np.float32(value)
-    if abs(single) < np.finfo(np.float32).tiny:
-        single = np.float32(0.0)
-    text = f"{float(single):.9g}"
-    if "e" not in text and "." not in text:
-        text += ".0"
-    return text + "f"
-
-
-def _array(name, values, real, precision, index_type=None):
-    """A ``static const`` array definition (1-D or 2-D), values wrapped a few per line."""
-    array = np.asarray(values)
-    c_type = index_type or real
-    dims = "".join(f"[{n}]" for n in array.shape)
-    if index_type:
-        cells = [str(int(v)) for v in array.ravel()]
-    else:
-        cells = [format_c_literal(v, precision) for v in array.ravel()]
-    if array.ndim == 1:
-        rows = [cells]
-    else:
-        width = array.shape[1]
-        rows = [cells[i : i + width] for i in range(0, len(cells), width)]
-    lines = []
-    indent = "    " if array.ndim == 1 else "     "
-    for row in rows:
-        chunks = [
-            ", ".join(row[i : i + _VALUES_PER_LINE]) for i in range(0, len(row), _VALUES_PER_LINE)
-        ]
-        body = f",\n{indent}".join(chunks)
-        lines.append("    " + body if array.ndim == 1 else "    {" + body + "}")
-    joined = ",\n".join(lines)
-    return f"static const {c_type} {name}{dims} = {{\n{joined}\n}};\n"
-
-
-def _comment(text):
-    """User text (step and column names) made safe inside a C block comment."""
-    return str(text).replace("*/", "* /").replace("\n", " ")
-
-
-class _Writer:
-    """Collects parameter arrays and body lines of the generated source."""
-
-    def __init__(self, prefix, precision):
-        self.prefix = prefix
-        self.precision = precision
-        self.real = f"{prefix}_real"
-        self.exp = "exp" if precision == "double" else "expf"
-        self.parameters = []
-        self.names = set()
-        self.lines = []
-
-    def array(self, name, values, index_type=None, double=False):
-        """A parameter array (``double``: in double whatever the precision)."""
-        full = f"{self.prefix}_{name}"
-        if full not in self.names:  # a second function reading the same parameters
-            self.names.add(full)
-            real, precision = ("double", "double") if double else (self.real, self.precision)
-            self.parameters.append(_array(full, values, real, precision, index_type))
-        return full
-
-    def literal(self, value):
-        return format_c_literal(value, self.precision)
-
-    def emit(self, *lines):
-        self.lines.extend(lines)
-
-
-def _features_body(features, prefix):
-    """ThermalFeatures' causal step in C: differences, exact lags, then the terms."""
-    terms = features["terms"]
-    taus = features["time_constants"]
-    n_lags = len(taus)
-    lags = f"{prefix.upper()}_N_LAGS"
-    needs_delta = uses_rate(terms)
-    needs_previous = needs_delta or n_lags > 0
-    uses_time = features["time"] is not None and needs_previous
-    smoothing = features["smoothing"]
-    lines = ["    int sensor;", "    int column = 0;"]
-    if n_lags:
-        lines += [
-            f"    double decay[{lags}] = {{0.0}};",
-            f"    double gain[{lags}] = {{0.0}};",
-            "    int k;",
-        ]
-    if uses_time:
-        lines.append("    const double elapsed = time - state->last_time;")
-    else:
-        lines.append("    (void)time;")
-    if n_lags:
-        # One exact step of every first-order lag (_lags.lag_step): the coefficients are
-        # shared by the sensors.
-        lines += [
-            "    if (state->has_history) {",
-            f"        for (k = 0; k < {lags}; ++k) {{",
-            f"            const double x = elapsed / {prefix}_time_constants[k];",
-            "            decay[k] = exp(-x);",
-            "            gain[k] = (x > 0.0) ? -expm1(-x) / x : 1.0;",
-            "        }",
-            "    }",
-        ]
-    lines.append(f"    for (sensor = 0; sensor < {prefix.upper()}_N_SENSORS; ++sensor) {{")
-    lines.append("        const double raw = temperature[sensor];")
-    if n_lags:
-        # Deficits T - lag_tau(T), 0 at a run's first row (reset).
-        lines.append("        double *deficit = state->deficit[sensor];")
-    if needs_delta:
-        lines.append("        double delta = 0.0;")
-    if needs_previous:
-        lines += [
-            "        if (state->has_history) {",
-            "            const double change = raw - state->last_temperature[sensor];",
-        ]
-        if n_lags:
-            lines += [
-                f"            for (k = 0; k < {lags}; ++k) {{",
-                "                deficit[k] = decay[k] * deficit[k] + gain[k] * change;",
-                "            }",
-            ]
-        if needs_delta:
-            per_unit = (
-                None
-                if features["time"] is None
-                else format_c_literal(features["seconds_per_unit"])
-            )
-            if smoothing > 0:
-                index = taus.index(smoothing)
-                lines.append(
-                    f"            delta = deficit[{index}] / {format_c_literal(smoothing)} * "
-                    f"{per_unit};"
-                )
-            elif uses_time:
-                lines.append(f"            delta = change / elapsed * {per_unit};")
-            else:
-                lines.append("            delta = change;")
-        lines += ["        }", "        state->last_temperature[sensor] = raw;"]
-    for term in map(get_term, terms):
-        expression = term.c_expression
-        if term.time_constant is not None:
-            expression = expression.format(lag=taus.index(term.time_constant))
-        assignment = f"features[column++] = ({expression});"
-        if not term.first_sensor:
-            # The first sensor has no column of this term (e.g. its gradient is zero).
-            lines += ["        if (sensor > 0) {", f"            {assignment}", "        }"]
-        else:
-            lines.append(f"        {assignment}")
-    lines.append("    }")
-    if uses_time:
-        lines.append("    state->last_time = time;")
-    lines.append("    state->has_history = 1;")
-    return "\n".join(lines)
-
-
-def _state_parts(features, prefix):
-    """The state struct's lag fields, the reset of them, and the time-constant table."""
-    taus = features["time_constants"]
-    upper = prefix.upper()
-    if not taus:
-        return "", "", "", ""
-    define = f"#define {upper}_N_LAGS {len(taus)}\n"
-    field = (
-        "    /* Deficit T - lag_tau(T) of each sensor at each time constant, degC. */\n"
-        f"    double deficit[{upper}_N_SENSORS][{upper}_N_LAGS];\n"
-    )
-    reset = (
-        "        {\n"
-        "            int k;\n"
-        f"            for (k = 0; k < {upper}_N_LAGS; ++k) {{\n"
-        "                state->deficit[sensor][k] = 0.0;\n"
-        "            }\n"
-        "        }\n"
-    )
-    table = _array(f"{prefix}_time_constants", taus, "double", "double")
-    table = "/* Time constants of the first-order lags, s. */\n" + table
-    return define, field, reset, table
-
-
-def _center_scale(writer, tag, spec, source, target):
-    center = writer.array(f"{tag}_center", spec["center"])
-    scale = writer.array(f"{tag}_scale", spec["scale"])
-    writer.emit(
-        f"    for (i = 0; i < {spec['n_inputs']}; ++i) {{",
-        f"        {target}[i] = ({source}[i] - {center}[i]) / {scale}[i];",
-        "    }",
-    )
-
-
-def _multiply_add(writer, tag, spec, source, target):
-    multiply = writer.array(f"{tag}_multiply", spec["multiply"])
-    add = writer.array(f"{tag}_add", spec["add"])
-    writer.emit(
-        f"    for (i = 0; i < {spec['n_inputs']}; ++i) {{",
-        f"        {target}[i] = {source}[i] * {multiply}[i] + {add}[i];",
-    )
-    if spec["clip"] is not None:
-        low, high = (writer.literal(v) for v in spec["clip"])
-        writer.emit(
-            f"        if ({target}[i] < {low}) {{",
-            f"            {target}[i] = {low};",
-            "        }",
-            f"        if ({target}[i] > {high}) {{",
-            f"            {target}[i] = {high};",
-            "        }",
-        )
-    writer.emit("    }")
-
-
-def _polynomial(writer, tag, spec, source, target):
-    powers = writer.array(f"{tag}_powers", spec["powers"], index_type="int")
-    one = writer.literal(1.0)
-    writer.emit(
-        f"    for (i = 0; i < {spec['n_outputs']}; ++i) {{",
-        f"        {writer.real} product = {one};",
-        f"        for (j = 0; j < {spec['n_inputs']}; ++j) {{",
-        "            int power;",
-        f"            for (power = 0; power < {powers}[i][j]; ++power) {{",
-        f"                product *= {source}[j];",
-        "            }",
-        "        }",
-        f"        {target}[i] = product;",
-        "    }",
-    )
-
-
-def _linear(writer, tag, spec, source, target):
-    coef = writer.array(f"{tag}_coef", spec["coef"])
-    intercept = writer.array(f"{tag}_intercept", spec["intercept"])
-    zero = writer.literal(0.0)
-    writer.emit(
-        f"    for (i = 0; i < {spec['n_outputs']}; ++i) {{",
-        f"        {writer.real} total = {zero};",
-        f"        for (j = 0; j < {spec['n_inputs']}; ++j) {{",
-        f"            total += {coef}[i][j] * {source}[j];",
-        "        }",
-        f"        {target}[i] = total + {intercept}[i];",
-        "    }",
-    )
-
-
-def _rbf_network(writer, tag, spec, source, target):
-    n_inputs, n_outputs = spec["n_inputs"], spec["n_outputs"]
-    n_centers = len(spec["widths"])
-    zero = writer.literal(0.0)
-    x_mean = writer.array(f"{tag}_x_mean", spec["x_mean"])
-    x_scale = writer.array(f"{tag}_x_scale", spec["x_scale"])
-    tail = np.asarray(spec["tail_coef"], dtype=np.float64)
-    has_tail = bool(np.any(tail != 0))
-    writer.emit(
-        f"    {writer.real} {tag}_z[{n_inputs}];",
-        f"    for (j = 0; j < {n_inputs}; ++j) {{",
-        f"        {tag}_z[j] = ({source}[j] - {x_mean}[j]) / {x_scale}[j];",
-        "    }",
-    )
-    if n_centers:
-        centers = writer.array(f"{tag}_centers", spec["centers"])
-        # Same constant as the Python network: -0.5 / widths**2, computed in float64.
-        gains = -0.5 / np.square(np.asarray(spec["widths"], dtype=np.float64))
-        gain = writer.array(f"{tag}_gain", gains)
-        coef = writer.array(f"{tag}_coef", spec["coef"])
-        writer.emit(
-            f"    {writer.real} {tag}_phi[{n_centers}];",
-            f"    for (i = 0; i < {n_centers}; ++i) {{",
-            f"        {writer.real} distance2 = {zero};",
-            f"        for (j = 0; j < {n_inputs}; ++j) {{",
-            f"            const {writer.real} difference = {tag}_z[j] - {centers}[i][j];",
-            "            distance2 += difference * difference;",
-            "        }",
-            f"        {tag}_phi[i] = {writer.exp}(distance2 * {gain}[i]);",
-            "    }",
-        )
-    intercept = writer.array(f"{tag}_intercept", spec["intercept"])
-    writer.emit(
-        f"    for (i = 0; i < {n_outputs}; ++i) {{",
-        f"        {writer.real} total = {zero};",
-    )
-    if n_centers:
-        writer.emit(
-            f"        for (j = 0; j < {n_centers}; ++j) {{",
-            f"            total += {coef}[i][j] * {tag}_phi[j];",
-            "        }",
-        )
-    if has_tail:
-        tail_name = writer.array(f"{tag}_tail_coef", tail)
-        writer.emit(
-            f"        for (j = 0; j < {n_inputs}; ++j) {{",
-            f"            total += {tail_name}[i][j] * {tag}_z[j];",
-            "        }",
-        )
-        if spec["tail_degree"] == 2:
-            # Then the monomials z[a] z[b], a <= b, row-major (PolynomialFeatures' order).
-            writer.emit(
-                "        {",
-                f"            int column = {n_inputs};",
-                "            int a;",
-                f"            for (a = 0; a < {n_inputs}; ++a) {{",
-                f"                for (j = a; j < {n_inputs}; ++j) {{",
-                f"                    total += {tail_name}[i][column++] * "
-                f"({tag}_z[a] * {tag}_z[j]);",
-                "                }",
-                "            }",
-                "        }",
-            )
-    writer.emit(f"        {target}[i] = total + {intercept}[i];", "    }")
-
-
-def _rbf_design(writer, tag, spec, source, degree):
-    """The RBF network's output-layer design ``[phi(z), t(z), 1]`` into ``phi`` (double)."""
-    n_inputs = spec["n_inputs"]
-    n_centers = len(spec["widths"])
-    zero = writer.literal(0.0)
-    x_mean = writer.array(f"{tag}_x_mean", spec["x_mean"])
-    x_scale = writer.array(f"{tag}_x_scale", spec["x_scale"])
-    writer.emit(
-        f"    {writer.real} {tag}_z[{n_inputs}];",
-        "    int column;",
-        f"    for (j = 0; j < {n_inputs}; ++j) {{",
-        f"        {tag}_z[j] = ({source}[j] - {x_mean}[j]) / {x_scale}[j];",
-        "    }",
-    )
-    if n_centers:
-        centers = writer.array(f"{tag}_centers", spec["centers"])
-        gains = -0.5 / np.square(np.asarray(spec["widths"], dtype=np.float64))
-        gain = writer.array(f"{tag}_gain", gains)
-        writer.emit(
-            f"    for (i = 0; i < {n_centers}; ++i) {{",
-            f"        {writer.real} distance2 = {zero};",
-            f"        for (j = 0; j < {n_inputs}; ++j) {{",
-            f"            const {writer.real} difference = {tag}_z[j] - {centers}[i][j];",
-            "            distance2 += difference * difference;",
-            "        }",
-            f"        phi[i] = {writer.exp}(distance2 * {gain}[i]);",
-            "    }",
-        )
-    writer.emit(f"    column = {n_centers};")
-    if degree >= 1:
-        writer.emit(
-            f"    for (j = 0; j < {n_inputs}; ++j) {{",
-            f"        phi[column++] = {tag}_z[j];",
-            "    }",
-        )
-    if degree == 2:
-        writer.emit(
-            f"    for (i = 0; i < {n_inputs}; ++i) {{",
-            f"        for (j = i; j < {n_inputs}; ++j) {{",
-            f"            phi[column++] = {tag}_z[i] * {tag}_z[j];",
-            "        }",
-            "    }",
-        )
-    writer.emit("    phi[column] = 1.0;")
-
-
-def _linear_design(writer, tag, spec, source, degree):
-    """A linear model's output-layer design: its inputs, then 1."""
-    writer.emit(
-        f"    for (j = 0; j < {spec['n_inputs']}; ++j) {{",
-        f"        phi[j] = {source}[j];",
-        "    }",
-        f"    phi[{spec['n_inputs']}] = 1.0;",
-    )
-
-
-_DESIGNS = {"rbf_network": _rbf_design, "linear": _linear_design}
-
-
-def _drift_lines(prefix, adapt, domain):
-    """The body of the recalibrated ``{prefix}_drift``: the model, then the domain's policy.
-
-    ``"output"``: the recalibrated output layer at the row the policy evaluates (``"clip"``:
-    the domain's edge), then ``"blend"``'s fallback; ``"bias"``: the fitted model under the
-    policy, then the offset (added after the policy).
-    """
-    upper = prefix.upper()
-    lines = [
-        f"    double phi[{upper}_N_WEIGHTS];",
-        "    int i;",
-        "    int k;",
-        "    int outside = 0;",
-    ]
-    if adapt == "output":
-        if domain is None:
-            lines += [
-                "    *distance = 0.0;",
-                f"    {prefix}_design(features, phi);",
-            ]
-        else:
-            lines[:0] = [f"    double evaluated[{upper}_N_FEATURES];"]
-            lines += [
-                f"    outside = {prefix}_domain(features, evaluated, distance);",
-                f"    {prefix}_design(evaluated, phi);",
-            ]
-        lines += [
-            f"    for (k = 0; k < {upper}_N_OUTPUTS; ++k) {{",
-            "        double total = 0.0;",
-            f"        for (i = 0; i < {upper}_N_WEIGHTS; ++i) {{",
-            "            total += phi[i] * state->weights[i][k];",
-            "        }",
-            "        base[k] = 0.0;",
-            f"        drift[k] = ({prefix}_real)total;",
-            "    }",
-        ]
-        if domain is not None and domain["outside"] == "blend":
-            lines += [
-                "    if (outside) {",
-                f"        {prefix}_blend(features, *distance, drift);",
-                "    }",
-            ]
-        return lines
-    lines += ["    phi[0] = 1.0;", "    (void)i;"]
-    if domain is None:
-        lines += [
-            "    *distance = 0.0;",
-            f"    {prefix}_evaluate(features, base);",
-        ]
-    else:
-        lines.append(f"    outside = {prefix}_guarded(features, base, distance);")
-    return [
-        *lines,
-        f"    for (k = 0; k < {upper}_N_OUTPUTS; ++k) {{",
-        f"        drift[k] = ({prefix}_real)(base[k] + state->weights[0][k]);",
-        "    }",
-    ]
-
-
-def _record_domain(domain, call):
-    """Lines that store a sample's distance and flag in the state (``call``: the flag)."""
-    if domain is None:
-        return f"    (void){call};\n"
-    return f"    state->last_outside = {call};\n    state->last_distance = distance;\n"
-
-
-def _adaptation_parts(writer, spec, prefix, adapt, forgetting, prior, degree):
-    """Fields, prototypes and functions of the RLS recalibration (empty without ``adapt``)."""
-    upper = prefix.upper()
-    domain = spec.get("domain")
-    if adapt is None:
-        if domain is None:
-            step_drift = f"    {prefix}_evaluate(features, drift);\n"
-        else:
-            step_drift = "    double distance;\n" + _record_domain(
-                domain, f"{prefix}_guarded(features, drift, &distance)"
-            )
-        return {
-            "adapt_define": "",
-            "adapt_fields": "",
-            "adapt_prototypes": "",
-            "adapt_init": "",
-            "adapt_functions": "",
-            "step_drift": step_drift,
-        }
-    weights = np.asarray(prior["weights"], dtype=np.float64)
-    factor = np.asarray(prior["factor"], dtype=np.float64)
-    n_weights = weights.shape[0]
-    writer.parameters += [
-        "/* Recalibration (RLS): initial output-layer weights and the factor S0 of the initial\n"
-        " * covariance P0 = S0 S0' (Cholesky). */\n"
-        + _array(f"{prefix}_initial_weights", weights, "double", "double"),
-        _array(f"{prefix}_initial_factor", factor, "double", "double"),
-        f"static int {prefix}_drift(\n"
-        f"    const {prefix}_state *state, const double features[{upper}_N_FEATURES],\n"
-        f"    double phi_out[{upper}_N_WEIGHTS], {prefix}_real base[{upper}_N_OUTPUTS],\n"
-        f"    {prefix}_real drift[{upper}_N_OUTPUTS], double *distance);\n",
-    ]
-    lam = format_c_literal(forgetting)
-    functions = []
-    if adapt == "output":
-        functions.append(_design_function(writer, spec, prefix, degree))
-    functions.append(
-        ADAPT_FUNCTIONS.substitute(
-            prefix=prefix,
-            PREFIX=upper,
-            lam=lam,
-            sqrt_lam=format_c_literal(math.sqrt(forgetting)),
-            trace0=format_c_literal(float(prior["trace"])),
-            drift_lines="\n".join(_drift_lines(prefix, adapt, domain)),
-            record_domain="" if domain is None else _record_domain(domain, "outside"),
-        )
-    )
-    step_drift = (
-        f"    {prefix}_real base[{upper}_N_OUTPUTS];\n"
-        f"    double phi[{upper}_N_WEIGHTS];\n"
-        "    double distance;\n"
-    ) + _record_domain(domain, f"{prefix}_drift(state, features, phi, base, drift, &distance)")
-    outside_rule = (
-        ""
-        if domain is None
-        else "\n * A sample outside the calibration domain is compensated by its policy and not\n"
-        ' * learnt from (state.last_outside is 1; the "bias" offset is added after the policy).'
-    )
-    return {
-        "adapt_define": (
-            f"#define {upper}_N_WEIGHTS {n_weights}\n"
-            f"/* Forgetting factor of the recalibration. */\n"
-            f"#define {upper}_FORGETTING {lam}\n"
-        ),
-        "adapt_fields": (
-            '    /* Recalibration (recursive least squares, mode "' + adapt + '"): the output\n'
-            "     * layer's weights, the factor S of their covariance P = S S' (over the\n"
-            "     * noise variance), the references used and the factor's resets. */\n"
-            f"    double weights[{upper}_N_WEIGHTS][{upper}_N_OUTPUTS];\n"
-            f"    double covariance_factor[{upper}_N_WEIGHTS][{upper}_N_WEIGHTS];\n"
-            "    long n_updates;\n"
-            "    long n_resets;\n"
-        ),
-        "adapt_prototypes": (
-            "/* Return the recalibration to the fitted model (init does it; reset does not). */\n"
-            f"void {prefix}_reset_adaptation({prefix}_state *state);\n\n"
-            "/* One sample whose true rate is known: write its drift (as step does), then learn\n"
-            " * from rate - reference (recursive least squares with forgetting)."
-            f"{outside_rule} */\n"
-            f"void {prefix}_adapt(\n"
-            f"    {prefix}_state *state, double time,\n"
-            f"    const double temperature[{upper}_N_SENSORS],\n"
-            f"    const {prefix}_real rate[{upper}_N_OUTPUTS],\n"
-            f"    const double reference[{upper}_N_OUTPUTS],\n"
-            f"    {prefix}_real drift[{upper}_N_OUTPUTS]);\n\n"
-        ),
-        "adapt_init": f"    {prefix}_reset_adaptation(state);\n",
-        "adapt_functions": "".join(functions),
-        "step_drift": step_drift,
-    }
-
-
-def _design_function(writer, spec, prefix, degree):
-    """``{prefix}_design``: the final regressor's output-layer row of a row of features."""
-    upper = prefix.upper()
-    saved, writer.lines = writer.lines, []
-    steps = spec["steps"]
-    for k, step in enumerate(steps[:-1], start=1):
-        writer.emit(f"    {writer.real} x{k}[{step['n_outputs']}];")
-    buffers = ["features"] + [f"x{k}" for k in range(1, len(steps))]
-    for k, step in enumerate(steps[:-1]):
-        _RENDERERS[step["op"]](writer, f"step{k}", step, buffers[k], buffers[k + 1])
-    last = steps[-1]
-    _DESIGNS[last["op"]](writer, f"step{len(steps) - 1}", last, buffers[-1], degree)
-    design_lines = ["    int i;", "    int j;", *writer.lines, "    (void)i;", "    (void)j;"]
-    writer.lines = saved
-    return (
-        "\n/* The final regressor's output layer: the row its drift is linear in. */\n"
-        f"static void {prefix}_design(\n"
-        f"    const double features[{upper}_N_FEATURES],\n"
-        f"    double phi[{upper}_N_WEIGHTS])\n"
-        "{\n" + "\n".join(design_lines) + "\n}\n"
-    )
-
-
-def _fallback_text(domain, feature_names):
-    """The "blend" fallback in words, for the header comment."""
-    fallback = domain["fallback"]
-    if fallback["column"] is None or not any(fallback["slope"]):
-        return "a constant, the calibration's mean drift"
-    name = _comment(feature_names[fallback["column"]])
-    return f"a line in the feature {name}"
-
-
-def _domain_functions(writer, domain, prefix):
-    """The C functions of the calibration domain, for its policy (see _templates)."""
-    names = {"prefix": prefix, "PREFIX": prefix.upper()}
-    policy = domain["outside"]
-    for key in ("center", "scale", "axes", "axis_scale", "lower", "upper"):
-        writer.array(f"domain_{key}", domain[key], double=True)
-    parts = [DOMAIN_BOX.substitute(names)]
-    beyond_test, clip_block, blend_call = "", "", ""
-    if domain["temperature_columns"]:
-        writer.array("temperature_columns", domain["temperature_columns"], index_type="int")
-        writer.array("temperature_low", domain["temperature_low"], double=True)
-        writer.array("temperature_high", domain["temperature_high"], double=True)
-        parts.append(DOMAIN_BEYOND.substitute(names))
-        beyond_test = f" && !{prefix}_beyond(features)"
-    if policy == "clip":
-        parts.append(DOMAIN_PROJECT.substitute(names))
-        rounds = CLIP_ROUNDS if domain["temperature_columns"] else CLIP_ONCE
-        clip_block = rounds.substitute(names)
-    parts.append(DOMAIN_FLAG.substitute(names, beyond_test=beyond_test, clip_block=clip_block))
-    if policy == "blend":
-        fallback = domain["fallback"]
-        intercept = writer.array("fallback_intercept", fallback["intercept"], double=True)
-        expression, unused = f"{intercept}[k]", "    (void)features;\n"
-        if fallback["column"] is not None:
-            slope = writer.array("fallback_slope", fallback["slope"], double=True)
-            expression += f" + features[{fallback['column']}] * {slope}[k]"
-            unused = ""
-        parts.append(BLEND_FUNCTION.substitute(names, fallback=expression, unused=unused))
-        blend_call = (
-            f"    if (outside) {{\n        {prefix}_blend(features, *distance, drift);\n    }}\n"
-        )
-    parts.append(DOMAIN_GUARDED.substitute(names, blend_call=blend_call))
-    return "".join(parts)
-
-
-def _domain_parts(writer, spec, prefix, adapt):
-    """Header text, state fields and functions of the calibration domain.
-
-    Without a domain (a plain Pipeline) only ``{PREFIX}_HAS_DOMAIN 0`` is written.
-    """
-    upper = prefix.upper()
-    domain = spec.get("domain")
-    if domain is None:
-        empty = ("domain_comment", "domain_fields", "domain_reset", "domain_prototypes")
-        return {
-            **dict.fromkeys(empty, ""),
-            "domain_define": f"#define {upper}_HAS_DOMAIN 0\n",
-            "domain_functions": "",
-            "domain_precision": "",
-            "predict_features_body": f"    {prefix}_evaluate(row, drift);\n",
-            "policy_note": "",
-        }
-    names = {"prefix": prefix, "PREFIX": upper, "policy": domain["outside"]}
-    feature_names = spec["features"]["feature_names"]
-    temperatures = domain["temperature_columns"]
-    temperature_define = temperature_note = ""
-    if temperatures:
-        temperature_define = TEMPERATURE_DEFINE.substitute(
-            names, n_temperatures=len(temperatures), rounds=domain["projection_rounds"]
-        )
-        listed = _comment(", ".join(feature_names[column] for column in temperatures))
-        temperature_note = (
-            f",\n * or when a temperature ({listed}) lies beyond its calibrated range (by any\n"
-            " * amount)"
-        )
-    description = POLICY_TEXT[domain["outside"]].substitute(
-        PREFIX=upper, fallback=_fallback_text(domain, feature_names)
-    )
-    return {
-        "domain_define": DOMAIN_DEFINE.substitute(
-            names,
-            margin=format_c_literal(domain["margin"]),
-            blend_width=format_c_literal(domain["blend_width"]),
-            temperature_define=temperature_define,
-        ),
-        "domain_comment": DOMAIN_COMMENT.substitute(
-            names,
-            description=description,
-            temperature_note=temperature_note,
-            adapt_note="" if adapt is None else f" (or {prefix}_adapt)",
-        ),
-        "domain_fields": DOMAIN_FIELDS.substitute(names),
-        "domain_reset": "    state->last_distance = 0.0;\n    state->last_outside = 0;\n",
-        "domain_prototypes": DOMAIN_PROTOTYPES.substitute(names),
-        "domain_functions": _domain_functions(writer, domain, prefix),
-        "domain_precision": DOMAIN_PRECISION,
-        "predict_features_body": (
-            f"    double distance;\n    (void){prefix}_guarded(row, drift, &distance);\n"
-        ),
-        "policy_note": ", then the calibration domain's policy",
-    }
-
-
-_RENDERERS = {
-    "center_scale": _center_scale,
-    "multiply_add": _multiply_add,
-    "polynomial": _polynomial,
-    "linear": _linear,
-    "rbf_network": _rbf_network,
-}
 
 
 def render_c(
@@ -746,30 +48,40 @@ def render_c(
         Prefix of every public C name and of the file names.
     precision : {"double", "float"}, default="double"
         Type of the parameters and of the network arithmetic.
+    adapt : {None, "bias", "output"}, default=None
+        The online recalibration to write (see :func:`to_c`).
+    forgetting : float, default=0.999
+        Its forgetting factor.
+    prior : RecalibrationPrior, default=None
+        Its start (:func:`sklearn_ifog.streaming._recalibration.recalibration_prior`, the
+        Python compensator's); needed with ``adapt``.
+    degree : int, default=None
+        The degree of the network's stored tail (the output-layer design of
+        ``adapt="output"``).
 
     Returns
     -------
     header, source : str
         The contents of ``{prefix}.h`` and ``{prefix}.c``.
     """
-    writer = _Writer(prefix, precision)
+    writer = Writer(prefix, precision)
     steps = spec["steps"]
     buffers = ["features"] + [f"x{k}" for k in range(1, len(steps))] + ["drift"]
     for k, step in enumerate(steps[:-1], start=1):
         writer.emit(f"    {writer.real} x{k}[{step['n_outputs']}];")
     for k, step in enumerate(steps):
-        writer.emit(f"    /* {_comment(step['name'])}: {step['class']} */")
-        _RENDERERS[step["op"]](writer, f"step{k}", step, buffers[k], buffers[k + 1])
+        writer.emit(f"    /* {c_comment(step['name'])}: {step['class']} */")
+        RENDERERS[step["op"]](writer, f"step{k}", step, buffers[k], buffers[k + 1])
     # The last step (linear or RBF network) always loops over both indices.
     predict_lines = ["    int i;", "    int j;", *writer.lines]
     features = spec["features"]
     pipeline_lines = [" *   ThermalFeatures"] + [
-        f" *   -> {_comment(step['name'])} ({step['class']})" for step in steps
+        f" *   -> {c_comment(step['name'])} ({step['class']})" for step in steps
     ]
     time_column = features["time"]
-    lag_define, lag_field, lag_reset, lag_table = _state_parts(features, prefix)
-    domain = _domain_parts(writer, spec, prefix, adapt)
-    adaptation = _adaptation_parts(writer, spec, prefix, adapt, forgetting, prior, degree)
+    lag_define, lag_field, lag_reset, lag_table = state_parts(features, prefix)
+    domain = domain_parts(writer, spec, prefix, adapt)
+    adaptation = adaptation_parts(writer, spec, prefix, adapt, forgetting, prior, degree)
     fields = {
         "prefix": prefix,
         "PREFIX": prefix.upper(),
@@ -780,12 +92,12 @@ def render_c(
         "n_sensors": len(features["temperature"]),
         "n_features": spec["n_features"],
         "n_outputs": spec["n_outputs"],
-        "sensor_list": _comment(", ".join(str(column) for column in features["temperature"])),
-        "feature_list": _comment(", ".join(features["feature_names"])),
+        "sensor_list": c_comment(", ".join(str(column) for column in features["temperature"])),
+        "feature_list": c_comment(", ".join(features["feature_names"])),
         "time_note": (
             " (ignored: the model differences per sample)"
             if time_column is None
-            else f" (column {_comment(str(time_column))})"
+            else f" (column {c_comment(str(time_column))})"
         ),
         "time_null": " (may be NULL)" if time_column is None else "",
         "parameters": "\n".join(
@@ -794,7 +106,7 @@ def render_c(
         "lag_define": lag_define,
         "lag_field": lag_field,
         "lag_reset": lag_reset,
-        "features_body": _features_body(features, prefix),
+        "features_body": features_body(features, prefix),
         "predict_body": "\n".join(predict_lines),
         "batch_time": "0.0" if time_column is None else "time[sample]",
         "batch_prelude": "    (void)time; /* the model differences per sample */\n"
@@ -919,13 +231,13 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
     spec = describe_pipeline(pipeline)
     prior, degree = None, None
     if adapt is not None or forgetting != 0.999:
-        from sklearn_ifog.streaming import StreamingCompensator
-
-        # The same checks of adapt and forgetting, the same initial weights and factor.
-        compensator = StreamingCompensator(pipeline, adapt=adapt, forgetting=forgetting)
-        prior = compensator._prior
-        if compensator.compiled:
-            degree = getattr(compensator._compiled.final, "degree", None)
+        # The compensator's checks of adapt and forgetting, and its initial weights and
+        # factor: one recalibration, in Python and in C. The pipeline compiles, since it
+        # could be described.
+        check_adaptation(adapt, forgetting)
+        compiled = compile_steps(pipeline)
+        prior = recalibration_prior(adapt, compiled, compiled.final.n_outputs)
+        degree = getattr(compiled.final, "degree", None)
     header_text, source_text = render_c(
         spec,
         prefix=prefix,

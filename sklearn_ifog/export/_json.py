@@ -3,8 +3,8 @@
 import json
 from pathlib import Path
 
+from sklearn_ifog._description import describe_pipeline
 from sklearn_ifog._io import write_text_files
-from sklearn_ifog.export._spec import describe_pipeline
 
 
 def to_json(pipeline, path):

@@ -1,0 +1,264 @@
+"""The package's layout rules, checked on its source (issue 25, "One home for each idea").
+
+- Nothing outside ``sklearn_ifog/export/`` and ``sklearn_ifog/cli/`` imports
+  ``sklearn_ifog.export``, at module level or inside a function (the online path and the
+  estimators need no code generator): checked on every module of the package.
+- No module above ``MAX_MODULE_LINES`` code lines and no function above
+  ``MAX_FUNCTION_LINES``: a *code line* is a non-blank line that holds code, outside
+  comments and docstrings (the lines of other strings, such as the C templates, count).
+  Checked on the modules listed in ``SIZED``, to be widened to the whole package (set it to
+  ``_modules()``) when the other modules meet the rule.
+- No access to a ``_private`` attribute or method of another module's object in the
+  modules of ``SIZED``, except the pending ones of ``PENDING_PRIVATE`` (each with the
+  reason it is still there).
+
+Each checker is also run on a small source with a violation (``test_*_catches_*``), so a
+checker that stopped seeing anything would fail here rather than pass silently.
+"""
+
+import ast
+import io
+import tokenize
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[1] / "sklearn_ifog"
+MAX_MODULE_LINES = 600
+MAX_FUNCTION_LINES = 120
+
+# The modules held to the size and private-access rules (paths relative to PACKAGE; a
+# folder stands for every module below it).
+SIZED = [
+    "_compiled.py",
+    "_description.py",
+    "_output_layer.py",
+    "unitwise.py",
+    "streaming",
+    "export",
+]
+
+# Private names of other modules still used, and why: they belong to modules another change
+# owns. ``_resolved``: ThermalFeatures' resolved terms and smoothing (features.py); ``_bounds``:
+# ConformalRegressor's band from predictions (conformal.py), read by the streamed band.
+PENDING_PRIVATE = {
+    ("_description.py", "_resolved"),
+    ("streaming/_compensator.py", "_resolved"),
+    ("streaming/_band.py", "_bounds"),
+}
+
+# Where importing the code generator is allowed.
+EXPORT_USERS = ("export", "cli")
+
+
+def _modules(paths=None):
+    """The package's modules (``paths``: relative files or folders; None: all of them)."""
+    roots = [PACKAGE] if paths is None else [PACKAGE / path for path in paths]
+    found = []
+    for root in roots:
+        found += [root] if root.is_file() else sorted(root.rglob("*.py"))
+    return found
+
+
+def _name(path):
+    return path.relative_to(PACKAGE).as_posix()
+
+
+def _docstring_lines(tree):
+    lines = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            body = node.body
+            if (
+                body
+                and isinstance(body[0], ast.Expr)
+                and isinstance(body[0].value, ast.Constant)
+                and isinstance(body[0].value.value, str)
+            ):
+                lines.update(range(body[0].lineno, body[0].end_lineno + 1))
+    return lines
+
+
+def code_lines(source):
+    """The numbers of the code lines of ``source`` (see the module docstring), and its AST."""
+    tree = ast.parse(source)
+    skipped = _docstring_lines(tree)
+    text = source.splitlines()
+    ignored = {
+        tokenize.COMMENT,
+        tokenize.NL,
+        tokenize.NEWLINE,
+        tokenize.INDENT,
+        tokenize.DEDENT,
+        tokenize.ENDMARKER,
+    }
+    lines = set()
+    for token in tokenize.generate_tokens(io.StringIO(source).readline):
+        if token.type in ignored:
+            continue
+        for number in range(token.start[0], token.end[0] + 1):
+            if number not in skipped and text[number - 1].strip():
+                lines.add(number)
+    return lines, tree
+
+
+def size_violations(source, label):
+    """``label: N code lines`` for a module over the limit, and the same for its functions."""
+    lines, tree = code_lines(source)
+    found = []
+    if len(lines) > MAX_MODULE_LINES:
+        found.append(f"{label}: {len(lines)} code lines (limit {MAX_MODULE_LINES})")
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            count = sum(node.lineno <= line <= node.end_lineno for line in lines)
+            if count > MAX_FUNCTION_LINES:
+                found.append(
+                    f"{label}:{node.lineno} {node.name}: {count} code lines "
+                    f"(limit {MAX_FUNCTION_LINES})"
+                )
+    return found
+
+
+def export_imports(source, label):
+    """Every import of ``sklearn_ifog.export`` in ``source`` (a module of the package named
+    ``label``), at any depth: ``import``, ``from ... import``, relative imports resolved
+    from ``label``, and ``importlib.import_module("...")`` with a constant name."""
+    tree = ast.parse(source)
+    package = ["sklearn_ifog", *label.removesuffix(".py").split("/")][:-1]
+    if label.endswith("__init__.py"):
+        package = ["sklearn_ifog", *label.split("/")[:-1]]
+    found = []
+    for node in ast.walk(tree):
+        names = []
+        if isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                parent = package[: len(package) - node.level + 1]
+                base = ".".join([*parent, base] if base else parent)
+            names = [base] + [f"{base}.{alias.name}" for alias in node.names]
+        elif (
+            isinstance(node, ast.Call)
+            and isinstance(node.func, (ast.Attribute, ast.Name))
+            and getattr(node.func, "attr", getattr(node.func, "id", None)) == "import_module"
+            and node.args
+            and isinstance(node.args[0], ast.Constant)
+        ):
+            names = [str(node.args[0].value)]
+        if any(name.split(".")[:2] == ["sklearn_ifog", "export"] for name in names):
+            found.append(f"{label}:{node.lineno} imports {names[0]}")
+    return found
+
+
+def _defined_private_names(tree):
+    """Private names this module defines: functions, classes, methods, attributes it sets."""
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            names.add(node.name)
+        elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store):
+            names.add(node.attr)
+        elif isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+            names.add(node.id)
+    return {name for name in names if name.startswith("_")}
+
+
+def private_accesses(source, label):
+    """``label:line .name`` for each ``obj._name`` whose ``_name`` this module does not define
+    (a private attribute or method of another module's object)."""
+    tree = ast.parse(source)
+    own = _defined_private_names(tree)
+    found = []
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Attribute):
+            continue
+        name = node.attr
+        if not name.startswith("_") or name.startswith("__") or name in own:
+            continue
+        found.append((name, f"{label}:{node.lineno} .{name}"))
+    return found
+
+
+# -- the rules on the package -----------------------------------------------------------------
+
+
+def test_nothing_outside_export_and_cli_imports_export():
+    found = []
+    for path in _modules():
+        label = _name(path)
+        if label.split("/")[0] in EXPORT_USERS:
+            continue
+        found += export_imports(path.read_text(), label)
+    assert not found, "\n".join(found)
+
+
+@pytest.mark.parametrize("path", _modules(SIZED), ids=_name)
+def test_modules_and_functions_are_short(path):
+    found = size_violations(path.read_text(), _name(path))
+    print("\n".join(found))
+    assert not found, "\n".join(found)
+
+
+def test_no_private_names_of_other_modules():
+    found, pending = [], set()
+    for path in _modules(SIZED):
+        label = _name(path)
+        for name, where in private_accesses(path.read_text(), label):
+            if (label, name) in PENDING_PRIVATE:
+                pending.add((label, name))
+            else:
+                found.append(where)
+    assert not found, "\n".join(found)
+    # An entry that no longer applies is removed from the list, not left to hide a new use.
+    assert pending == PENDING_PRIVATE, sorted(PENDING_PRIVATE - pending)
+
+
+# -- the checkers see a violation -------------------------------------------------------------
+
+
+def test_the_import_check_catches_every_form():
+    source = (
+        "import numpy\n"
+        "from sklearn_ifog import export\n"
+        "import sklearn_ifog.export._c\n"
+        "def f():\n"
+        "    from sklearn_ifog.export._spec import describe_pipeline\n"
+        "    from ..export import to_c\n"
+        "    return importlib.import_module('sklearn_ifog.export')\n"
+    )
+    found = export_imports(source, "streaming/_compensator.py")
+    assert [line.split(":")[1].split()[0] for line in found] == ["2", "3", "5", "6", "7"]
+    assert export_imports("from sklearn_ifog import exports_table\n", "x.py") == []
+
+
+def test_the_size_check_counts_code_lines_only():
+    padding = '    """A docstring\n\n    of four lines."""\n    # a comment\n\n'
+
+    def function(n_statements):
+        return "def f():\n" + padding + "".join(f"    x{k} = {k}\n" for k in range(n_statements))
+
+    # The def line and the statements count; the docstring, the comment and blanks do not.
+    at_limit, over = function(MAX_FUNCTION_LINES - 1), function(MAX_FUNCTION_LINES)
+    assert code_lines(at_limit)[0] == {1, *range(7, 7 + MAX_FUNCTION_LINES - 1)}
+    assert size_violations(at_limit, "m.py") == []
+    limit = f"(limit {MAX_FUNCTION_LINES})"
+    assert size_violations(over, "m.py") == [
+        f"m.py:1 f: {MAX_FUNCTION_LINES + 1} code lines {limit}"
+    ]
+    # The lines of a string that is not a docstring count (not its blank ones).
+    template = "T = '''\n" + "#define X 1\n\n" * MAX_MODULE_LINES + "'''\n"
+    expected = f"t.py: {MAX_MODULE_LINES + 2} code lines (limit {MAX_MODULE_LINES})"
+    assert size_violations(template, "t.py") == [expected]
+
+
+def test_the_private_check_catches_another_modules_name():
+    source = (
+        "class A:\n"
+        "    def _own(self):\n"
+        "        return self._cache\n"
+        "    def f(self, other):\n"
+        "        self._cache = 1\n"
+        "        return other._prior, self._own(), other.__class__\n"
+    )
+    assert [name for name, _ in private_accesses(source, "m.py")] == ["_prior"]
