@@ -47,9 +47,12 @@ print(f"calibrated temperatures: {T_MIN:.2f} to {T_MAX:.2f} degC")
 print("fallback:", model.fallback_)
 
 # %%
-# The fallback is a line in T only where its slope extrapolates at the calibration's own
-# extremes (the coldest and the warmest fifth of the rows held out in turn); otherwise its
-# slope is 0 and it is the calibration's mean drift: exactly no thermal compensation.
+# With several calibration runs that repeat it, the fallback is a plane in T and the rate dT
+# (its rate clipped to the calibrated magnitude), going on beyond a calibrated extreme only
+# where it extrapolated there when that extreme was held out, and held flat from the edge
+# otherwise (``hold_below`` / ``hold_above``). With one run it is a line in T only where its
+# slope extrapolates at the calibration's own extremes; otherwise its slope is 0 and it is
+# the calibration's mean drift: exactly no thermal compensation.
 #
 # A run of the same gyro that goes colder, and cools
 # --------------------------------------------------
@@ -265,9 +268,10 @@ fig.tight_layout()
 #   on others it is worse than no thermal compensation at all, and on the real recording,
 #   whose later bursts are colder than anything calibrated, it is far worse;
 # * the default ``"blend"`` stays at or below the uncompensated MSD in these tables: far
-#   outside it is the fallback, either the calibration's mean drift (exactly the
-#   uncompensated figure, as for the first unit) or a line in T whose slope was checked to
-#   extrapolate (as on the real recording: see its fallback's slope). Where
+#   outside it is the fallback: a plane in T and dT that the calibration runs repeat (the
+#   simulated units, each calibrated on two runs), a line in T whose slope was checked to
+#   extrapolate (the real recording, one run: see its fallback's slope), or the
+#   calibration's mean drift (exactly the uncompensated figure). Where
 #   the network happened to extrapolate well, the blend gives that gain up: it is the safe
 #   policy, not the best one on every run;
 # * ``"clip"`` holds the network at the edge of the domain: it keeps the network's

@@ -171,6 +171,32 @@ def _check_finite(spec, label):
             raise ValueError(f"Cannot export {label}: parameter {key!r} holds NaN or inf.")
 
 
+def _describe_fallback(fallback, n_outputs):
+    """The schema's ``"fallback"`` entry: a line in T, held flat beyond a calibrated extreme
+    where ``hold_below`` / ``hold_above``, plus a rate term clipped to ``rate_bound``
+    (:class:`~sklearn_ifog.domain.Fallback`; zeros, no bounds, for a line or a constant)."""
+    has_rate = fallback.rate_column is not None and fallback.rate_slope is not None
+
+    def holds(hold):
+        return [False] * n_outputs if hold is None else [bool(value) for value in hold]
+
+    def bound(value):
+        return float(value) if np.isfinite(value) else None
+
+    return {
+        "intercept": _floats(fallback.intercept),
+        "slope": _floats(fallback.slope),
+        "column": None if fallback.column is None else int(fallback.column),
+        "low": bound(fallback.low),
+        "high": bound(fallback.high),
+        "hold_below": holds(fallback.hold_below),
+        "hold_above": holds(fallback.hold_above),
+        "rate_column": int(fallback.rate_column) if has_rate else None,
+        "rate_slope": _floats(fallback.rate_slope) if has_rate else [0.0] * n_outputs,
+        "rate_bound": float(fallback.rate_bound) if has_rate else 0.0,
+    }
+
+
 def describe_pipeline(pipeline):
     """Describe a fitted compensation Pipeline as the export schema's dict.
 
@@ -351,11 +377,7 @@ def describe_domain(pipeline, n_features, n_outputs):
         "temperature_high": _floats(pipeline.domain_.data_max_[columns]),
         "projection_rounds": int(_domain.PROJECTION_ROUNDS),
         "outside": outside,
-        "fallback": {
-            "intercept": _floats(fallback.intercept),
-            "slope": _floats(fallback.slope),
-            "column": None if fallback.column is None else int(fallback.column),
-        },
+        "fallback": _describe_fallback(fallback, n_outputs),
     }
     numbers_only = {
         key: value for key, value in spec.items() if key not in ("outside", "fallback")

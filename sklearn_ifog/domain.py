@@ -37,6 +37,7 @@ from sklearn_ifog.rbf._ols import within_one_standard_error
 __all__ = [
     "BLEND_WIDTH",
     "PROJECTION_ROUNDS",
+    "REPEATED_RATIO",
     "CalibrationDomain",
     "Fallback",
     "OutsideCalibrationWarning",
@@ -44,9 +45,11 @@ __all__ = [
     "box_distance",
     "check_varies",
     "extremes_held_out",
+    "fallback_name",
     "fallback_weight",
     "fit_box",
     "fit_fallback",
+    "held_out_runs",
     "outside_domain",
     "project_to_box",
     "temperature_excess",
@@ -76,6 +79,11 @@ PROJECTION_ROUNDS = 8
 # extrapolates worse than a constant. On the shipped recording the x and y axes' ratios are
 # 0.001-0.06 and the z axis's (no thermal drift) 0.47-5.8, for every half of the recording.
 _REAL_SLOPE_RATIO = 0.25
+#: Largest held-out-run error ratio of the plane in T and dT (:func:`held_out_runs`, its
+#: squared error over a constant's) at which :func:`fit_fallback` trusts it: chosen on the
+#: tuning seeds 0-7 of ``benchmarks/bench_extrapolation.py --tune`` (its sweep of 0.5-1.0),
+#: judged on seeds 8-12.
+REPEATED_RATIO = 0.75
 
 
 class OutsideCalibrationWarning(UserWarning):
@@ -330,19 +338,41 @@ def outside_domain(distance, temperature_beyond, margin):
 
 
 class Fallback(NamedTuple):
-    """The conservative model used outside the domain: a line in T, or a constant.
+    """The conservative model used outside the domain: a line in T (and rate), or a constant.
 
-    ``prediction = intercept + T * slope`` (one column per output); ``slope`` is 0 for the
-    outputs whose slope did not extrapolate better than a constant (:func:`fit_fallback`).
+    For output ``k`` and a row with temperature ``t`` (column ``column``) and rate ``r``
+    (column ``rate_column``)::
+
+        intercept[k] + slope[k] * t
+            - slope[k] * hold_below[k] * min(t - low, 0)
+            - slope[k] * hold_above[k] * max(t - high, 0)
+            + rate_slope[k] * clip(r, -rate_bound, rate_bound)
+
+    that is a line in T that continues beyond the calibrated temperatures ``[low, high]``
+    only on the side(s) where its slope extrapolated there (else it is held flat from the
+    edge, the firmware convention), plus a rate term bounded to the calibrated rates' size
+    (:func:`fit_fallback`). ``slope`` is 0 for the outputs whose slope did not extrapolate
+    better than a constant; ``rate_slope`` is 0 unless several calibration runs repeat the
+    relation. A fallback of three values ``(intercept, slope, column)`` is a plain line in T.
 
     Parameters
     ----------
     intercept : ndarray of shape (n_outputs,)
-        Drift at T = 0 (the mean drift where the slope is 0).
+        Drift at T = 0 and zero rate (the mean drift where the slopes are 0).
     slope : ndarray of shape (n_outputs,)
         Drift per degree.
     column : int or None
         Column of the features that holds T (None: no temperature column, a constant).
+    rate_slope : ndarray of shape (n_outputs,) or None, default=None
+        Drift per unit of the rate feature (None: no rate term).
+    rate_column : int or None, default=None
+        Column of the features that holds the rate dT.
+    rate_bound : float, default=0.0
+        Largest rate magnitude the calibration showed; the rate term is clipped to it.
+    low, high : float, default=-inf, inf
+        The calibrated temperatures.
+    hold_below, hold_above : ndarray of shape (n_outputs,) of bool or None, default=None
+        Whether the line is held flat below ``low`` / above ``high`` (None: never).
 
     Examples
     --------
@@ -350,11 +380,21 @@ class Fallback(NamedTuple):
     >>> fallback = Fallback(np.array([1.0]), np.array([0.5]), 0)
     >>> fallback.predict(np.array([[10.0, 3.0]])).tolist()
     [[6.0]]
+    >>> held = fallback._replace(low=20.0, high=40.0, hold_below=np.array([True]))
+    >>> held.predict(np.array([[10.0, 3.0], [30.0, 3.0], [50.0, 3.0]])).ravel().tolist()
+    [11.0, 16.0, 26.0]
     """
 
     intercept: np.ndarray
     slope: np.ndarray
     column: int | None
+    rate_slope: np.ndarray | None = None
+    rate_column: int | None = None
+    rate_bound: float = 0.0
+    low: float = -np.inf
+    high: float = np.inf
+    hold_below: np.ndarray | None = None
+    hold_above: np.ndarray | None = None
 
     def predict(self, features):
         """Fallback predictions.
@@ -362,7 +402,7 @@ class Fallback(NamedTuple):
         Parameters
         ----------
         features : array-like of shape (n_samples, n_features)
-            Feature rows (T in column ``column``).
+            Feature rows (T in column ``column``, the rate in ``rate_column``).
 
         Returns
         -------
@@ -371,7 +411,18 @@ class Fallback(NamedTuple):
         features = np.asarray(features, dtype=np.float64)
         if self.column is None:
             return np.broadcast_to(self.intercept, (features.shape[0], self.intercept.size))
-        return self.intercept + features[:, [self.column]] * self.slope
+        temperature = features[:, [self.column]]
+        prediction = self.intercept + temperature * self.slope
+        if self.hold_below is not None and np.any(self.hold_below):
+            below = np.minimum(temperature - self.low, 0.0)
+            prediction = prediction - below * (self.slope * self.hold_below)
+        if self.hold_above is not None and np.any(self.hold_above):
+            above = np.maximum(temperature - self.high, 0.0)
+            prediction = prediction - above * (self.slope * self.hold_above)
+        if self.rate_column is not None and self.rate_slope is not None:
+            rate = np.clip(features[:, [self.rate_column]], -self.rate_bound, self.rate_bound)
+            prediction = prediction + rate * self.rate_slope
+        return prediction
 
 
 def _line(temperature, Y):
@@ -383,12 +434,28 @@ def _line(temperature, Y):
     return Y.mean(axis=0) - slope * t_mean, slope
 
 
-def extremes_held_out(temperature, Y):
+def _plane(temperature, rate, Y):
+    """Least-squares (intercept, slope, rate slope) of each column of ``Y`` on T and dT.
+
+    Centred and scaled columns keep the solve well conditioned; a rate that does not vary
+    gets a rate slope of 0 (the minimum-norm solution).
+    """
+    columns = np.column_stack([temperature, rate])
+    centre = columns.mean(axis=0)
+    scale = columns.std(axis=0)
+    scale[scale == 0] = 1.0
+    coef = np.linalg.lstsq((columns - centre) / scale, Y - Y.mean(axis=0), rcond=None)[0]
+    coef /= scale[:, None]
+    return Y.mean(axis=0) - centre @ coef, coef[0], coef[1]
+
+
+def extremes_held_out(temperature, Y, rate=None):
     """Squared errors of a constant and a line in T extrapolated to the calibrated extremes.
 
     The coldest and the warmest fifth of the rows are held out in turn; a constant (the mean)
-    and a line in T are fitted on the other rows and evaluated on the held-out ones. This is
-    the evidence :func:`fit_fallback` decides the slope on.
+    and a line in T (with ``rate``: a plane in T and dT) are fitted on the other rows and
+    evaluated on the held-out ones. This is the evidence :func:`fit_fallback` decides the
+    slope on.
 
     Parameters
     ----------
@@ -396,6 +463,8 @@ def extremes_held_out(temperature, Y):
         T of the calibration rows.
     Y : array-like of shape (n_samples, n_outputs)
         Their targets.
+    rate : array-like of shape (n_samples,), default=None
+        Their rate dT, fitted beside T when given.
 
     Returns
     -------
@@ -417,6 +486,7 @@ def extremes_held_out(temperature, Y):
     """
     temperature = np.asarray(temperature, dtype=np.float64)
     Y = np.asarray(Y, dtype=np.float64)
+    rate = None if rate is None else np.asarray(rate, dtype=np.float64)
     n_samples = temperature.shape[0]
     n_held = round(_EXTRAPOLATION_FRACTION * n_samples)
     if n_held < _MIN_FALLBACK_ROWS or np.ptp(temperature) == 0:
@@ -426,15 +496,85 @@ def extremes_held_out(temperature, Y):
     for held in (order[:n_held], order[-n_held:]):
         kept = np.ones(n_samples, dtype=bool)
         kept[held] = False
-        intercept, slope = _line(temperature[kept], Y[kept])
-        line = intercept + temperature[held, None] * slope
+        if rate is None:
+            intercept, slope = _line(temperature[kept], Y[kept])
+            line = intercept + temperature[held, None] * slope
+        else:
+            intercept, slope, rate_slope = _plane(temperature[kept], rate[kept], Y[kept])
+            line = intercept + temperature[held, None] * slope + rate[held, None] * rate_slope
         losses.append(
             np.stack([np.square(Y[held] - Y[kept].mean(axis=0)), np.square(Y[held] - line)])
         )
     return np.stack(losses)
 
 
-def fit_fallback(temperature, Y, column=None):
+def held_out_runs(temperature, rate, Y, runs):
+    """How well a plane in T and dT carries from some calibration runs to another.
+
+    Each run is predicted by the plane fitted on the other runs and by their mean drift; the
+    result is the plane's summed squared error over the constant's, over every run. A thermal
+    relation repeats from run to run (a small ratio), while a drift that moved with time
+    during one run, and so with the temperature of a monotone run, does not.
+
+    Parameters
+    ----------
+    temperature, rate : array-like of shape (n_samples,)
+        T and dT of the calibration rows.
+    Y : array-like of shape (n_samples, n_outputs)
+        Their targets.
+    runs : array-like of shape (n_samples,)
+        Their recording runs.
+
+    Returns
+    -------
+    ratio : ndarray of shape (n_outputs,) or None
+        None with fewer than 2 runs (nothing to carry to).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.tile(np.linspace(10.0, 40.0, 50), 3)
+    >>> runs = np.repeat([0, 1, 2], 50)
+    >>> thermal = 0.3 * t + np.random.default_rng(0).normal(scale=0.1, size=150)
+    >>> held_out_runs(t, np.zeros(150), thermal[:, None], runs).round(3).tolist()
+    [0.001]
+    >>> held_out_runs(t, np.zeros(150), thermal[:, None], np.zeros(150)) is None
+    True
+    """
+    temperature = np.asarray(temperature, dtype=np.float64)
+    rate = np.asarray(rate, dtype=np.float64)
+    Y = np.asarray(Y, dtype=np.float64)
+    labels = np.unique(np.asarray(runs), return_inverse=True)[1].ravel()
+    if labels.max(initial=0) < 1:
+        return None
+    plane, constant = np.zeros(Y.shape[1]), np.zeros(Y.shape[1])
+    for run in range(labels.max() + 1):
+        held = labels == run
+        intercept, slope, rate_slope = _plane(temperature[~held], rate[~held], Y[~held])
+        predicted = intercept + temperature[held, None] * slope + rate[held, None] * rate_slope
+        plane += np.square(Y[held] - predicted).sum(axis=0)
+        constant += np.square(Y[held] - Y[~held].mean(axis=0)).sum(axis=0)
+    return plane / np.where(constant > 0, constant, np.inf)
+
+
+def _beyond_noise(losses):
+    """Whether the line's held-out loss beats the constant's by more than one standard error
+    (``losses`` of shape (2, n_held, n_outputs), constant first)."""
+    return np.array(
+        [not within_one_standard_error(losses[:, :, k])[0] for k in range(losses.shape[2])]
+    )
+
+
+def fit_fallback(
+    temperature,
+    Y,
+    column=None,
+    *,
+    rate=None,
+    rate_column=None,
+    runs=None,
+    repeated_ratio=REPEATED_RATIO,
+):
     """Fit the fallback: a line in T where its slope extrapolates, else a constant.
 
     The slope is kept for an output only when it *extrapolates* better than a constant:
@@ -446,6 +586,16 @@ def fit_fallback(temperature, Y, column=None):
     slope then falls back to its mean: a line fitted to noise or to a bias that moved with
     time, not with temperature, extrapolates worse than nothing.
 
+    With a ``rate`` and several ``runs``, the calibration can say more: when a plane in T
+    and dT fitted on the other runs predicts each run with at most ``repeated_ratio`` of the
+    constant's squared error (:func:`held_out_runs`), the relation is thermal, not a drift
+    of one run, and the fallback is that plane: the rate term (the Shupe bias of a coil
+    whose temperature changes; clipped to the largest calibrated rate magnitude) stays, and
+    the line goes on beyond each calibrated extreme where the plane extrapolated there at
+    least as well as a constant, beyond noise (held flat from the edge on the other side).
+    A heating-only calibration thus keeps a slope whose rate term a line in T alone would
+    have confused with temperature.
+
     Parameters
     ----------
     temperature : ndarray of shape (n_samples,) or None
@@ -454,6 +604,15 @@ def fit_fallback(temperature, Y, column=None):
         Targets of the calibration rows.
     column : int or None
         Column of the model's features that holds T (stored in the result).
+    rate : ndarray of shape (n_samples,), default=None
+        The rows' rate dT (None: a line in T only).
+    rate_column : int or None, default=None
+        Column of the model's features that holds dT (stored in the result).
+    runs : array-like of shape (n_samples,), default=None
+        The rows' recording runs (None or a single run: a line in T only).
+    repeated_ratio : float, default=REPEATED_RATIO
+        Largest held-out-run error ratio (:func:`held_out_runs`) at which the plane is
+        trusted.
 
     Returns
     -------
@@ -468,6 +627,17 @@ def fit_fallback(temperature, Y, column=None):
     >>> fallback = fit_fallback(t, Y, column=0)
     >>> fallback.slope.round(1).tolist()  # a real slope; none on the noise-only output
     [2.0, 0.0]
+
+    Three heating runs, each a soak then a ramp at 0.5 degC/min, with a rate term:
+
+    >>> t = np.tile(np.r_[np.full(40, 10.0), np.linspace(10.0, 40.0, 60)], 3)
+    >>> dt = np.tile(np.r_[np.zeros(40), np.full(60, 0.5)], 3)
+    >>> y = 0.1 * t + 2.0 * dt + rng.normal(scale=0.05, size=300)
+    >>> plane = fit_fallback(
+    ...     t, y[:, None], 0, rate=dt, rate_column=1, runs=np.repeat([0, 1, 2], 100)
+    ... )
+    >>> plane.slope.round(2).tolist(), plane.rate_slope.round(1).tolist()
+    ([0.1], [2.0])
     """
     Y = np.asarray(Y, dtype=np.float64)
     constant = Y.mean(axis=0)
@@ -484,13 +654,69 @@ def fit_fallback(temperature, Y, column=None):
         axis=0,
     )
     # ... and beat the constant beyond the noise of the held-out rows.
-    losses = np.concatenate(losses, axis=1)
-    beyond_noise = np.array(
-        [not within_one_standard_error(losses[:, :, k])[0] for k in range(Y.shape[1])]
-    )
-    real = explains & beyond_noise
+    real = explains & _beyond_noise(np.concatenate(losses, axis=1))
     intercept, slope = _line(temperature, Y)
-    return Fallback(np.where(real, intercept, constant), np.where(real, slope, 0.0), column)
+    line = Fallback(
+        np.where(real, intercept, constant),
+        np.where(real, slope, 0.0),
+        column,
+        low=float(temperature.min()),
+        high=float(temperature.max()),
+    )
+    if rate is None or runs is None:
+        return line
+    rate = np.asarray(rate, dtype=np.float64)
+    ratio = held_out_runs(temperature, rate, Y, runs)
+    if ratio is None or not np.any(ratio <= repeated_ratio):
+        return line
+    losses = extremes_held_out(temperature, Y, rate)
+    # At each extreme apart: the plane extrapolated there at least as well as a constant.
+    carries = np.array(
+        [(end[1].mean(axis=0) <= end[0].mean(axis=0)) & _beyond_noise(end) for end in losses]
+    )
+    plane = (ratio <= repeated_ratio) & carries.any(axis=0)
+    if not plane.any():
+        return line
+    intercept, slope, rate_slope = _plane(temperature, rate, Y)
+    return Fallback(
+        np.where(plane, intercept, line.intercept),
+        np.where(plane, slope, line.slope),
+        column,
+        rate_slope=np.where(plane, rate_slope, 0.0),
+        rate_column=rate_column,
+        rate_bound=float(np.abs(rate).max()),
+        low=line.low,
+        high=line.high,
+        hold_below=plane & ~carries[0],
+        hold_above=plane & ~carries[1],
+    )
+
+
+def fallback_name(fallback):
+    """What a fallback is, in a word: ``"plane"``, ``"line"`` or ``"constant"``.
+
+    ``"plane"``: a line in T and the rate dT (some output has a rate slope); ``"line"``: a
+    line in T (some output has a slope); ``"constant"``: the calibration's mean drift.
+
+    Parameters
+    ----------
+    fallback : Fallback
+
+    Returns
+    -------
+    name : str
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> fallback_name(Fallback(np.array([1.0]), np.array([0.0]), 0))
+    'constant'
+    >>> fallback_name(Fallback(np.array([1.0]), np.array([0.5]), 0))
+    'line'
+    """
+    if fallback.rate_slope is not None and np.any(fallback.rate_slope != 0):
+        return "plane"
+    return "line" if np.any(fallback.slope != 0) else "constant"
 
 
 def fallback_weight(distance, margin, width=BLEND_WIDTH):

@@ -1,7 +1,7 @@
 """The package's recommended model: ThermalFeatures → StandardScaler → regressor.
 
 :func:`make_compensation_pipeline` builds it; the command line, the demo, the paper's
-experiments and :func:`~sklearn_ifog.model_selection.default_regressors` all build their
+experiments and :func:`~sklearn_ifog.comparison.default_regressors` all build their
 drift models with it, so the step names (``"features"``, ``"scale"``, ``"regressor"``) and
 the feature defaults are the same everywhere. It is a :class:`CompensationPipeline`: a
 scikit-learn Pipeline that also learns its calibration domain and stays safe outside it.
@@ -20,6 +20,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from sklearn_ifog._compat import Interval, StrOptions, _fit_context, _routing_enabled
 from sklearn_ifog._contract import get_term, sensor_keys
+from sklearn_ifog._table import label_column
 from sklearn_ifog.domain import (
     CalibrationDomain,
     OutsideCalibrationWarning,
@@ -124,7 +125,7 @@ def make_compensation_pipeline(
     --------
     sklearn_ifog.ThermalFeatures : The feature step.
     sklearn_ifog.RBFNetRegressor : The default regressor.
-    sklearn_ifog.model_selection.default_regressors : Pipelines with other regressors.
+    sklearn_ifog.comparison.default_regressors : Pipelines with other regressors.
 
     Examples
     --------
@@ -184,6 +185,22 @@ def _temperature_columns(features):
     return [first_sensor_terms.index("T")] + [
         later + sensor * len(terms) for sensor in range(n_sensors - 1)
     ]
+
+
+def _rate_column(features):
+    """Column of the first sensor's rate dT among a fitted ThermalFeatures' outputs; None
+    for another first step or without a ``"dT"`` term."""
+    if not isinstance(features, ThermalFeatures) or "dT" not in features.terms_:
+        return None
+    first_sensor_terms = [term for term in features.terms_ if get_term(term).first_sensor]
+    return first_sensor_terms.index("dT")
+
+
+def _run_labels(features, X):
+    """The run of every row of ``X`` (None for another first step or without a run column)."""
+    if not isinstance(features, ThermalFeatures) or features.run is None:
+        return None
+    return label_column(X, features.run, param="run")
 
 
 def _as_rows(values):
@@ -373,8 +390,16 @@ class CompensationPipeline(Pipeline):
         self.feature_names_out_ = names
         self.domain_ = CalibrationDomain(margin=self.margin, temperature=columns).fit(raw)
         column = columns[0] if columns else None
+        rate_column = _rate_column(features)
         Y = np.asarray(y, dtype=np.float64).reshape(raw.shape[0], -1)
-        self.fallback_ = fit_fallback(None if column is None else raw[:, column], Y, column)
+        self.fallback_ = fit_fallback(
+            None if column is None else raw[:, column],
+            Y,
+            column,
+            rate=None if rate_column is None else raw[:, rate_column],
+            rate_column=rate_column,
+            runs=_run_labels(features, X),
+        )
         return self
 
     def _where(self, rows):

@@ -682,8 +682,9 @@ def calibration_status(model, X):
         - ``temperature_min``, ``temperature_max``: float, the calibrated temperature
           range of the row's model (NaN without a T feature);
         - ``policy``: str, the ``outside`` policy of the row's model;
-        - ``fallback``: str, ``"line"`` (a line in T) or ``"constant"`` (the
-          calibration's mean drift), what ``"blend"`` falls back towards;
+        - ``fallback``: str, ``"plane"`` (a line in T and the rate dT), ``"line"`` (a line
+          in T) or ``"constant"`` (the calibration's mean drift), what ``"blend"`` falls
+          back towards (:func:`~sklearn_ifog.domain.fallback_name`);
         - ``adjusted``: bool, whether the policy changed the row's prediction from the
           regressor's own (the model predicted again with ``outside="none"``).
 
@@ -722,7 +723,7 @@ def calibration_status(model, X):
     """
     from sklearn.utils import Bunch
 
-    from sklearn_ifog.domain import OutsideCalibrationWarning
+    from sklearn_ifog.domain import OutsideCalibrationWarning, fallback_name
     from sklearn_ifog.pipeline import _as_rows
 
     X = _table.as_table(X)
@@ -745,7 +746,7 @@ def calibration_status(model, X):
         status.distance[rows] = pipeline.calibration_distance(X_part)
         status.policy[rows] = pipeline.outside
         fallback = pipeline.fallback_
-        status.fallback[rows] = "line" if np.any(fallback.slope != 0) else "constant"
+        status.fallback[rows] = fallback_name(fallback)
         with warnings.catch_warnings():
             # the caller was warned when it predicted; this only measures what changed
             warnings.simplefilter("ignore", OutsideCalibrationWarning)
@@ -885,11 +886,13 @@ def _policy_actions(status):
                 "calibrated point (outside='clip')"
             )
         else:
-            towards = (
-                "a line in T fitted on the calibration"
-                if fallback == "line"
-                else "the calibration's mean drift (a constant: no slope in T extrapolated better)"
-            )
+            towards = {
+                "plane": "a line in T and the rate dT fitted on the calibration runs",
+                "line": "a line in T fitted on the calibration",
+                "constant": (
+                    "the calibration's mean drift (a constant: no slope in T extrapolated better)"
+                ),
+            }[fallback]
             if kept == total:
                 clauses.append(
                     f"each of these {total} rows kept the model's own prediction: "

@@ -21,10 +21,14 @@ from sklearn_ifog._compat import InvalidParameterError
 from sklearn_ifog.datasets import load_psim_tvc, make_thermal_campaign
 from sklearn_ifog.domain import (
     BLEND_WIDTH,
+    REPEATED_RATIO,
+    Fallback,
     box_distance,
+    fallback_name,
     fallback_weight,
     fit_box,
     fit_fallback,
+    held_out_runs,
     project_to_box,
 )
 
@@ -175,6 +179,92 @@ def test_fallback_without_temperature_or_rows_is_the_mean():
     assert fit_fallback(None, Y).slope.tolist() == [0.0]
     assert fit_fallback(np.arange(30.0), Y).slope.tolist() == [0.0]  # 6 rows per end < 10
     assert fit_fallback(None, Y).predict(np.zeros((2, 3))).ravel().tolist() == [14.5, 14.5]
+
+
+def _heating_runs(rng, n_runs=3, n_rows=150):
+    """Runs that soak at 10 degC then ramp to 40 at a rate drawn per run (degC/min)."""
+    t, rate, runs = [], [], []
+    for run in range(n_runs):
+        ramp_rate = rng.uniform(0.3, 1.0)
+        soak = n_rows // 3
+        t.append(np.r_[np.full(soak, 10.0), np.linspace(10.0, 40.0, n_rows - soak)])
+        rate.append(np.r_[np.zeros(soak), np.full(n_rows - soak, ramp_rate)])
+        runs.append(np.full(n_rows, run))
+    return np.concatenate(t), np.concatenate(rate), np.concatenate(runs)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_plane_fallback_keeps_a_rate_term_the_runs_repeat(seed):
+    """A heating-only calibration confounds a rate (Shupe) term with temperature: a line in
+    T alone misreads it, the plane recovers both slopes and extrapolates on both sides.
+    Holds on seeds 0-19 (checked once); the suite runs 0-7."""
+    rng = np.random.default_rng(seed)
+    t, rate, runs = _heating_runs(rng)
+    y = 0.05 * t + 0.8 * rate + rng.normal(scale=0.05, size=t.size)
+    plane = fit_fallback(t, y[:, None], 0, rate=rate, rate_column=1, runs=runs)
+    assert fallback_name(plane) == "plane"
+    assert plane.slope[0] == pytest.approx(0.05, rel=0.1)
+    assert plane.rate_slope[0] == pytest.approx(0.8, rel=0.05)
+    assert plane.rate_column == 1
+    assert plane.rate_bound == pytest.approx(np.abs(rate).max())
+    assert (plane.low, plane.high) == (10.0, 40.0)
+    assert not plane.hold_below[0]
+    assert not plane.hold_above[0]
+    # Cooling at -0.5 degC/min down to -10 degC: the truth, within the noise.
+    cold = np.column_stack([np.linspace(-10.0, 10.0, 50), np.full(50, -0.5)])
+    truth = 0.05 * cold[:, 0] - 0.4
+    assert np.abs(plane.predict(cold)[:, 0] - truth).max() < 0.1
+    # Without runs (or with one run): the line-in-T rule of before, whatever the rate.
+    line = fit_fallback(t, y[:, None], 0)
+    for single in (None, np.zeros(t.size)):
+        same = fit_fallback(t, y[:, None], 0, rate=rate, rate_column=1, runs=single)
+        assert fallback_name(same) != "plane"
+        np.testing.assert_array_equal(same.predict(cold), line.predict(cold))
+
+
+def test_plane_fallback_is_held_flat_beyond_the_end_it_did_not_extrapolate():
+    """Drift that bends below 13 degC: the plane does not carry to the cold extreme, so
+    below the calibrated temperatures it is held at its value at the edge."""
+    rng = np.random.default_rng(0)
+    t, rate, runs = _heating_runs(rng, n_runs=4)
+    y = 0.05 * t + 0.8 * rate + 0.1 * np.maximum(13.0 - t, 0.0) ** 2
+    y += rng.normal(scale=0.02, size=t.size)
+    plane = fit_fallback(t, y[:, None], 0, rate=rate, rate_column=1, runs=runs)
+    assert fallback_name(plane) == "plane"
+    assert plane.hold_below[0]
+    assert not plane.hold_above[0]
+    rows = np.array([[-10.0, 0.0], [0.0, 0.0], [10.0, 0.0], [50.0, 0.0], [60.0, 0.0]])
+    predicted = plane.predict(rows)[:, 0]
+    assert predicted[0] == predicted[1] == pytest.approx(predicted[2], abs=1e-12)
+    assert predicted[4] - predicted[3] == pytest.approx(10.0 * plane.slope[0])
+
+
+def test_plane_fallback_ignores_a_drift_the_runs_do_not_repeat():
+    """Each run's bias wanders with time differently: carried from the other runs, a plane
+    does worse than their mean, and the fallback stays a constant."""
+    rng = np.random.default_rng(1)
+    t, rate, runs = _heating_runs(rng, n_runs=4)
+    wander = np.concatenate([np.cumsum(rng.normal(scale=0.3, size=150)) for _ in range(4)])
+    assert held_out_runs(t, rate, wander[:, None], runs)[0] > REPEATED_RATIO
+    fallback = fit_fallback(t, wander[:, None], 0, rate=rate, rate_column=1, runs=runs)
+    assert fallback_name(fallback) == "constant"
+
+
+def test_fallback_rate_term_is_bounded_to_the_calibrated_rates():
+    fallback = Fallback(
+        np.array([1.0]),
+        np.array([0.0]),
+        0,
+        rate_slope=np.array([2.0]),
+        rate_column=1,
+        rate_bound=0.5,
+        low=10.0,
+        high=40.0,
+        hold_below=np.array([False]),
+        hold_above=np.array([False]),
+    )
+    rows = np.array([[20.0, -3.0], [20.0, -0.5], [20.0, 0.25], [20.0, 9.0]])
+    assert fallback.predict(rows).ravel().tolist() == [0.0, 0.0, 1.5, 2.0]
 
 
 # -- the pipeline --------------------------------------------------------------------

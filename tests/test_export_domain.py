@@ -377,6 +377,24 @@ def test_bad_policy_is_named(calibration, tmp_path):
     assert not list(tmp_path.iterdir()), "a refused export writes nothing"
 
 
+def _evaluate_fallback(fallback, features):
+    """The JSON "fallback" entry's prediction, from the schema alone."""
+    intercept, slope = np.array(fallback["intercept"]), np.array(fallback["slope"])
+    if fallback["column"] is None:
+        return np.broadcast_to(intercept, (len(features), intercept.size))
+    t = features[:, [fallback["column"]]]
+    f = intercept + t * slope
+    if any(fallback["hold_below"]):
+        f = f - np.minimum(t - fallback["low"], 0.0) * (slope * fallback["hold_below"])
+    if any(fallback["hold_above"]):
+        f = f - np.maximum(t - fallback["high"], 0.0) * (slope * fallback["hold_above"])
+    if fallback["rate_column"] is not None:
+        bound = fallback["rate_bound"]
+        rate = np.clip(features[:, [fallback["rate_column"]]], -bound, bound)
+        f = f + rate * np.array(fallback["rate_slope"])
+    return f
+
+
 def _evaluate_domain(domain, features, network, evaluate):
     """Apply the JSON "domain" entry to the steps' prediction, from the schema alone."""
     center, scale = np.array(domain["center"]), np.array(domain["scale"])
@@ -399,10 +417,7 @@ def _evaluate_domain(domain, features, network, evaluate):
     if domain["outside"] == "blend":
         s = np.clip((d - margin) / domain["blend_width"], 0.0, 1.0)
         w = (s * s * (3.0 - 2.0 * s))[:, None]
-        fallback = domain["fallback"]
-        line = np.array(fallback["intercept"]) + (
-            0.0 if fallback["column"] is None else features[:, [fallback["column"]]]
-        ) * np.array(fallback["slope"])
+        line = _evaluate_fallback(domain["fallback"], features)
         result[outside] = ((1.0 - w) * result + w * line)[outside]
     elif domain["outside"] == "clip":
         x = features[outside].copy()
@@ -628,3 +643,47 @@ def test_c_references_outside_the_domain_change_nothing(adapt, calibration, excu
         )
         np.testing.assert_allclose(offset, offset[0], rtol=0, atol=RTOL * abs(offset[0]) + 1e-15)
         assert abs(offset[0]) > 0.01  # an offset was learnt inside
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler ('cc') on this machine")
+@pytest.mark.parametrize("precision", ["double", "float"])
+def test_c_and_json_follow_every_term_of_a_plane_fallback(
+    precision, calibration, excursion, tmp_path
+):
+    """A fallback with a rate term clipped to its bound, held flat below its low edge on
+    one output and above its high edge on the other: C and the JSON schema give predict's
+    drift (the calibration's own fallback may not use every term)."""
+    model = _fit("two-sensors-two-outputs", "blend", calibration)
+    features = np.asarray(model[0].transform(excursion), dtype=np.float64)
+    names = list(model.feature_names_out_)
+    t, rate = features[:, names.index("temperature_T")], features[:, names.index("temperature_dT")]
+    handed = model.outside_calibration(excursion) & (model.calibration_distance(excursion) > 2)
+    model.fallback_ = domain_module.Fallback(
+        intercept=np.array([0.01, -0.02]),
+        slope=np.array([0.003, -0.002]),
+        column=names.index("temperature_T"),
+        rate_slope=np.array([0.05, 0.08]),
+        rate_column=names.index("temperature_dT"),
+        rate_bound=float(np.quantile(np.abs(rate[handed]), 0.5)),
+        low=float(np.quantile(t[handed], 0.3)),
+        high=float(np.quantile(t[handed], 0.7)),
+        hold_below=np.array([True, False]),
+        hold_above=np.array([False, True]),
+    )
+    expected = _quiet(model.predict, excursion).reshape(len(excursion), -1)
+    fallback = model.fallback_.predict(features)
+    # every term acts on some rows the blend hands to the fallback
+    assert (t[handed] < model.fallback_.low).any()
+    assert (t[handed] > model.fallback_.high).any()
+    assert (np.abs(rate[handed]) > model.fallback_.rate_bound).any()
+    domain = json.loads(to_json(model, tmp_path / "model.json").read_text())["domain"]
+    np.testing.assert_allclose(
+        _evaluate_fallback(domain["fallback"], features), fallback, rtol=1e-14
+    )
+    c = _run(
+        _build(model, tmp_path, precision),
+        model,
+        excursion,
+        real=np.float64 if precision == "double" else np.float32,
+    )
+    _assert_close(c["streamed"], expected, RTOL if precision == "double" else 1e-4)

@@ -157,7 +157,43 @@ def _fallback_text(domain, feature_names):
     if fallback["column"] is None or not any(fallback["slope"]):
         return "a constant, the calibration's mean drift"
     name = c_comment(feature_names[fallback["column"]])
-    return f"a line in the feature {name}"
+    if fallback.get("rate_column") is None or not any(fallback["rate_slope"]):
+        return f"a line in the feature {name}"
+    rate = c_comment(feature_names[fallback["rate_column"]])
+    return (
+        f"a line in the features {name} and {rate} ({rate} clipped to the calibrated "
+        f"magnitude; the line held flat beyond a calibrated extreme it did not extrapolate to)"
+    )
+
+
+def _fallback_expression(writer, fallback):
+    """The C expression of the fallback of output ``k`` (the arithmetic of
+    :meth:`~sklearn_ifog.domain.Fallback.predict`, in its order), and whether it reads the
+    features."""
+    intercept = writer.array("fallback_intercept", fallback["intercept"], double=True)
+    column = fallback["column"]
+    if column is None:
+        return f"{intercept}[k]", False
+    slope = writer.array("fallback_slope", fallback["slope"], double=True)
+    expression = f"{intercept}[k] + features[{column}] * {slope}[k]"
+    for side, edge, clamp in (("below", "low", "fmin"), ("above", "high", "fmax")):
+        hold = fallback.get(f"hold_{side}")
+        if hold and any(hold):
+            held = writer.array(f"fallback_hold_{side}", [float(h) for h in hold], double=True)
+            limit = format_c_literal(fallback[edge], "double")
+            expression = (
+                f"({expression}) - {clamp}((double)features[{column}] - {limit}, 0.0) "
+                f"* ({slope}[k] * {held}[k])"
+            )
+    rate_column = fallback.get("rate_column")
+    if rate_column is not None and any(fallback["rate_slope"]):
+        rate_slope = writer.array("fallback_rate_slope", fallback["rate_slope"], double=True)
+        limit = format_c_literal(fallback["rate_bound"], "double")
+        expression = (
+            f"({expression}) + fmin(fmax((double)features[{rate_column}], -{limit}), {limit}) "
+            f"* {rate_slope}[k]"
+        )
+    return expression, True
 
 
 def _domain_functions(writer, domain, prefix):
@@ -180,13 +216,8 @@ def _domain_functions(writer, domain, prefix):
         clip_block = rounds.substitute(names)
     parts.append(DOMAIN_FLAG.substitute(names, beyond_test=beyond_test, clip_block=clip_block))
     if policy == "blend":
-        fallback = domain["fallback"]
-        intercept = writer.array("fallback_intercept", fallback["intercept"], double=True)
-        expression, unused = f"{intercept}[k]", "    (void)features;\n"
-        if fallback["column"] is not None:
-            slope = writer.array("fallback_slope", fallback["slope"], double=True)
-            expression += f" + features[{fallback['column']}] * {slope}[k]"
-            unused = ""
+        expression, reads = _fallback_expression(writer, domain["fallback"])
+        unused = "" if reads else "    (void)features;\n"
         parts.append(BLEND_FUNCTION.substitute(names, fallback=expression, unused=unused))
         blend_call = BLEND_CALL.substitute(names)
     parts.append(DOMAIN_GUARDED.substitute(names, blend_call=blend_call))

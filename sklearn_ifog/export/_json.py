@@ -38,7 +38,9 @@ def to_json(pipeline, path):
     ``axes`` one per row, ``axis_scale``, ``lower``, ``upper``), ``margin``, ``blend_width``,
     the temperature columns and their calibrated ranges (``temperature_columns``,
     ``temperature_low``, ``temperature_high``), ``projection_rounds``, the policy
-    ``outside`` and the ``fallback`` (``intercept``, ``slope``, ``column``): a row's distance
+    ``outside`` and the ``fallback`` (``intercept``, ``slope``, ``column``, the calibrated
+    ``low`` and ``high`` with ``hold_below`` / ``hold_above``, ``rate_column``,
+    ``rate_slope``, ``rate_bound``): a row's distance
     is ``sqrt(sum_k (e_k / axis_scale_k)^2)`` with ``e_k`` the excess of its coordinate
     ``(axes @ ((x - center) / scale))_k`` beyond ``[lower_k, upper_k]``; it is outside above
     ``margin`` or with a temperature beyond its range; the policies are those of

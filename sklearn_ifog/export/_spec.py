@@ -71,7 +71,11 @@ ThermalFeatures outputs them, before any later step)::
       "projection_rounds": <int>,            # rounds of "clip" with temperature columns
       "outside": "blend" | "clip" | "none",  # the policy outside the domain
       "fallback": {"intercept": [...], "slope": [...],   # n_outputs each
-                   "column": <int> | null}   # the feature holding T; null: a constant
+                   "column": <int> | null,   # the feature holding T; null: a constant
+                   "low": <float> | null, "high": <float> | null,   # calibrated T range
+                   "hold_below": [<bool>, ...], "hold_above": [<bool>, ...],   # per output
+                   "rate_column": <int> | null,   # the feature holding dT; null: none
+                   "rate_slope": [...], "rate_bound": <float>}
     }
 
 A row ``x`` of features has the coordinates ``p = axes @ ((x - center) / scale)``; along
@@ -83,7 +87,11 @@ prediction ``y``; rows outside follow ``outside``:
 
 - ``"blend"``: ``(1 - w) y + w f`` with ``s = clip((d - margin) / blend_width, 0, 1)``,
   ``w = s^2 (3 - 2 s)`` (0 for a row outside by a temperature alone) and the fallback
-  ``f = intercept + x[column] * slope`` (``f = intercept`` when ``column`` is null).
+  ``f = intercept + t * slope - slope * hold_below * min(t - low, 0) - slope * hold_above
+  * max(t - high, 0) + rate_slope * clip(x[rate_column], -rate_bound, rate_bound)`` with
+  ``t = x[column]``, per output, each term evaluated in that order; a hold term is absent
+  when no output holds on that side, the rate term when ``rate_column`` is null
+  (``f = intercept`` when ``column`` is null).
 - ``"clip"``: the steps' prediction at the row projected onto the domain. One projection
   ``P(x)``: a row with ``d <= margin`` is unchanged; else, with ``c`` its coordinates
   clamped to ``[lower, upper]`` and ``q = c + (p - c) * (margin / d)``, it becomes
