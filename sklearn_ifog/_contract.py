@@ -15,7 +15,9 @@ term or a unit is added in one place:
 - :func:`sensor_keys`: the temperature column(s) of a ``temperature`` parameter, as a list;
 - :data:`DEFAULT_TERMS` (the paper's), :data:`DEFAULT_ROW_TERMS`, :data:`DEFAULT_STATE_TERMS`,
   :data:`DEFAULT_SMOOTHING` and :func:`resolve_defaults`: what ThermalFeatures'
-  ``terms="auto"`` and ``smoothing="auto"`` mean, with and without a time column.
+  ``terms="auto"`` and ``smoothing="auto"`` mean, with and without a time column;
+  :func:`resolved_settings` reads them off a ThermalFeatures (for the schema, the stream
+  and the comparison harness) and :func:`traditional_terms` drops the paper's T·ΔT term.
 """
 
 import re
@@ -538,3 +540,54 @@ def _all_known(terms):
     except ValueError:
         return False
     return True
+
+
+def resolved_settings(features):
+    """``(terms, smoothing)`` of a ThermalFeatures, with ``"auto"`` resolved.
+
+    Its fitted ``terms_`` and ``smoothing_`` after ``fit``; before it, its parameters read
+    through :func:`resolve_defaults`. The export schema, the stream and the comparison
+    harness read a transformer's settings through this one function.
+
+    Parameters
+    ----------
+    features : ThermalFeatures
+
+    Returns
+    -------
+    terms : tuple of str
+    smoothing : float or None
+
+    Examples
+    --------
+    >>> from sklearn_ifog import ThermalFeatures
+    >>> resolved_settings(ThermalFeatures(time=None))[0] == DEFAULT_ROW_TERMS
+    True
+    """
+    if hasattr(features, "terms_"):
+        return features.terms_, features.smoothing_
+    return resolve_defaults(features.terms, features.smoothing, features.time is not None)
+
+
+#: The term the reference paper adds to its "traditional" model (T, ΔT) to get its
+#: "modified" one (T, ΔT, T·ΔT).
+INTERACTION_TERM = "TdT"
+
+
+def traditional_terms(terms):
+    """``terms`` without the T·ΔT term: the reference paper's traditional model.
+
+    Parameters
+    ----------
+    terms : sequence of str
+
+    Returns
+    -------
+    terms : tuple of str
+
+    Examples
+    --------
+    >>> traditional_terms(("T", "dT", "TdT"))
+    ('T', 'dT')
+    """
+    return tuple(term for term in terms if term != INTERACTION_TERM)

@@ -20,6 +20,7 @@ import sklearn_ifog
 from sklearn_ifog import domain as _domain
 from sklearn_ifog._contract import (
     get_term,
+    resolved_settings,
     seconds_per_unit,
     sensor_keys,
     state_time_constants,
@@ -64,7 +65,7 @@ def describe_features(step, name="thermalfeatures"):
     """The ThermalFeatures part of the schema (see the module docstring)."""
     check_is_fitted(step)
     sensors = sensor_keys(step.temperature)
-    resolved_terms, smoothing = step._resolved()
+    resolved_terms, smoothing = resolved_settings(step)
     terms = [str(term) for term in resolved_terms]
     definitions = {}
     for term in terms:

@@ -52,7 +52,7 @@ from sklearn.utils.validation import check_consistent_length
 
 from sklearn_ifog import _table
 from sklearn_ifog._compat import _safe_indexing
-from sklearn_ifog._contract import DEFAULT_TERMS
+from sklearn_ifog._contract import DEFAULT_TERMS, resolved_settings, traditional_terms
 from sklearn_ifog.features import ThermalFeatures
 from sklearn_ifog.metrics import (
     interval_coverage,
@@ -61,7 +61,7 @@ from sklearn_ifog.metrics import (
     mean_squared_deviation,
 )
 from sklearn_ifog.model_selection import LeaveOneRunOut
-from sklearn_ifog.pipeline import _traditional_terms, make_compensation_pipeline
+from sklearn_ifog.pipeline import make_compensation_pipeline
 from sklearn_ifog.rbf import RBFNetRegressor
 from sklearn_ifog.subsampled import SubsampledRegressor
 
@@ -156,7 +156,7 @@ def default_regressors(*, features=None, max_kernel_samples=600, random_state=0)
     def scaled_target(regressor):
         return TransformedTargetRegressor(regressor=regressor, transformer=StandardScaler())
 
-    resolved_terms = clone(features)._resolved()[0]
+    resolved_terms = resolved_settings(clone(features))[0]
     n_features = len(features.get_feature_names_out())
     gp_kernel = ConstantKernel(1.0) * RBF(length_scale=np.ones(n_features)) + WhiteKernel(0.1)
     return {
@@ -202,7 +202,7 @@ def default_regressors(*, features=None, max_kernel_samples=600, random_state=0)
             )
         ),
         "rbf_traditional": pipeline(
-            RBFNetRegressor(random_state=seeds[4]), terms=_traditional_terms(resolved_terms)
+            RBFNetRegressor(random_state=seeds[4]), terms=traditional_terms(resolved_terms)
         ),
         "rbf_modified": pipeline(RBFNetRegressor(random_state=seeds[5])),
         "rbf": pipeline(RBFNetRegressor(random_state=seeds[5]), terms="auto"),

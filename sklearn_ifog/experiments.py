@@ -15,10 +15,10 @@ from sklearn.base import clone
 from sklearn.utils import Bunch, check_random_state
 from sklearn.utils.parallel import Parallel, delayed
 
-from sklearn_ifog._contract import DEFAULT_TERMS
+from sklearn_ifog._contract import DEFAULT_TERMS, resolved_settings, traditional_terms
 from sklearn_ifog.compensation import compensate, drift_target
 from sklearn_ifog.features import ThermalFeatures
-from sklearn_ifog.pipeline import _traditional_terms, make_compensation_pipeline
+from sklearn_ifog.pipeline import make_compensation_pipeline
 from sklearn_ifog.rbf import RBFNetRegressor
 
 __all__ = ["PAPER_EXPERIMENTS", "PAPER_MSD", "run_paper_experiments"]
@@ -194,9 +194,9 @@ def run_paper_experiments(
     if regressor is None:
         seed = check_random_state(random_state).randint(np.iinfo(np.int32).max)
         regressor = RBFNetRegressor(random_state=seed)
-    modified_terms = clone(features)._resolved()[0]
-    traditional_terms = _traditional_terms(modified_terms)
-    if traditional_terms == modified_terms:
+    modified_terms = resolved_settings(clone(features))[0]
+    traditional = traditional_terms(modified_terms)
+    if traditional == modified_terms:
         raise ValueError(
             f"features.terms={modified_terms!r} has no 'TdT' term: the modified model is the "
             "traditional one plus T·ΔT."
@@ -215,7 +215,7 @@ def run_paper_experiments(
         train_frame = frame[train]
         y_train = drift_target(train_frame, kind=target).to_numpy()
         selections.append((unit, train_azimuth, test_azimuth, frame[test]))
-        for terms in (traditional_terms, modified_terms):
+        for terms in (traditional, modified_terms):
             jobs.append(delayed(_fit)(pipeline(terms), train_frame, y_train))
     fitted = Parallel(n_jobs=n_jobs)(jobs)
 

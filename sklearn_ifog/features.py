@@ -30,6 +30,7 @@ from sklearn_ifog._contract import (
     check_needs_time,
     get_term,
     resolve_defaults,
+    resolved_settings,
     sensor_keys,
     state_time_constants,
     valid_terms_text,
@@ -589,9 +590,7 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
     def _resolved(self):
         """``(terms, smoothing)`` computed: the fitted ``terms_`` and ``smoothing_`` after
         :meth:`fit`, before it the parameters with ``"auto"`` resolved."""
-        if hasattr(self, "terms_"):
-            return self.terms_, self.smoothing_
-        return resolve_defaults(self.terms, self.smoothing, self.time is not None)
+        return resolved_settings(self)
 
     def _record_resolved(self):
         self.terms_, self.smoothing_ = resolve_defaults(

@@ -39,15 +39,6 @@ __all__ = ["OUTSIDE_POLICIES", "CompensationPipeline", "make_compensation_pipeli
 #: The ``outside`` policies of :class:`CompensationPipeline`.
 OUTSIDE_POLICIES = ("blend", "clip", "none")
 
-# The term the reference paper adds to the "traditional" model (T, ΔT) to get its "modified"
-# one (T, ΔT, T·ΔT).
-_INTERACTION_TERM = "TdT"
-
-
-def _traditional_terms(terms):
-    """``terms`` without the T·ΔT term: the reference paper's traditional model."""
-    return tuple(term for term in terms if term != _INTERACTION_TERM)
-
 
 def _is_regressor(estimator):
     """scikit-learn's is_regressor, False (not an error) for what is no estimator at all."""

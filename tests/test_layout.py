@@ -38,11 +38,9 @@ SIZED = [
 ]
 
 # Private names of other modules still used, and why: they belong to modules another change
-# owns. ``_resolved``: ThermalFeatures' resolved terms and smoothing (features.py); ``_bounds``:
-# ConformalRegressor's band from predictions (conformal.py), read by the streamed band.
+# owns. ``_bounds``: ConformalRegressor's band from predictions (conformal.py), read by the
+# streamed band.
 PENDING_PRIVATE = {
-    ("_description.py", "_resolved"),
-    ("streaming/_compensator.py", "_resolved"),
     ("streaming/_band.py", "_bounds"),
 }
 

@@ -15,6 +15,7 @@ from sklearn_ifog import _table
 from sklearn_ifog._compiled import FastRow, compile_domain, compile_steps
 from sklearn_ifog._contract import (
     check_needs_time,
+    resolved_settings,
     seconds_per_unit,
     sensor_keys,
     state_time_constants,
@@ -90,7 +91,7 @@ def _thermal_step(pipeline):
 def _feature_spec(features):
     """What the stream needs of a fitted ThermalFeatures: columns, terms, time base."""
     sensors = sensor_keys(features.temperature)
-    terms, smoothing = features._resolved()
+    terms, smoothing = resolved_settings(features)
     terms = validate_terms(terms, len(sensors))
     check_needs_time(terms, smoothing, features.time is not None)
     return {
