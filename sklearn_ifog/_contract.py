@@ -552,11 +552,14 @@ def resolved_settings(features):
     Parameters
     ----------
     features : ThermalFeatures
+        The transformer, fitted or not.
 
     Returns
     -------
     terms : tuple of str
+        Its terms.
     smoothing : float or None
+        Its smoothing time constant, s.
 
     Examples
     --------
@@ -580,10 +583,12 @@ def traditional_terms(terms):
     Parameters
     ----------
     terms : sequence of str
+        Term names.
 
     Returns
     -------
     terms : tuple of str
+        The same without ``"TdT"``, in their order.
 
     Examples
     --------

@@ -701,6 +701,8 @@ def fallback_name(fallback):
     Parameters
     ----------
     fallback : Fallback
+        A fitted fallback (``fallback_`` of a
+        :class:`~sklearn_ifog.CompensationPipeline`).
 
     Returns
     -------
