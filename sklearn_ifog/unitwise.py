@@ -333,7 +333,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     See Also
     --------
     sklearn_ifog.make_compensation_pipeline : The usual ``estimator``.
-    sklearn_ifog.model_selection.compare_regressors : ``by="unit"`` gives per-unit results.
+    sklearn_ifog.comparison.compare_regressors : ``by="unit"`` gives per-unit results.
 
     Notes
     -----
