@@ -16,15 +16,20 @@ the same fits. Rules:
 - ``cv_lot_own``: the same strengths; own model chosen for the lot (summed held-out
   errors), the own model's error scaled by ``(r - 1) / r`` (both models);
 - ``chosen``: what ``UnitwiseRegressor`` does: strengths by log-evidence, per unit with two
-  runs or more, one from the summed log-evidence for the single-run units; a unit with two
-  runs or more whose evidence puts it far from the lot (``n lam <= 1 / OWN_MODEL_SPREAD²``)
-  keeps its own model; the own model otherwise chosen for the lot, RBF network only, its
-  held-out error that of its output layer re-solved without each held-out run (its basis
-  kept: one fit per unit, ``unitwise._own_score``), unscaled;
-- ``chosen_refit_scaled``: as ``chosen``, the own model's held-out error from a refit per
-  held-out run, scaled by ``(r - 1) / r`` (the previous release's choice);
+  runs or more, one from the summed log-evidence for the single-run units; a unit whose
+  evidence puts it far from the lot (``n lam <= 1 / OWN_MODEL_SPREAD²``; a single-run unit
+  by the shared strength) keeps its own model; the own model otherwise chosen for the lot,
+  RBF network only, its held-out error that of its output layer re-solved without each
+  held-out run (its basis kept: one fit per unit, ``unitwise._own_score``), unscaled;
+- ``chosen_far_multi_run``: as ``chosen``, the far-unit rule for units of two runs or more
+  only, with spread 2 (the previous release's choice);
+- ``chosen_far_spread2``, ``chosen_far_spread3``, ``chosen_far_spread4``: as ``chosen``,
+  with ``OWN_MODEL_SPREAD`` 2, 3 and 4 (the sweep the present value, 3, was chosen from:
+  no cell above 1.05 on either seed set for any of them, and the lowest worst cell);
+- ``chosen_refit_scaled``: as ``chosen_far_multi_run``, the own model's held-out error from
+  a refit per held-out run, scaled by ``(r - 1) / r`` (the choice of the release before);
 - ``evidence_lot_own``: as ``chosen_refit_scaled`` without the far-unit rule (the choice of
-  the release before);
+  the release before that);
 - ``far_own_spread1``, ``far_own_spread3``: as ``chosen_refit_scaled``, with
   ``OWN_MODEL_SPREAD`` 1 and 3 instead of 2;
 - ``evidence_unit_own``: as ``evidence_lot_own``, but the own model chosen unit by unit;
@@ -45,7 +50,7 @@ when it ran. Both seed sets were read when ``OWN_MODEL_SPREAD`` and the far-unit
 chosen here, so neither is held out for them: ``bench_unitwise.py`` scores them on seeds 5-7
 (its ``SELECTION_SEEDS`` are these 0-4).
 
-Run (about 10 minutes on two cores)::
+Run (about a minute on two cores)::
 
     nice -n 10 python benchmarks/unitwise_selection.py --jobs 2
 
@@ -98,6 +103,10 @@ RULES = (
     "evidence_lot_own",
     "far_own_spread1",
     "far_own_spread3",
+    "chosen_far_multi_run",
+    "chosen_far_spread2",
+    "chosen_far_spread3",
+    "chosen_far_spread4",
     "evidence_unit_own",
     "evidence_lot_own_unscaled",
     "evidence_lot_own_linear_too",
@@ -226,12 +235,14 @@ def _strengths(units, how):
     return chosen
 
 
-def _far(units, chosen, spread):
-    """Units of two runs or more whose evidence puts them ``spread`` noise sd from the lot."""
+def _far(units, chosen, spread, *, single_run=False):
+    """Units whose evidence puts them ``spread`` noise sd from the lot: of two runs or more,
+    and with ``single_run`` of one run too (from their shared strength)."""
     return {
         u["unit"]
         for u in units
-        if u["n_runs"] >= 2 and u["n_train"] * GRID[chosen[u["unit"]]] <= spread**-2.0
+        if (single_run or u["n_runs"] >= 2)
+        and u["n_train"] * GRID[chosen[u["unit"]]] <= spread**-2.0
     }
 
 
@@ -287,16 +298,21 @@ def rule_sse(cell, rule):
     chosen = _strengths(units, how)
     spread = {
         "chosen": OWN_MODEL_SPREAD,
-        "chosen_refit_scaled": OWN_MODEL_SPREAD,
+        "chosen_refit_scaled": 2.0,
         "far_own_spread1": 1.0,
         "far_own_spread3": 3.0,
+        "chosen_far_multi_run": 2.0,
+        "chosen_far_spread2": 2.0,
+        "chosen_far_spread3": 3.0,
+        "chosen_far_spread4": 4.0,
     }
-    far = _far(units, chosen, spread[rule]) if rule in spread else set()
+    single_run = rule == "chosen" or rule.startswith("chosen_far_spread")
+    far = _far(units, chosen, spread[rule], single_run=single_run) if rule in spread else set()
     if not rbf:
         return sum(
             u["test_own"] if u["unit"] in far else u["test_grid"][chosen[u["unit"]]] for u in units
         )
-    if rule == "chosen":
+    if rule == "chosen" or rule.startswith("chosen_far"):
         return _with_own(
             units, chosen, lot_level=True, scaled=False, far=far, own_key="cv_own_layer"
         )

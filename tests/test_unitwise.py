@@ -113,7 +113,7 @@ def _lot_layer(model, X):
 
 @pytest.mark.parametrize("make", [_linear, _rbf], ids=["linear", "rbf"])
 def test_partial_keeps_the_lot_basis_and_solves_the_shrunk_weights(lot, make):
-    X, y = _first_runs(lot)  # single-run units: never their own model
+    X, y = _first_runs(lot)  # single-run units of one design: near the lot
     model = UnitwiseRegressor(make(), pooling="partial").fit(X, y)
     lot_final = model.lot_estimator_.steps[-1][1]
     Phi, prior, scale = _lot_layer(model, X)
@@ -393,6 +393,56 @@ def test_single_run_units_share_one_strength(lot):
     no_run = UnitwiseRegressor(_linear(), pooling="partial", run=None).fit(lot.data, lot.target)
     assert set(no_run.n_folds_.values()) == {0}
     assert len(set(no_run.shrinkage_.values())) == 1
+
+
+def _single_run_units(offsets, slopes, seed=0):
+    """One run per unit: a drift of its own slope in T plus an offset, noise 0.02 deg/h."""
+    rng = np.random.default_rng(seed)
+    frames, targets = [], []
+    for unit, (offset, slope) in enumerate(zip(offsets, slopes, strict=True)):
+        t = np.r_[np.full(20, 10.0), np.linspace(10.0, 40.0, 40), np.full(20, 40.0)]
+        t = t + rng.normal(scale=0.01, size=t.size)
+        frames.append(
+            pd.DataFrame({"unit": unit, "run": unit, "time": 60.0 * np.arange(t.size)}).assign(
+                temperature=t
+            )
+        )
+        targets.append(offset + slope * (t - 25.0) + rng.normal(scale=0.02, size=t.size))
+    return pd.concat(frames, ignore_index=True), np.concatenate(targets)
+
+
+@pytest.mark.parametrize(
+    ("offsets", "slopes", "far"),
+    [
+        ((0.0, 1.0, -1.0, 0.5), (0.1, -0.3, 0.5, -0.7), True),
+        ((0.0, 0.002, -0.002, 0.001), (0.1, 0.1001, 0.0999, 0.1), False),
+    ],
+    ids=["unlike", "alike"],
+)
+def test_single_run_units_far_from_the_lot_keep_their_own_models(offsets, slopes, far):
+    """The far-unit rule holds for single-run units too, from their shared strength: units
+    unlike each other (offsets and slopes of both signs, tens of noise deviations apart) keep
+    their own models, equal to pooling "none"; units of one design (apart by a tenth of the
+    noise) keep the shrunk weights."""
+    X, y = _single_run_units(offsets, slopes)
+    model = UnitwiseRegressor(_linear(), pooling="partial").fit(X, y)
+    total = sum(model.shrinkage_evidence_[unit] for unit in range(4))
+    shared = shrinkage.pick_strength(-total, model.shrinkage_grid_)
+    none = UnitwiseRegressor(_linear(), pooling="none").fit(X, y)
+    for unit in range(4):
+        rows = (X["unit"] == unit).to_numpy()
+        assert (rows.sum() * shared <= OWN_MODEL_SPREAD**-2) == far
+        if far:
+            assert model.shrinkage_[unit] is None
+            np.testing.assert_allclose(
+                model.predict(X[rows]), none.predict(X[rows]), rtol=1e-12, atol=1e-12
+            )
+        else:
+            assert model.shrinkage_[unit] == shared
+            final = model.estimators_[unit].steps[-1][1]
+            Phi, prior, scale = _lot_layer(model, X)
+            (expected,) = shrinkage.solve_shrunk(Phi[rows], y[rows, None], prior, scale, [shared])
+            np.testing.assert_allclose(layer_weights(final), expected, rtol=1e-9, atol=1e-12)
 
 
 def test_partial_accepts_a_bare_linear_model_and_two_outputs():
