@@ -506,7 +506,9 @@ def test_c_float_follows_the_domain(outside, calibration, excursion, tmp_path):
 
 @pytest.mark.skipif(CC is None, reason="no C compiler ('cc') on this machine")
 @pytest.mark.parametrize("pooling", ["partial", "none"])
-def test_unitwise_c_carries_each_units_domain(calibration, excursion, tmp_path, pooling):
+def test_unitwise_c_carries_each_units_domain(
+    calibration, excursion, tmp_path, pooling, monkeypatch
+):
     # The second unit was calibrated 5 degC warmer: another domain.
     warmer = calibration.assign(
         unit="gyro-2",
@@ -516,6 +518,9 @@ def test_unitwise_c_carries_each_units_domain(calibration, excursion, tmp_path, 
     )
     lot = pd.concat([calibration.assign(unit="gyro-1"), warmer], ignore_index=True)
     columns = ["unit", "temperature", "time", "run"]
+    # A far-unit spread of 1 lets the evidence give these units their own models (with
+    # "partial" too): each carries its own domain, which the export must write.
+    monkeypatch.setattr("sklearn_ifog.unitwise.OWN_MODEL_SPREAD", 1.0)
     model = UnitwiseRegressor(make_compensation_pipeline(Ridge(1e-3)), pooling=pooling)
     model.fit(lot[columns], lot["drift"])
     written = to_c_units(model, tmp_path)

@@ -39,8 +39,7 @@ def _regressor(cls):
 
 @pytest.fixture(scope="module")
 def lot():
-    """Three units, one run each (so partial pooling shrinks every unit's layer: a unit
-    keeps its own model only with several runs)."""
+    """Three units of one design, one run each (see ``_no_far_units``)."""
     frame = make_thermal_campaign(
         n_units=3,
         n_runs=1,
@@ -65,7 +64,15 @@ def test_one_list_of_linear_regressors():
     assert layer_kind(linear_model.LogisticRegression()) is None
 
 
+@pytest.fixture
+def _no_far_units(monkeypatch):
+    """The far-unit rule off (``OWN_MODEL_SPREAD`` infinite): a unit the evidence puts far
+    from the lot would keep its own model, and these tests read the shrunk layers."""
+    monkeypatch.setattr("sklearn_ifog.unitwise.OWN_MODEL_SPREAD", np.inf)
+
+
 @pytest.mark.parametrize("cls", LINEAR_REGRESSORS, ids=lambda cls: cls.__name__)
+@pytest.mark.usefixtures("_no_far_units")
 def test_every_exported_regressor_is_pooled(cls, lot):
     """Every regressor the exports write has its layer shrunk by partial pooling."""
     frame, y = lot
