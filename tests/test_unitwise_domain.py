@@ -111,7 +111,7 @@ def test_partial_pooling_keeps_the_lots_domain_and_fallback(two_ranges, monkeypa
     the lot's calibration, so it keeps the lot's domain and fallback (a unit's own domain
     would send most of its rows to a one-run fallback)."""
     X, y = two_ranges
-    # the far-unit rule off: it would give these two unlike units their own models
+    # the far-unit rule off: it gives at least one of these unlike units its own model
     monkeypatch.setattr("sklearn_ifog.unitwise.OWN_MODEL_SPREAD", np.inf)
     partial = UnitwiseRegressor(_linear(), pooling="partial").fit(X, y)
     lot = partial.lot_estimator_
