@@ -28,6 +28,7 @@ __all__ = [
     "TableError",
     "TableTypeError",
     "ThermalColumns",
+    "as_float_rows",
     "as_table",
     "check_finite",
     "check_time_increasing",
@@ -113,6 +114,13 @@ def frame_kind(X):
     """
     kind = _library(X)
     return kind if kind is not None and hasattr(X, "columns") else None
+
+
+def as_float_rows(values):
+    """A 2-D float array of a transformer's output (ndarray, pandas or polars)."""
+    if hasattr(values, "to_numpy"):
+        values = values.to_numpy()
+    return np.asarray(values, dtype=np.float64)
 
 
 def as_table(X):

@@ -895,17 +895,62 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             )
         centre = self.predict(X)
         _reissue(caught, skip=(OutsideCalibrationWarning,))
-        return self._bounds(centre, predictions, raw, coverage, self._fallback_share(X))
+        return self.bounds_from_predictions(
+            centre, predictions, raw, coverage=coverage, fallback_share=self._fallback_share(X)
+        )
 
-    def _bounds(self, centre, predictions, raw, coverage=None, fallback_share=None):
-        """The bounds from the full model's and the fold models' predictions.
+    def bounds_from_predictions(
+        self,
+        centre,
+        fold_predictions,
+        difficulty_features=None,
+        *,
+        coverage=None,
+        fallback_share=None,
+    ):
+        """The band from predictions already made: the full model's and the fold models'.
 
-        ``raw`` is the difficulty model's input (the pipeline's features before its last
-        step), None when not adaptive. ``fallback_share`` is the full model's ``"blend"``
-        weight of every row (:meth:`_fallback_share`), for the terms outside the
-        calibration domain; None leaves them out. Used by :meth:`predict_interval` and by
-        :class:`~sklearn_ifog.streaming.StreamingCompensator`.
+        What :meth:`predict_interval` does once it has predicted, for a caller that predicts
+        by other means (the compiled fast path of
+        :class:`~sklearn_ifog.streaming.StreamingCompensator`, or a firmware replay):
+        the same bounds, bit for bit, from the same numbers.
+
+        Parameters
+        ----------
+        centre : array-like of shape (n_samples,)
+            The full model's predictions (:meth:`predict`).
+        fold_predictions : array-like of shape (n_folds, n_samples)
+            Each fold model's predictions (``estimators_``, in order).
+        difficulty_features : array-like of shape (n_samples, n_features), default=None
+            The difficulty model's input: the rows through every step of ``estimator_``
+            before the regressor. Needed when ``adaptive=True``; ignored otherwise.
+        coverage : float, default=None
+            Nominal coverage in (0, 1); None uses the ``coverage`` of fit.
+        fallback_share : array-like of shape (n_samples,), default=None
+            The full model's ``"blend"`` weight of every row on its fallback (0 inside its
+            calibration domain); None leaves the terms outside the domain out.
+
+        Returns
+        -------
+        bounds : ndarray of shape (n_samples, 2)
+            Column 0 the lower bound, column 1 the upper bound.
         """
+        check_is_fitted(self)
+        centre = np.asarray(centre, dtype=float).ravel()
+        predictions = np.asarray(fold_predictions, dtype=float)
+        if predictions.shape != (len(self.estimators_), centre.shape[0]):
+            raise ValueError(
+                f"fold_predictions must have shape (n_folds, n_samples) = "
+                f"({len(self.estimators_)}, {centre.shape[0]}), got {predictions.shape}."
+            )
+        raw = None
+        if self.adaptive:
+            if difficulty_features is None:
+                raise ValueError(
+                    "difficulty_features is required when adaptive=True: the rows through "
+                    "the steps of estimator_ before its regressor."
+                )
+            raw = np.asarray(difficulty_features, dtype=float)
         extrapolation = None
         if fallback_share is not None and getattr(self, "fallback_scores_", None) is not None:
             # What the regressor itself extrapolates to, before the policy set it aside.

@@ -15,6 +15,7 @@ from sklearn.utils import check_array
 
 from sklearn_ifog import _table
 from sklearn_ifog._compat import Interval, StrOptions, _check_sample_weight, validate_params
+from sklearn_ifog._per_run import ALL_RUNS, compensation_arrays, sample_period
 
 __all__ = [
     "EARTH_ROTATION_RATE",
@@ -43,8 +44,6 @@ EARTH_ROTATION_RATE = 15.041067
 # IEEE Std 952-1997, Annex C, Eq. (C.19).
 _BIAS_INSTABILITY_FACTOR = np.sqrt(2.0 * np.log(2.0) / np.pi)
 _SECONDS_PER_SQRT_HOUR = 60.0
-# Label of the whole-data row of the per-run table (parenthesised so no run label collides).
-_ALL_RUNS = "(all runs)"
 
 
 @validate_params(
@@ -835,38 +834,12 @@ def get_scorer_names():
 # -- per-run table ---------------------------------------------------------------------------
 
 
-def _sample_period(time_values):
-    """Median sampling interval, and whether sampling is uniform (within 1 %)."""
-    if time_values is None or time_values.size < 2:
-        return 1.0, time_values is None
-    steps = np.diff(time_values)
-    period = float(np.median(steps))
-    uniform = period > 0 and bool(np.all(np.abs(steps - period) <= 0.01 * period))
-    return period, uniform
-
-
 def _safe_bias_stability(values, period, uniform, window):
     """Bias stability, or NaN where the run is too short or not uniformly sampled."""
     if not uniform or window < period or values.size * period < 2 * window:
         return np.nan
     window = round(window / period) * period
     return bias_stability(values, sample_period=period, window=window)
-
-
-def _compensation_arrays(rate, drift, reference, temperature, time):
-    """The inputs of :func:`per_run_metrics` as float arrays of one shape; time defaulted."""
-    rate = np.asarray(rate, dtype=float)
-    n_samples = rate.shape[0]
-    drift = np.asarray(drift, dtype=float)
-    reference = np.broadcast_to(np.asarray(reference, dtype=float), rate.shape)
-    temperature = np.asarray(temperature, dtype=float)
-    time_values = (
-        np.arange(n_samples, dtype=float) if time is None else np.asarray(time, dtype=float)
-    )
-    for name, values in (("drift", drift), ("temperature", temperature), ("time", time_values)):
-        if values.shape != rate.shape:
-            raise ValueError(f"{name} has shape {values.shape}, rate has shape {rate.shape}.")
-    return rate, drift, reference, temperature, time_values
 
 
 def per_run_metrics(
@@ -936,21 +909,21 @@ def per_run_metrics(
     """
     import pandas as pd
 
-    rate, drift, reference, temperature, time_values = _compensation_arrays(
+    rate, drift, reference, temperature, time_values = compensation_arrays(
         rate, drift, reference, temperature, time
     )
     n_samples = rate.shape[0]
     compensated = rate - drift
     rows = []
     for label, rows_of_run in _table.run_segments(run, n_samples):
-        period, uniform = _sample_period(time_values[rows_of_run])
+        period, uniform = sample_period(time_values[rows_of_run])
         error_before = rate[rows_of_run] - reference[rows_of_run]
         error_after = compensated[rows_of_run] - reference[rows_of_run]
         msd_before = float(mean_squared_deviation(reference[rows_of_run], rate[rows_of_run]))
         msd_after = float(mean_squared_deviation(reference[rows_of_run], compensated[rows_of_run]))
         rows.append(
             {
-                "run": _ALL_RUNS if label is None else label,
+                "run": ALL_RUNS if label is None else label,
                 "samples": int(rows_of_run.size),
                 "hours": float(np.ptp(time_values[rows_of_run]) / 3600.0),
                 "T_min": float(temperature[rows_of_run].min()),
@@ -968,7 +941,7 @@ def per_run_metrics(
     if run is not None:
         overall_before = float(mean_squared_deviation(reference, rate))
         overall_after = float(mean_squared_deviation(reference, compensated))
-        table.loc[_ALL_RUNS] = {
+        table.loc[ALL_RUNS] = {
             "samples": n_samples,
             "hours": float(table["hours"].sum()),
             "T_min": float(temperature.min()),

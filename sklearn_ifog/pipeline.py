@@ -20,7 +20,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from sklearn_ifog._compat import Interval, StrOptions, _fit_context, _routing_enabled
 from sklearn_ifog._contract import get_term, sensor_keys
-from sklearn_ifog._table import label_column
+from sklearn_ifog._table import as_float_rows, label_column
 from sklearn_ifog.domain import (
     CalibrationDomain,
     OutsideCalibrationWarning,
@@ -194,13 +194,6 @@ def _run_labels(features, X):
     return label_column(X, features.run, param="run")
 
 
-def _as_rows(values):
-    """A 2-D float array of a transformer's output (ndarray, pandas or polars)."""
-    if hasattr(values, "to_numpy"):
-        values = values.to_numpy()
-    return np.asarray(values, dtype=np.float64)
-
-
 def _like(template, values):
     """``values`` in the container of ``template`` (a pandas DataFrame keeps its columns)."""
     if type(template).__module__.startswith("pandas"):
@@ -369,7 +362,7 @@ class CompensationPipeline(Pipeline):
             With fewer than 2 rows, or a thermal feature constant over them.
         """
         features = self.steps[0][1]
-        raw = _as_rows(features.transform(X))
+        raw = as_float_rows(features.transform(X))
         names = np.asarray(features.get_feature_names_out(), dtype=object)
         if raw.shape[0] < 2:
             raise ValueError(
@@ -431,7 +424,7 @@ class CompensationPipeline(Pipeline):
         -------
         distance : ndarray of shape (n_samples,)
         """
-        return box_distance(self.domain_.box_, _as_rows(self._transform_features(X)))
+        return box_distance(self.domain_.box_, as_float_rows(self._transform_features(X)))
 
     def outside_calibration(self, X):
         """Whether every row lies outside the calibration domain.
@@ -448,7 +441,7 @@ class CompensationPipeline(Pipeline):
         -------
         outside : ndarray of shape (n_samples,), dtype=bool
         """
-        return self._where(_as_rows(self._transform_features(X)))[2]
+        return self._where(as_float_rows(self._transform_features(X)))[2]
 
     def predict(self, X, **params):
         """Predict the drift, following ``outside`` for rows outside the domain.
@@ -470,7 +463,7 @@ class CompensationPipeline(Pipeline):
             Once per call when rows lie outside the domain.
         """
         features = self._transform_features(X)
-        rows = _as_rows(features)
+        rows = as_float_rows(features)
         prediction = self._predict_features(features, **params)
         distance, beyond, outside = self._where(rows)
         if not outside.any():

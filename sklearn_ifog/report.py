@@ -22,8 +22,9 @@ from pathlib import Path
 import numpy as np
 
 from sklearn_ifog import _table
+from sklearn_ifog._domain_words import number_text, policy_actions
 from sklearn_ifog._io import atomic_path
-from sklearn_ifog.metrics import _ALL_RUNS
+from sklearn_ifog._per_run import ALL_RUNS, compensation_arrays, sample_period
 
 __all__ = [
     "Report",
@@ -446,7 +447,7 @@ def compensation_report(
     """
     from sklearn.utils import Bunch
 
-    from sklearn_ifog.metrics import _compensation_arrays, per_run_metrics
+    from sklearn_ifog.metrics import per_run_metrics
 
     directory = Path(directory)
     table = per_run_metrics(
@@ -458,7 +459,7 @@ def compensation_report(
         run=run,
         bias_window=bias_window,
     )
-    rate, drift, reference, temperature, time_values = _compensation_arrays(
+    rate, drift, reference, temperature, time_values = compensation_arrays(
         rate, drift, reference, temperature, time
     )
     data = Bunch(
@@ -469,7 +470,7 @@ def compensation_report(
         time=time_values,
         # {run label: row positions in time order}, in order of first appearance.
         segments={
-            _ALL_RUNS if label is None else label: rows
+            ALL_RUNS if label is None else label: rows
             for label, rows in _table.run_segments(run, rate.shape[0])
         },
         has_runs=run is not None,
@@ -492,8 +493,8 @@ def compensation_report(
             coverage[label] = interval_coverage(measured[rows], interval[rows])
             width[label] = mean_interval_width(interval[rows])
         if run is not None:
-            coverage[_ALL_RUNS] = interval_coverage(measured, interval)
-            width[_ALL_RUNS] = mean_interval_width(interval)
+            coverage[ALL_RUNS] = interval_coverage(measured, interval)
+            width[ALL_RUNS] = mean_interval_width(interval)
         table["coverage"] = table.index.map(coverage)
         table["width"] = table.index.map(width)
     status = calibration_table = None
@@ -602,11 +603,9 @@ def _domain_pipelines(model, X, rows):
     UnitwiseRegressor with each unit's model on the unit's rows (without the unit column),
     or its lot model on all rows when every unit present uses it (``pooling="full"``).
     """
-    from sklearn.utils import _safe_indexing
-
     from sklearn_ifog.conformal import ConformalRegressor
     from sklearn_ifog.pipeline import CompensationPipeline
-    from sklearn_ifog.unitwise import UnitwiseRegressor, _label
+    from sklearn_ifog.unitwise import UnitwiseRegressor
 
     if isinstance(model, CompensationPipeline):
         return [(model, X, rows)] if hasattr(model, "domain_") else None
@@ -614,23 +613,9 @@ def _domain_pipelines(model, X, rows):
         return _domain_pipelines(model.estimator_, X, rows)
     if not (isinstance(model, UnitwiseRegressor) and hasattr(model, "estimators_")):
         return None
-    X_inner, units, _ = model._split_unit(X, reset=False)
-    present = [_label(unit) for unit in np.unique(units)]
-    unknown = [label for label in present if label not in model.estimators_]
-    if unknown:
-        raise ValueError(
-            f"unit {unknown[0]!r} (column {model.unit!r} of X) was not seen in fit; the "
-            f"fitted units are {[_label(unit) for unit in model.units_[:10]]}."
-        )
-    lot = model.lot_estimator_
-    if lot is not None and all(model.estimators_[label] is lot for label in present):
-        return _domain_pipelines(lot, X_inner, rows)
     parts = []
-    for label in present:
-        index = np.flatnonzero(units == label)
-        found = _domain_pipelines(
-            model.estimators_[label], _safe_indexing(X_inner, index), rows[index]
-        )
+    for unit_model, X_part, index in model.unit_models(X):
+        found = _domain_pipelines(unit_model, X_part, rows[index])
         if found is None:
             return None
         parts += found
@@ -724,7 +709,6 @@ def calibration_status(model, X):
     from sklearn.utils import Bunch
 
     from sklearn_ifog.domain import OutsideCalibrationWarning, fallback_name
-    from sklearn_ifog.pipeline import _as_rows
 
     X = _table.as_table(X)
     n_samples = X.shape[0]
@@ -753,7 +737,7 @@ def calibration_status(model, X):
             status.adjusted[rows] = _adjusted_rows(pipeline, X_part)
         column = fallback.column
         if column is not None:
-            features = _as_rows(pipeline.steps[0][1].transform(X_part))
+            features = _table.as_float_rows(pipeline.steps[0][1].transform(X_part))
             status.temperature_excess[rows] = pipeline.domain_.excess(features)[:, column]
             status.temperature_min[rows] = pipeline.domain_.data_min_[column]
             status.temperature_max[rows] = pipeline.domain_.data_max_[column]
@@ -822,12 +806,12 @@ def per_run_calibration(status, run=None):
     segments = _table.run_segments(run, n_samples)
     table = pd.DataFrame(
         [
-            {"run": _ALL_RUNS if label is None else label, **measures(rows)}
+            {"run": ALL_RUNS if label is None else label, **measures(rows)}
             for label, rows in segments
         ]
     ).set_index("run")
     if run is not None:
-        table.loc[_ALL_RUNS] = measures(np.arange(n_samples))
+        table.loc[ALL_RUNS] = measures(np.arange(n_samples))
     return table.astype({"samples": int, "rows_outside": int})
 
 
@@ -857,7 +841,7 @@ def _add_summary(report, heading, data, table, data_name, bias_window, no_time, 
     overall_after = float(mean_squared_deviation(data.reference, data.compensated))
     report.add_paragraph(
         f"Overall MSD: {overall_before:.3g} before, {overall_after:.3g} after compensation "
-        f"(reduction {table.loc[_ALL_RUNS, 'reduction']:.3g}x)."
+        f"(reduction {table.loc[ALL_RUNS, 'reduction']:.3g}x)."
     )
     if unit_table is not None:
         report.add_table(
@@ -866,61 +850,9 @@ def _add_summary(report, heading, data, table, data_name, bias_window, no_time, 
     report.add_table(table, caption="Per-run MSD and bias stability, before and after.")
 
 
-def _policy_actions(status):
-    """What the ``outside`` policies did to the rows outside, one clause per policy."""
-    outside = status.outside
-    clauses = []
-    pairs = np.column_stack([status.policy[outside], status.fallback[outside]]).astype(str)
-    for policy, fallback in np.unique(pairs, axis=0).tolist():
-        rows = outside & (status.policy == policy) & (status.fallback == fallback)
-        total = int(rows.sum())
-        kept = int((rows & ~status.adjusted).sum())
-        if policy == "none":
-            clauses.append(
-                "the model extrapolated freely, nothing bounding its error (outside='none')"
-            )
-            continue
-        if policy == "clip":
-            clause = (
-                "the model was held at the domain's edge, its prediction at the nearest "
-                "calibrated point (outside='clip')"
-            )
-        else:
-            towards = {
-                "plane": "a line in T and the rate dT fitted on the calibration runs",
-                "line": "a line in T fitted on the calibration",
-                "constant": (
-                    "the calibration's mean drift (a constant: no slope in T extrapolated better)"
-                ),
-            }[fallback]
-            if kept == total:
-                clauses.append(
-                    f"each of these {total} rows kept the model's own prediction: "
-                    f"outside='blend' gives way to its fallback, {towards}, only farther "
-                    "from the calibrated combinations than these rows lie"
-                )
-                continue
-            clause = (
-                f"the model fell back towards {towards}, the farther out the more "
-                "(outside='blend')"
-            )
-        if kept:
-            clause += (
-                f", for {total - kept} of these {total} rows; the other {kept} kept the "
-                "model's own prediction"
-            )
-        clauses.append(clause)
-    return clauses
-
-
-def _number(value):
-    """Three significant digits, without an exponent below 100 000."""
-    return f"{value:.3g}" if abs(value) < 1000 else f"{value:.0f}"
-
-
 def _temperature_clause(table):
     """How far the temperature went beyond the calibrated range (all runs), as a clause."""
-    below, above = table.loc[_ALL_RUNS, ["degC_below", "degC_above"]]
+    below, above = table.loc[ALL_RUNS, ["degC_below", "degC_above"]]
     if np.isnan(below):  # a model without a temperature feature
         return ""
     beyond = []
@@ -965,9 +897,9 @@ def _add_calibration(report, data, status, table):
         f"{n_outside} of {n_samples} rows ({n_outside / n_samples:.1%}), in "
         f"{runs_outside} of {len(data.segments)} run(s), lie outside the model's calibration "
         f"domain (the temperatures, rates and thermal states it was calibrated on"
-        f"{calibrated}), up to {_number(table.loc[_ALL_RUNS, 'max_distance'])} decorrelated "
+        f"{calibrated}), up to {number_text(table.loc[ALL_RUNS, 'max_distance'])} decorrelated "
         f"standard deviations out.{_temperature_clause(table)} There, "
-        f"{'; '.join(_policy_actions(status))}. The figures shade these stretches: their "
+        f"{'; '.join(policy_actions(status))}. The figures shade these stretches: their "
         "compensation is an extrapolation, not a calibrated one; calibrate over the "
         "conditions these runs reach to trust it."
     )
@@ -1020,12 +952,12 @@ def _add_compensation_figures(report, directory, data, max_runs):
 
 def _add_allan_deviation(report, directory, data):
     """Allan deviation of the error of the longest run, before and after; [path] or []."""
-    from sklearn_ifog.metrics import _sample_period, allan_deviation
+    from sklearn_ifog.metrics import allan_deviation
     from sklearn_ifog.plotting import plot_allan_deviation, save_figure
 
     longest = max(data.segments, key=lambda label: data.segments[label].size)
     rows_of_run = data.segments[longest]
-    period, uniform = _sample_period(data.time[rows_of_run])
+    period, uniform = sample_period(data.time[rows_of_run])
     report.add_heading("Allan deviation", level=3)
     if not (uniform and rows_of_run.size >= 16):
         report.add_paragraph(f"Not computed: run {longest} is not uniformly sampled or too short.")

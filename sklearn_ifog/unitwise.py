@@ -904,20 +904,55 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         """The model of ``unit``: its own, or the lot's for a unit not seen in fit."""
         return self.estimators_.get(_label(unit), self.lot_estimator_)
 
-    def _dispatch(self, X_inner, units, method):
-        """``method`` of every unit's model on the unit's rows, row i for input row i."""
+    def unit_models(self, X):
+        """Which fitted model predicts which rows of ``X``.
+
+        The split :meth:`predict` makes: the unit column read and checked, every row given
+        to the model of its unit (its own, or the lot's for a unit the lot predicts). When
+        the lot's model predicts every unit present (``pooling="full"``), it comes once,
+        with every row.
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_columns)
+            With the columns seen in fit.
+
+        Returns
+        -------
+        parts : list of tuple (model, X_part, rows)
+            In order of the sorted units: a fitted model, its rows of ``X`` without the unit
+            column, and their positions in ``X`` (int ndarray).
+
+        Raises
+        ------
+        ValueError
+            If the unit column is missing or holds a unit not seen in fit (named) while
+            ``handle_unknown="error"``.
+        """
+        X_inner, units = self._units_of(X)
+        return self._parts(X_inner, units)
+
+    def _parts(self, X_inner, units):
         present = np.unique(units)
         if self.lot_estimator_ is not None and all(
             self._model_of(unit) is self.lot_estimator_ for unit in present
         ):
             # One model for every unit here ("full"): one call, the lot model's own answer.
-            return np.asarray(getattr(self.lot_estimator_, method)(X_inner))
-        output = None
+            return [(self.lot_estimator_, X_inner, np.arange(units.shape[0]))]
+        parts = []
         for unit in present:
             index = np.flatnonzero(units == unit)
-            part = np.asarray(
-                getattr(self._model_of(unit), method)(_safe_indexing(X_inner, index))
-            )
+            parts.append((self._model_of(unit), _safe_indexing(X_inner, index), index))
+        return parts
+
+    def _dispatch(self, X_inner, units, method):
+        """``method`` of every unit's model on the unit's rows, row i for input row i."""
+        parts = self._parts(X_inner, units)
+        if len(parts) == 1 and parts[0][2].shape[0] == units.shape[0]:
+            return np.asarray(getattr(parts[0][0], method)(parts[0][1]))
+        output = None
+        for model, X_part, index in parts:
+            part = np.asarray(getattr(model, method)(X_part))
             if output is None:
                 output = np.empty((units.shape[0], *part.shape[1:]), dtype=part.dtype)
             output[index] = part

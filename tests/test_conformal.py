@@ -502,3 +502,26 @@ def test_streaming_refuses_adaptation_of_a_conformal_regressor(adapt):
     compensator = StreamingCompensator(model.estimator_, adapt=adapt)
     assert compensator.adapt == adapt
     assert compensator.last_interval is None
+
+
+@pytest.mark.parametrize("adaptive", [True, False])
+def test_bounds_from_predictions_is_predict_interval(adaptive):
+    """The public band from predictions made elsewhere is predict_interval's, bit for bit,
+    and names what it needs when given too little."""
+    X, y, runs = _heteroscedastic(4)
+    model = ConformalRegressor(
+        make_pipeline(StandardScaler(), Ridge()), adaptive=adaptive, coverage=0.8
+    ).fit(X, y, groups=runs)
+    folds = np.stack([fold.predict(X) for fold in model.estimators_])
+    features = model.estimator_[:-1].transform(X)
+    for coverage in (None, 0.95):
+        np.testing.assert_array_equal(
+            model.bounds_from_predictions(model.predict(X), folds, features, coverage=coverage),
+            model.predict_interval(X, coverage=coverage),
+        )
+    shape = rf"\({len(model.estimators_)}, {X.shape[0]}\), got \({len(folds) - 1}, "
+    with pytest.raises(ValueError, match=r"fold_predictions must have shape .*" + shape):
+        model.bounds_from_predictions(model.predict(X), folds[:-1], features)
+    if adaptive:
+        with pytest.raises(ValueError, match="difficulty_features is required"):
+            model.bounds_from_predictions(model.predict(X), folds)

@@ -62,7 +62,7 @@ def _outside_warnings(caught):
 def _without_domain_terms(model, X):
     """The band of the same fitted model without the widening outside the domain."""
     predictions = np.stack([fold.predict(X) for fold in model.estimators_])
-    return model._bounds(model.predict(X), predictions, model._raw_features(X))
+    return model.bounds_from_predictions(model.predict(X), predictions, model._raw_features(X))
 
 
 def _folds(model, X):
@@ -161,7 +161,7 @@ def test_bounds_from_the_fallback_share_are_predict_interval(fitted, warm_cold):
     full = fitted.estimator_
     share = fallback_weight(full.calibration_distance(X_cold), full.domain_.margin)
     raw = fitted._raw_features(X_cold)
-    bounds = fitted._bounds(centre, predictions, raw, fallback_share=share)
+    bounds = fitted.bounds_from_predictions(centre, predictions, raw, fallback_share=share)
     np.testing.assert_array_equal(bounds, expected)
 
 

@@ -707,3 +707,26 @@ def test_a_refit_with_another_pooling_leaves_no_partial_attribute(lot):
             "n_folds_",
         ):
             assert getattr(model, name) is None, name
+
+
+@pytest.mark.parametrize("pooling", ["none", "full"])
+def test_unit_models_is_the_split_predict_makes(lot, pooling):
+    X, y = lot.data, lot.target.to_numpy()
+    model = UnitwiseRegressor(_linear(), pooling=pooling).fit(X, y)
+    # unit 3's rows before unit 1's: parts come in sorted units, rows keep their positions
+    rows = np.concatenate([np.flatnonzero(_unit_rows(lot, unit)) for unit in (3, 1)])
+    parts = model.unit_models(X.iloc[rows])
+    # "full": the lot's model once, with every row; "none": each unit's own, units sorted.
+    expected = (
+        [model.lot_estimator_] if pooling == "full" else [model.estimators_[u] for u in (1, 3)]
+    )
+    assert [part[0] for part in parts] == expected
+    covered = np.sort(np.concatenate([index for _, _, index in parts]))
+    np.testing.assert_array_equal(covered, np.arange(rows.size))
+    prediction = np.empty(rows.size)
+    for unit_model, X_part, index in parts:
+        assert "unit" not in X_part.columns
+        prediction[index] = unit_model.predict(X_part)
+    np.testing.assert_array_equal(prediction, model.predict(X.iloc[rows]))
+    with pytest.raises(ValueError, match=r"unit 42 .*not seen in fit"):
+        model.unit_models(X.assign(unit=42))

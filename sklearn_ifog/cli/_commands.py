@@ -143,15 +143,16 @@ def _calibration_status(model, X, path):
 def _outside_lines(status, runs, run_name, units=None, unit_name=None):
     """One line per run with rows outside the calibration domain, after a heading (a run
     of a lot named with its unit)."""
+    from sklearn_ifog._domain_words import number_text, policy_actions
     from sklearn_ifog._table import run_segments
-    from sklearn_ifog.report import _number, _policy_actions, per_run_calibration
+    from sklearn_ifog.report import per_run_calibration
 
     n_outside = int(status.outside.sum())
     if n_outside == 0:
         return [f"All {status.outside.size} rows lie inside the calibration domain of the model."]
     lines = [
         f"{n_outside} of {status.outside.size} rows lie outside the calibration domain of the "
-        f"model; there {'; '.join(_policy_actions(status))}:"
+        f"model; there {'; '.join(policy_actions(status))}:"
     ]
     table = per_run_calibration(status, runs)
     # per_run_calibration's rows are the runs in run_segments' order, then "(all runs)"
@@ -165,7 +166,7 @@ def _outside_lines(status, runs, run_name, units=None, unit_name=None):
             what = f"{unit_name} {units[rows[0]]}, {what}"
         line = (
             f"  {what}: {run.rows_outside} of {run.samples} rows ({run.outside_share:.1%}) "
-            f"outside, largest distance {_number(run.max_distance)} sd"
+            f"outside, largest distance {number_text(run.max_distance)} sd"
         )
         beyond = []
         if run.degC_below > 0:

@@ -96,5 +96,7 @@ class ConformalBand:
         if distance is not None and getattr(conformal, "fallback_scores_", None) is not None:
             # As ConformalRegressor._fallback_share: the full model's fallback weight.
             share = fallback_weight(distance, margin)
-            return conformal._bounds(centre, predictions, raw, fallback_share=share)
-        return conformal._bounds(centre, predictions, raw)
+            return conformal.bounds_from_predictions(
+                centre, predictions, raw, fallback_share=share
+            )
+        return conformal.bounds_from_predictions(centre, predictions, raw)
