@@ -1,4 +1,4 @@
-"""Run-wise adaptive conformal intervals against MAPIE row-wise and MAPIE by run.
+"""Coverage and width of run-wise adaptive conformal intervals against MAPIE (rows, runs).
 
 Usage (from the repository root)::
 
@@ -12,7 +12,8 @@ methods are calibrated on the fold's training runs only, with the same drift mod
 ``RBFNetRegressor(refine=None, criterion="holdout")`` inside (no refinement and a one-split
 choice of centres and width: about five times cheaper to fit, for speed), at 90 % nominal
 coverage, on campaigns of one unit, four azimuths, three runs each, 300 s samples, for each
-physics preset (lumped, layered, layered_glass) and seeds 0, 1, 2 and 8, 9, 10. A seed draws
+physics preset (lumped, layered, layered_glass) and seeds 0, 1, 2 and 8, 9, 10
+(``_cases.conformal_campaign``, ``_cases.SEEDS["bench_conformal"]``). A seed draws
 the gyro: ConformalRegressor's difficulty model, its reference and ``confidence`` were
 chosen on seeds 0-2 (``benchmarks/conformal_difficulty_check.py``) and the calibration
 domain's margin and blend on seeds 0-7 (``benchmarks/bench_extrapolation.py --tune``), so
@@ -54,15 +55,13 @@ run group (each cold run of the out-of-range split; the worst one is printed, an
 fails), and coverage on rows outside the domain >= coverage - 0.05 (0.85) on every split with
 at least MIN_OUTSIDE_ROWS such rows.
 Results go to ``benchmarks/results/conformal[_quick][_cvruns|_cvheadings].md`` and
-``.json``; exit 1 if a target fails.
+``.json`` (``--out DIR`` elsewhere); exit 1 if a target fails.
 """
 
 import argparse
-import json
 import sys
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 from sklearn.base import clone
@@ -71,10 +70,18 @@ from sklearn.model_selection import GroupKFold, KFold
 
 from sklearn_ifog import ConformalRegressor, RBFNetRegressor, make_compensation_pipeline
 from sklearn_ifog._io import write_text_files
-from sklearn_ifog.datasets import load_psim_tvc, make_thermal_campaign
 from sklearn_ifog.metrics import interval_coverage, mean_interval_width
 from sklearn_ifog.model_selection import LeaveOneAzimuthOut
 
+from _cases import (  # isort: skip
+    CONFORMAL_ELSEWHERE as ELSEWHERE,
+    CONFORMAL_WARM as WARM,
+    PHYSICS,
+    SEEDS,
+    conformal_campaign,
+    conformal_real,
+)
+from _results import add_out_argument, command_line, read_results, write_results  # isort: skip
 from _verdict import target_line  # isort: skip
 
 NOMINAL = 0.9
@@ -83,15 +90,7 @@ OUTSIDE_TOLERANCE = 0.05
 # A split's outside rows enter the target when there are at least this many (half a run of
 # the campaigns' 300-s samples): fewer say little about a coverage.
 MIN_OUTSIDE_ROWS = 30
-# The calibrate-warm / predict-elsewhere splits: calibration campaign, then test campaigns,
-# as keyword arguments of make_thermal_campaign (same unit: the same seed).
-WARM = {"temperature_range": (10.0, 40.0)}
-ELSEWHERE = {
-    "warm->cold": {"temperature_range": (-10.0, 40.0)},
-    "warm->cycle": {"temperature_range": (10.0, 40.0), "profile": "cycle"},
-}
 METHODS = ("ours", "ours_flat", "mapie_rows", "mapie_runs")
-RESULTS = Path(__file__).parent / "results"
 # How ``ours`` splits its calibration runs: GroupKFold(5) (the folds of MAPIE by run, the
 # default here) or, with ``--ours-cv runs``, the estimator's own default (one fold per run).
 OURS_CV = {
@@ -107,8 +106,8 @@ SETTINGS = {"ours_cv": "groupkfold5"}
 # (benchmarks/conformal_difficulty_check.py), the calibration domain's margin and blend on
 # seeds 0-7 (benchmarks/bench_extrapolation.py --tune): seeds 8-10 judge them on gyros none
 # of that saw. Both groups are run and reported apart; every target holds on every campaign.
-CHOSEN_SEEDS = (0, 1, 2)
-HELD_OUT_SEEDS = (8, 9, 10)
+CHOSEN_SEEDS = SEEDS["bench_conformal"]["tuning"]
+HELD_OUT_SEEDS = SEEDS["bench_conformal"]["judged"]
 
 
 def pipeline(**kwargs):
@@ -210,21 +209,8 @@ def evaluate_split(method, X, y, runs, train, test, base, outside):
     )
 
 
-def campaign(physics, seed, quick, **kwargs):
-    bunch = make_thermal_campaign(
-        n_units=1,
-        n_runs=3,
-        azimuths=(0.0, 45.0, 90.0, 135.0),
-        sampling_period=300.0,
-        physics=physics,
-        random_state=seed,
-        **kwargs,
-    )
-    return bunch.data, bunch.target.to_numpy()
-
-
-def run_campaign(physics, seed, methods, quick):
-    X, y = campaign(physics, seed, quick)
+def run_campaign(physics, seed, methods):
+    X, y = conformal_campaign(physics, seed)
     runs = X["run"].to_numpy()
     base = pipeline()
     result = {}
@@ -236,11 +222,11 @@ def run_campaign(physics, seed, methods, quick):
     cold_split = (np.flatnonzero(~cold), np.flatnonzero(cold))
     flags = [outside_flags(base, X.iloc[tr], y[tr], X.iloc[te]) for tr, te in [*folds, cold_split]]
     # Calibrate warm, predict elsewhere: the same unit (seed), other chamber conditions.
-    X_warm, y_warm = campaign(physics, seed, quick, **WARM)
+    X_warm, y_warm = conformal_campaign(physics, seed, **WARM)
     runs_warm = X_warm["run"].to_numpy()
     elsewhere = {}
     for name, kwargs in ELSEWHERE.items():
-        X_other, y_other = campaign(physics, seed, quick, **kwargs)
+        X_other, y_other = conformal_campaign(physics, seed, **kwargs)
         other_flags = outside_flags(base, X_warm, y_warm, X_other)
         elsewhere[name] = (X_other, y_other, X_other["run"].to_numpy(), other_flags)
     for method in methods:
@@ -276,10 +262,7 @@ def run_campaign(physics, seed, methods, quick):
 
 
 def run_real(methods):
-    bunch = load_psim_tvc(drop_spikes=True)
-    X = bunch.data
-    y = bunch.target["gyro_x"].to_numpy()
-    bursts = X["burst"].to_numpy()
+    X, y, bursts = conformal_real("gyro_x")
     block = bursts // 5
     base = pipeline(time=None, run=None, terms=("T",))
     result = {}
@@ -494,7 +477,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one preset, one seed")
     parser.add_argument("--no-mapie", action="store_true", help="only ours")
-    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
+    add_out_argument(parser)
     parser.add_argument(
         "--rewrite",
         action="store_true",
@@ -514,12 +497,12 @@ def main(argv=None):
         stem = ("conformal_quick" if args.quick else "conformal") + (
             "" if args.ours_cv == "groupkfold5" else f"_cv{args.ours_cv}"
         )
-        payload = json.loads((args.out / f"{stem}.json").read_text())
-        elapsed = payload.get("elapsed", float("nan"))
-        text = markdown(payload["results"], payload["failures"], payload["command"], elapsed)
+        record = read_results(args.out / f"{stem}.json")
+        elapsed = record.get("elapsed", float("nan"))
+        text = markdown(record["results"], record["failures"], record["command"], elapsed)
         write_text_files({args.out / f"{stem}.md": text})
         print(text)
-        return 1 if payload["failures"] else 0
+        return 1 if record["failures"] else 0
     # 300-s samples leave too few selection rows for a quadratic tail on some folds; the
     # network says so and falls back to a linear tail (the same for every method).
     warnings.filterwarnings("ignore", message=".*quadratic tail.*")
@@ -530,14 +513,14 @@ def main(argv=None):
         except ImportError:
             print("MAPIE is not installed (pip install 'sklearn-ifog[conformal]').")
             return 2
-    presets = ("lumped",) if args.quick else ("lumped", "layered", "layered_glass")
-    seeds = (0,) if args.quick else CHOSEN_SEEDS + HELD_OUT_SEEDS
+    presets = PHYSICS[:1] if args.quick else PHYSICS
+    seeds = CHOSEN_SEEDS[:1] if args.quick else CHOSEN_SEEDS + HELD_OUT_SEEDS
     start = time.perf_counter()
     results = {}
     for physics in presets:
         for seed in seeds:
             key = f"{physics} seed {seed}"
-            results[key] = run_campaign(physics, seed, methods, args.quick)
+            results[key] = run_campaign(physics, seed, methods)
             row = results[key]["ours"]
             outside = ", ".join(
                 f"{split} {d['outside_coverage']:.3f} ({d['outside_rows']} rows)"
@@ -555,52 +538,51 @@ def main(argv=None):
     failures = check_targets(results)
     run_failures, lowest_run, worst_run = out_of_range_target(results)
     outside_failures, lowest, where = domain_target(results)
-    command = (
-        "python benchmarks/bench_conformal.py"
-        + (" --quick" if args.quick else "")
-        + (" --no-mapie" if args.no_mapie else "")
-        + (f" --ours-cv {args.ours_cv}" if args.ours_cv != "groupkfold5" else "")
-    )
+    command = command_line(__file__, argv)
     all_failures = failures + run_failures + outside_failures
     text = markdown(results, all_failures, command, elapsed)
     stem = ("conformal_quick" if args.quick else "conformal") + (
         "" if args.ours_cv == "groupkfold5" else f"_cv{args.ours_cv}"
     )
-    args.out.mkdir(parents=True, exist_ok=True)
-    payload = {
-        "command": command,
-        "elapsed": elapsed,
-        "results": results,
-        "failures": all_failures,
-    }
-    write_text_files(
-        {
-            args.out / f"{stem}.md": text,
-            args.out / f"{stem}.json": json.dumps(payload, indent=1) + "\n",
-        }
-    )
-    print(text)
-    for failure in failures:
-        print(target_line(False, failure))
+    verdicts = [target_line(False, failure) for failure in failures]
     if not failures:
-        print(
+        verdicts.append(
             target_line(True, "coverage, width and pooled out-of-range targets on every campaign")
         )
-    print(
+    verdicts += [
         target_line(
             not run_failures,
             "ours: out-of-range coverage >= 0.85 on every run group of every campaign "
             f"(worst {lowest_run:.3f}: {worst_run})",
-        )
-    )
-    print(
+        ),
         target_line(
             not outside_failures,
             "ours: coverage on rows outside the calibration domain >= coverage - "
             f"{OUTSIDE_TOLERANCE} ({NOMINAL - OUTSIDE_TOLERANCE:.2f}) on every split with at "
             f"least {MIN_OUTSIDE_ROWS} such rows (lowest {lowest:.3f}: {where})",
-        )
+        ),
+    ]
+    # The record keeps the command and duration beside the envelope's, so that --rewrite
+    # re-renders the Markdown from read_results alone.
+    record = {
+        "command": command,
+        "elapsed": elapsed,
+        "results": results,
+        "failures": all_failures,
+    }
+    write_results(
+        args.out,
+        stem,
+        text,
+        record,
+        script=__file__,
+        command=command,
+        seconds=elapsed,
+        verdicts=verdicts,
     )
+    print(text)
+    for line in verdicts:
+        print(line)
     return 1 if all_failures else 0
 
 

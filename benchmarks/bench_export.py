@@ -1,8 +1,12 @@
 """Deployment speed: compiled C against Python streaming and the batch ``predict``.
 
-One simulated campaign, one fitted Pipeline per model (ThermalFeatures → StandardScaler →
-RBFNetRegressor with 40 Gaussian units and its default tail, and a Ridge baseline),
-measured in one run, on one core:
+Run: ``.venv/bin/python benchmarks/bench_export.py`` (``--quick`` for a smoke run, which CI
+runs; ``--out DIR`` to write elsewhere, ``--output`` being the older spelling). Writes
+``benchmarks/results/bench_export.md`` and ``.json``.
+
+One simulated campaign (``_cases.export_run``), one fitted Pipeline per model
+(ThermalFeatures → StandardScaler → RBFNetRegressor with 40 Gaussian units and its default
+tail, and a Ridge baseline), measured in one run, on one core:
 
 - C: the exported ``{prefix}_step`` (double and float), compiled with ``cc -O2`` in a
   temporary directory and timed inside the driver with ``clock()`` (CPU time), over the same
@@ -16,14 +20,9 @@ Speeds are samples per second (best of ``--repeats``), reported with their ratio
 
 No target is stated for these speeds, so the script prints no verdict and exits 0 when it
 ran (non-zero only when it could not: no C compiler, a compile or run error).
-
-Run: ``.venv/bin/python benchmarks/bench_export.py`` (``--quick`` for a smoke run, which CI
-runs; ``--output DIR`` to write elsewhere). Writes ``benchmarks/results/bench_export.md`` and
-``.json``.
 """
 
 import argparse
-import json
 import os
 import platform
 import shutil
@@ -37,12 +36,11 @@ from sklearn.linear_model import Ridge
 from threadpoolctl import threadpool_limits
 
 from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
-from sklearn_ifog._io import write_text_files
-from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.export import to_c
 from sklearn_ifog.streaming import StreamingCompensator
 
-RESULTS = Path(__file__).parent / "results"
+from _cases import export_run  # isort: skip
+from _results import add_out_argument, command_line, write_results  # isort: skip
 
 # Loops over the samples, calling the streaming step, until at least min_seconds of CPU time
 # have passed; prints "<calls> <seconds> <checksum>" (the checksum keeps the work alive).
@@ -143,9 +141,7 @@ def _c_speed(model, run, precision, directory, min_seconds):
 
 
 def measure(n_samples, repeats, chunk, min_seconds, quick):
-    frame = make_thermal_campaign(n_units=1, n_runs=2, sampling_period=10.0, random_state=0).frame
-    # One long run is what firmware sees: take the first run, cut to n_samples.
-    run = frame[frame["run"] == frame["run"].iloc[0]].iloc[:n_samples]
+    frame, run = export_run(n_samples)
     step_samples = run.iloc[: min(len(run), 300 if quick else 2000)]
     results = []
     with tempfile.TemporaryDirectory() as directory, threadpool_limits(1):
@@ -222,10 +218,11 @@ def main(argv=None):
     parser.add_argument("--chunk", type=int, default=100, help="streaming chunk size")
     parser.add_argument("--min-seconds", type=float, default=0.5, help="C timing duration")
     parser.add_argument("--quick", action="store_true", help="small smoke run")
-    parser.add_argument("--output", type=Path, default=RESULTS, help="results directory")
+    add_out_argument(parser, "--output")
     args = parser.parse_args(argv)
     if shutil.which("cc") is None:
         raise SystemExit("bench_export needs a C compiler ('cc').")
+    start = time.perf_counter()
     if args.quick:
         args.repeats, args.min_seconds = 2, 0.1
     affinity = _pin_to_one_core()
@@ -234,7 +231,7 @@ def main(argv=None):
     )
     compiler = subprocess.run(["cc", "--version"], capture_output=True, text=True, check=True)
     meta = {
-        "command": "python benchmarks/bench_export.py" + (" --quick" if args.quick else ""),
+        "command": command_line(__file__, argv, drop=("--out", "--output")),
         "samples": n_samples,
         "repeats": args.repeats,
         "affinity": affinity,
@@ -242,13 +239,16 @@ def main(argv=None):
         "machine": platform.platform(),
         "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
     }
-    args.output.mkdir(parents=True, exist_ok=True)
     markdown = _markdown(results, meta)
-    write_text_files(
-        {
-            args.output / "bench_export.md": markdown,
-            args.output / "bench_export.json": json.dumps({**meta, "results": results}, indent=1),
-        }
+    # No target, so no verdict lines.
+    write_results(
+        args.out,
+        "bench_export",
+        markdown,
+        {**meta, "results": results},
+        script=__file__,
+        command=meta["command"],
+        seconds=time.perf_counter() - start,
     )
     print(markdown)
 

@@ -1,4 +1,13 @@
-"""Outside the calibration: is the default ever worse than no compensation?
+"""Outside the calibration: whether the default compensation is ever worse than none there.
+
+Run (about 5 min on two cores)::
+
+    python benchmarks/bench_extrapolation.py --n-jobs 2
+
+``--quick`` (CI): one seed, two presets, 120 s samples, the real recording's warm->cold split;
+``--tune``: the sweeps on the tuning seeds. Writes
+``benchmarks/results/extrapolation[_quick|_tune].md`` and ``.json`` (``--out DIR``
+elsewhere). The cases are built in ``_cases.py`` (its ``bench_extrapolation`` section).
 
 A gyro is calibrated in a chamber and then used in conditions the chamber did not show. This
 benchmark calibrates as the reference paper does (heating only) or on part of a recording,
@@ -68,17 +77,9 @@ And an alternative policy measured beside the blend (not a target, not the defau
 network's deviation from the fallback clamped to ``c`` times the half-range it spans on the
 calibration rows (:func:`deviation_clamp`, ``c`` in ``CLAMP_FACTORS``), with each target's
 failures counted for it and for the blend (:func:`clamp_markdown`).
-
-Run (about 5 min on two cores)::
-
-    python benchmarks/bench_extrapolation.py --n-jobs 2
-
-``--quick`` (CI): one seed, two presets, 120 s samples, the real recording's warm->cold split.
-Writes ``benchmarks/results/extrapolation[_quick].md`` and ``.json`` (``--out DIR``).
 """
 
 import argparse
-import json
 import sys
 import time
 import warnings
@@ -91,8 +92,7 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import PolynomialFeatures
 
 from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
-from sklearn_ifog._io import write_text_files
-from sklearn_ifog.datasets import load_psim_tvc, make_thermal_campaign, noise_floor
+from sklearn_ifog.datasets import noise_floor
 from sklearn_ifog.domain import (
     REPEATED_RATIO,
     box_distance,
@@ -103,16 +103,26 @@ from sklearn_ifog.domain import (
 )
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _cases import (
+    EXTRAPOLATION_PROFILES,
+    EXTRAPOLATION_QUICK_PHYSICS,
+    EXTRAPOLATION_REAL_AXES,
+    EXTRAPOLATION_REAL_SPLITS,
+    PHYSICS,
+    SEEDS,
+    extrapolation_calibration,
+    extrapolation_mixed_profiles,
+    extrapolation_operation,
+    extrapolation_shared_profiles,
+    extrapolation_sizes,
+    real_per_second,
+)
+from _results import add_out_argument, command_line, write_results
 from _verdict import exit_code, target_line
 
-RESULTS = Path(__file__).resolve().parent / "results"
-PHYSICS = ("lumped", "layered", "layered_glass")
-JUDGED_SEEDS = (8, 9, 10, 11, 12)
-TUNING_SEEDS = (0, 1, 2, 3, 4, 5, 6, 7)
-OPERATING_PROFILES = ("cycle", "cooling")
-REAL_AXES = ("gyro_x", "gyro_y", "gyro_z")
+JUDGED_SEEDS = SEEDS["bench_extrapolation"]["judged"]
+TUNING_SEEDS = SEEDS["bench_extrapolation"]["tuning"]
 SWEEP_WIDTHS = (1.0, 3.0, 10.0, 30.0)
-SHARED_RAMP_RATE = 1.0  # degC/min, every run of the shared-profile case
 SWEEP_MARGINS = (0.1, 0.5, 1.0, 1.5, 2.0)
 # An alternative policy measured beside the blend (not the default): the network's
 # deviation from the fallback clipped to c times the half-range it spans on the calibration
@@ -274,22 +284,12 @@ def _score(y, predictions, groups):
 
 def simulator_case(physics, seed, sampling_period, n_runs):
     """Case 1: heating-only calibration, cycling and cooling operation; scores per group."""
-    common = dict(
-        n_units=1,
-        n_runs=n_runs,
-        azimuths=(0.0, 90.0),
-        physics=physics,
-        sampling_period=sampling_period,
-        random_state=seed,
-    )
-    calibration = make_thermal_campaign(profile="paper", temperature_range=(10.0, 40.0), **common)
+    calibration = extrapolation_calibration(physics, seed, sampling_period, n_runs)
     X_cal, y_cal = calibration.data, calibration.target.to_numpy()
     evidence = fallback_evidence(X_cal, y_cal)
     record = {}
-    for profile in OPERATING_PROFILES:
-        operation = make_thermal_campaign(
-            profile=profile, temperature_range=(-10.0, 40.0), **common
-        )
+    for profile in EXTRAPOLATION_PROFILES:
+        operation = extrapolation_operation(profile, physics, seed, sampling_period, n_runs)
         X_op, y_op = operation.data, operation.target.to_numpy()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -330,15 +330,7 @@ def shared_profile_case(physics, seed, sampling_period, n_runs):
     with ``outside="none"``, pooled MSD over the noise floor, leave one azimuth out on the
     campaign of ``bench_thermal_state.py`` (``profile="mix"``, drawn ramp rates).
     """
-    X, y = make_thermal_campaign(
-        n_units=1,
-        n_runs=n_runs,
-        physics=physics,
-        ramp_rate=SHARED_RAMP_RATE,
-        sampling_period=sampling_period,
-        random_state=seed,
-        return_X_y=True,
-    )
+    X, y = extrapolation_shared_profiles(physics, seed, sampling_period, n_runs)
     flagged, flagged_inside_t, rows, rows_inside_t = 0, 0, 0, 0
     by_margin = {}
     for azimuth in np.unique(X["azimuth"]):
@@ -356,15 +348,7 @@ def shared_profile_case(physics, seed, sampling_period, n_runs):
             by_margin[margin] = by_margin.get(margin, 0) + int((distance > margin).sum())
         rows += int(held.sum())
         rows_inside_t += int(inside_t.sum())
-    mixed = make_thermal_campaign(
-        n_units=1,
-        n_runs=n_runs,
-        azimuths=(0.0, 90.0, 180.0, 270.0),
-        profile="mix",
-        physics=physics,
-        sampling_period=sampling_period,
-        random_state=seed,
-    )
+    mixed = extrapolation_mixed_profiles(physics, seed, sampling_period, n_runs)
     X, y = mixed.data, mixed.target.to_numpy()
     squared = {"default": 0.0, "default, outside='none'": 0.0}
     floor, outside_rows = 0.0, 0
@@ -392,28 +376,10 @@ def shared_profile_case(physics, seed, sampling_period, n_runs):
     }
 
 
-def real_frame():
-    """The shipped recording averaged to one row per second (one run, a time column)."""
-    frame = load_psim_tvc(drop_spikes=True).frame
-    second = np.floor(frame["time"].to_numpy()).astype(int)
-    frame = frame.assign(second=second)
-    columns = {"time": "mean", "burst": "first", "temperature": "mean"}
-    columns.update({axis: "mean" for axis in REAL_AXES})
-    table = frame.groupby("second", as_index=False).agg(columns)
-    return table.assign(run=0)
-
-
-REAL_SPLITS = {
-    "warm->cold": lambda burst: burst < 12,
-    "cold->warm": lambda burst: burst >= 12,
-    "even->odd bursts": lambda burst: burst % 2 == 0,
-    "odd->even bursts": lambda burst: burst % 2 == 1,
-}
-
-
 def real_case(split, axis):
-    table = real_frame()
-    calibrate = REAL_SPLITS[split](table["burst"].to_numpy())
+    """Case 3: calibrate on the ``split``'s bursts of the recording, compensate the others."""
+    table = real_per_second(EXTRAPOLATION_REAL_AXES)
+    calibrate = EXTRAPOLATION_REAL_SPLITS[split](table["burst"].to_numpy())
     X = table[["run", "time", "temperature"]]
     y = table[axis].to_numpy()
     with warnings.catch_warnings():
@@ -765,15 +731,15 @@ def main(argv=None):
         help="the simulator cases and the sweeps only, on the tuning seeds (default 0 to 7)",
     )
     parser.add_argument("--n-jobs", type=int, default=1)
-    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
+    add_out_argument(parser)
     args = parser.parse_args(argv)
     quick = args.quick
-    seeds = args.seeds or ([8] if quick else list(TUNING_SEEDS if args.tune else JUDGED_SEEDS))
-    physics_list = args.physics or (["lumped", "layered_glass"] if quick else list(PHYSICS))
-    period, n_runs = (120.0, 2) if quick else (60.0, 3)
-    command = "python benchmarks/bench_extrapolation.py " + " ".join(
-        argv if argv is not None else sys.argv[1:]
+    seeds = args.seeds or (
+        list(JUDGED_SEEDS[:1]) if quick else list(TUNING_SEEDS if args.tune else JUDGED_SEEDS)
     )
+    physics_list = args.physics or list(EXTRAPOLATION_QUICK_PHYSICS if quick else PHYSICS)
+    period, n_runs = extrapolation_sizes(quick)
+    command = command_line(__file__, argv)
     started = time.perf_counter()
     cases = [(physics, seed) for physics in physics_list for seed in seeds]
     parallel = Parallel(n_jobs=args.n_jobs)
@@ -793,8 +759,8 @@ def main(argv=None):
     )
     real = {}
     if not args.tune:
-        splits = ["warm->cold"] if quick else list(REAL_SPLITS)
-        axes = ["gyro_x", "gyro_z"] if quick else list(REAL_AXES)
+        splits = ["warm->cold"] if quick else list(EXTRAPOLATION_REAL_SPLITS)
+        axes = ["gyro_x", "gyro_z"] if quick else list(EXTRAPOLATION_REAL_AXES)
         real_cases = [(split, axis) for split in splits for axis in axes]
         real = dict(
             zip(
@@ -805,12 +771,10 @@ def main(argv=None):
         )
     lines, passed = checks(simulated, shared, real)
     seconds = time.perf_counter() - started
-    text = markdown(simulated, shared, real, args.tune, lines, command.strip(), seconds)
+    text = markdown(simulated, shared, real, args.tune, lines, command, seconds)
     print(text)
     name = "extrapolation" + ("_quick" if quick else "") + ("_tune" if args.tune else "")
-    payload = {
-        "command": command.strip(),
-        "seconds": seconds,
+    results = {
         "simulated": {f"{p}|{s}": v for (p, s), v in simulated.items()},
         "shared": {
             f"{p}|{s}": {
@@ -822,14 +786,16 @@ def main(argv=None):
             for (p, s), v in shared.items()
         },
         "real": {f"{split}|{axis}": v for (split, axis), v in real.items()},
-        "verdict": lines,
     }
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_text_files(
-        {
-            args.out / f"{name}.md": text,
-            args.out / f"{name}.json": json.dumps(payload, indent=1),
-        }
+    write_results(
+        args.out,
+        name,
+        text,
+        results,
+        script=__file__,
+        command=command,
+        seconds=seconds,
+        verdicts=lines,
     )
     return 0 if args.tune else exit_code(passed)
 

@@ -1,13 +1,15 @@
-"""Benchmark of RBFNetRegressor against scikit-learn peers (issue 3, item 5).
+"""Fit time, memory, accuracy and predict speed of RBFNetRegressor against scikit-learn peers.
 
-Run from the repository root::
+Issue 3, item 5. Run from the repository root::
 
-    .venv/bin/python benchmarks/bench_rbf.py            # full run, 6 to 12 min
-    .venv/bin/python benchmarks/bench_rbf.py --quick    # CI smoke run, well under a minute
+    python benchmarks/bench_rbf.py            # full run, 6 to 12 min
+    python benchmarks/bench_rbf.py --quick    # CI smoke run, well under a minute
 
 Writes ``benchmarks/results/bench_rbf.md`` (the tables) and ``benchmarks/results/bench_rbf.json``
-(every measurement), each atomically (temporary file in the same directory, then os.replace);
-``--quick`` writes ``bench_rbf_quick.*`` instead (``--output-dir`` to write elsewhere).
+(every measurement) in the one result format of ``benchmarks/_results.py``, both atomically;
+``--quick`` writes ``bench_rbf_quick.*`` instead (``--out DIR``, formerly ``--output-dir``, to
+write elsewhere). The data sets and seeds are ``benchmarks/_cases.py``'s (its ``bench_rbf``
+section and ``SEEDS["bench_rbf"]``).
 
 Verdicts: the targets table (PASS/FAIL; "n/a" when its sizes were not run, which only
 ``--quick`` allows) and, on the thermal folds, one WIN/TIE/LOSS line of the default network
@@ -27,18 +29,19 @@ function):
   [-1, 1]³; N = 1e3, 1e4, 1e5, 1e6 training rows, 1e4 test rows.
 - ``friedman1``: :func:`sklearn.datasets.make_friedman1` with 5 features (noise 1.0);
   N = 1e3, 1e4, 1e5; test targets from the same function with ``noise=0``.
-- ``thermal``: :func:`sklearn_ifog.datasets.make_thermal_campaign` (3 units, 4 azimuths,
-  3 runs each, one sample a minute, the default "layered" physics), seeds 8, 9 and 10
-  (``THERMAL_SEEDS``, one worker each), through ``ThermalFeatures(time="time", run="run")``
-  (its default thermal-state terms); leave-one-azimuth-out within each unit (12 folds a
-  seed); the score is the MSD of the compensated rate,
-  ``mean((rate - prediction - reference)²)`` on the held-out runs. Folds whose held-out runs
-  reach temperatures outside the training runs' range are reported separately. A seed draws
-  the gyros, and none of these was used to choose anything measured here: the network's
-  defaults were chosen on seeds 0-2 (``benchmarks/bench_thermal_state.py``), the calibration
-  domain's margin and blend width on seeds 0-7 (``benchmarks/bench_extrapolation.py
-  --tune``). Per fold, the report gives the number of Gaussian units the default network
-  keeps: with none, the network is its linear tail, i.e. the ``LinearRegression`` peer.
+- ``thermal``: :func:`sklearn_ifog.datasets.make_thermal_campaign` (3 units, 4 azimuths, 3 runs
+  each, one sample a minute, the default "layered" physics), seeds 8, 9 and 10
+  (``SEEDS["bench_rbf"]["judged"]``, one worker each), through
+  ``ThermalFeatures(time="time", run="run")`` (its default thermal-state terms);
+  leave-one-azimuth-out within each unit (12 folds a seed); the score is the MSD of the
+  compensated rate, ``mean((rate - prediction - reference)²)`` on the held-out runs. Folds
+  whose held-out runs reach temperatures outside the training runs' range are reported
+  separately. A seed draws the gyros, and none of these was used to choose anything measured
+  here: the network's defaults were chosen on seeds 0-2 (``benchmarks/bench_thermal_state.py``),
+  the calibration domain's margin and blend width on seeds 0-7
+  (``benchmarks/bench_extrapolation.py --tune``). Per fold, the report gives the number of
+  Gaussian units the default network keeps: with none, the network is its linear tail, i.e.
+  the ``LinearRegression`` peer.
 
 ``--quick``: smooth and friedman1 at N = 1e3 only, without the Gaussian process; thermal on
 one unit of seed 8 with 2 runs per azimuth (4 folds).
@@ -88,34 +91,31 @@ import subprocess
 import sys
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 
+from _cases import (  # isort: skip
+    RBF_PLAN,
+    RBF_QUICK_PLAN,
+    SEEDS,
+    rbf_regression_data,
+    rbf_thermal_campaign,
+)
+from _results import add_out_argument, command_line, read_results, write_results  # isort: skip
 from _verdict import TIE_MARGIN, compare, comparison_line, target_line  # isort: skip
 
-RESULTS_DIR = Path(__file__).resolve().parent / "results"
 GD_LEARNING_RATE = 0.3
 REFINE_MODES = (None, "varpro", "lm", "gd")
-N_TEST = 10_000
 WORKER_TIMEOUT = 420  # seconds per (data set, N) worker
 
-FULL_PLAN = {
-    "smooth": (1_000, 10_000, 100_000, 1_000_000),
-    "friedman1": (1_000, 10_000, 100_000),
-}
-QUICK_PLAN = {
-    "smooth": (1_000,),
-    "friedman1": (1_000,),
-}
 # Seeds of the thermal campaigns, one worker each. A seed of make_thermal_campaign draws the
 # gyros themselves, so a seed something was chosen on would judge it on its own units: the
 # network's defaults were chosen on seeds 0-2 (benchmarks/bench_thermal_state.py) and the
 # pipeline's calibration domain (margin, blend width) on seeds 0-7
 # (benchmarks/bench_extrapolation.py --tune). The thermal targets are scored on neither.
-TUNING_SEEDS = tuple(range(8))
-THERMAL_SEEDS = (8, 9, 10)
-QUICK_THERMAL_SEEDS = (8,)
+TUNING_SEEDS = SEEDS["bench_rbf"]["tuning"]
+THERMAL_SEEDS = SEEDS["bench_rbf"]["judged"]
+QUICK_THERMAL_SEEDS = THERMAL_SEEDS[:1]
 # Largest training size at which each peer runs.
 PEER_LIMITS = {
     "KernelRidge": 10_000,
@@ -178,33 +178,6 @@ def _latency(model, row, calls=1000):
         model.predict(row)
         times[i] = time.perf_counter() - start
     return float(np.median(times))
-
-
-# --------------------------------------------------------------------------------------------
-# Data
-# --------------------------------------------------------------------------------------------
-
-
-def smooth_function(X):
-    return np.sin(3 * X[:, 0]) + X[:, 1] * X[:, 2] + 0.5 * np.cos(2 * X[:, 2])
-
-
-def make_regression_data(name, n, seed=0):
-    rng = np.random.default_rng(seed)
-    if name == "smooth":
-        X = rng.uniform(-1, 1, size=(n + N_TEST, 3))
-        y = smooth_function(X)
-        y_train = y[:n] + 0.05 * rng.normal(size=n)
-        return X[:n], y_train, X[n:], y[n:]
-    if name == "friedman1":
-        from sklearn.datasets import make_friedman1
-
-        X, y = make_friedman1(n_samples=n, n_features=5, noise=1.0, random_state=seed)
-        X_test, y_test = make_friedman1(
-            n_samples=N_TEST, n_features=5, noise=0.0, random_state=seed + 1
-        )
-        return X, y, X_test, y_test
-    raise ValueError(f"unknown data set {name!r}")
 
 
 # --------------------------------------------------------------------------------------------
@@ -352,7 +325,7 @@ def regression_worker(dataset, n, quick):
 
     from sklearn_ifog import RBFNetRegressor
 
-    X, y, X_test, y_test = make_regression_data(dataset, n)
+    X, y, X_test, y_test = rbf_regression_data(dataset, n)
     default_refine = RBFNetRegressor().refine
     # The timing targets sit at 1e5 and 1e6 rows: there, the fit time is the best of two fits
     # (the same seed gives the same model, so only the clock differs).
@@ -406,14 +379,8 @@ def thermal_worker(quick, seed):
     from sklearn.preprocessing import StandardScaler
 
     from sklearn_ifog import RBFNetRegressor, ThermalFeatures, make_compensation_pipeline
-    from sklearn_ifog.datasets import make_thermal_campaign
 
-    campaign = make_thermal_campaign(
-        n_units=1 if quick else 3,
-        n_runs=2 if quick else 3,
-        sampling_period=60.0,
-        random_state=seed,
-    )
+    campaign = rbf_thermal_campaign(seed, quick)
     frame, X_all, y_all = campaign.frame, campaign.data, campaign.target.to_numpy()
     features = ThermalFeatures(temperature="temperature", time="time", run="run")
     default_refine = RBFNetRegressor().refine
@@ -775,12 +742,12 @@ def _fmt(value, digits=3):
     return f"{value:.{digits - 1}e}"
 
 
-def markdown(results, targets, elapsed, args):
+def markdown(results, targets, elapsed, command, threads):
     lines = [
         "# RBFNetRegressor benchmark",
         "",
-        f"Command: `python benchmarks/bench_rbf.py{' --quick' if args.quick else ''}`; "
-        f"BLAS threads per worker: {args.threads}; total wall time {elapsed:.0f} s; "
+        f"Command: `{command}`; "
+        f"BLAS threads per worker: {threads}; total wall time {elapsed:.0f} s; "
         f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}. "
         "Definitions: see the docstring of benchmarks/bench_rbf.py.",
         "",
@@ -974,12 +941,10 @@ def _json_default(value):
 
 
 def main(argv=None):
-    from sklearn_ifog._io import write_text_files
-
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes, about a minute")
     parser.add_argument("--threads", type=int, default=1, help="BLAS threads per worker")
-    parser.add_argument("--output-dir", type=Path, default=RESULTS_DIR)
+    add_out_argument(parser, "--output-dir")
     parser.add_argument(
         "--report-only",
         action="store_true",
@@ -991,13 +956,15 @@ def main(argv=None):
         print(json.dumps(run_worker(json.loads(args.worker)), default=_json_default))
         return 0
     stem = "bench_rbf_quick" if args.quick else "bench_rbf"
-    args.output_dir.mkdir(parents=True, exist_ok=True)
-    raw_path = args.output_dir / f"{stem}.json"
+    raw_path = args.out / f"{stem}.json"
+    # The command that measures: --report-only only rebuilds the report of that command.
+    argv = [a for a in (sys.argv[1:] if argv is None else argv) if a != "--report-only"]
+    command = command_line(__file__, argv, drop=("--out", "--output-dir"))
     if args.report_only:
-        payload = json.loads(raw_path.read_text())
-        results, elapsed = payload["results"], payload["elapsed_s"]
+        record = read_results(raw_path)
+        results, elapsed = record["results"], record["elapsed_s"]
     else:
-        plan = QUICK_PLAN if args.quick else FULL_PLAN
+        plan = RBF_QUICK_PLAN if args.quick else RBF_PLAN
         start = time.perf_counter()
         results = []
         for dataset, sizes in plan.items():
@@ -1011,40 +978,56 @@ def main(argv=None):
             print(f"running thermal seed {seed}", file=sys.stderr)
             results.append(launch(spec, args.threads))
         elapsed = time.perf_counter() - start
-        payload = {"command": sys.argv, "threads": args.threads, "elapsed_s": elapsed}
-        payload["results"] = results
-        # The measurements are saved before any summary is computed from them.
-        write_text_files({raw_path: json.dumps(payload, indent=1, default=_json_default) + "\n"})
+        record = {"threads": args.threads, "elapsed_s": elapsed, "results": results}
+        # The measurements are saved before any summary is computed from them (a failing
+        # summary leaves them for --report-only).
+        write_results(
+            args.out,
+            stem,
+            f"# RBFNetRegressor benchmark\n\nCommand: `{command}` ({elapsed:.0f} s).\n\n"
+            "Measurements saved; the report is not built yet (`--report-only` builds it).\n",
+            record,
+            script=__file__,
+            command=command,
+            seconds=elapsed,
+        )
     targets = evaluate_targets(results)
-    payload["targets"] = targets
-    payload["refine_summary"] = refine_summary(results)
-    payload["refine_verdict"] = refine_verdict(results)
+    record["targets"] = targets
+    record["refine_summary"] = refine_summary(results)
+    record["refine_verdict"] = refine_verdict(results)
     lines = comparisons(results)
-    payload["comparisons"] = lines
-    report = markdown(results, targets, elapsed, args)
+    record["comparisons"] = lines
+    report = markdown(results, targets, elapsed, command, record["threads"])
     report += "\n## Verdicts\n\n" + "".join(f"- {line}\n" for line in lines)
-    write_text_files(
-        {
-            raw_path: json.dumps(payload, indent=1, default=_json_default) + "\n",
-            args.output_dir / f"{stem}.md": report,
-        }
-    )
-    print(report)
-    failed = False
+    verdicts, failed = [], False
     for result in results:
         if "error" in result:
             # A worker that failed or timed out measured nothing: that fails in any mode.
             where = f"seed {result['seed']}" if "seed" in result else f"N={result.get('n')}"
-            print(target_line(False, f"{result['dataset']} {where}: {result['error']}"))
+            verdicts.append(target_line(False, f"{result['dataset']} {where}: {result['error']}"))
             failed = True
     for target in targets:
         if target["ok"] is None:
             # Not measured: only --quick may skip a target's sizes.
             failed |= not args.quick
             continue
-        print(target_line(target["ok"], f"{target['target']} ({_fmt(target['value'], 4)})"))
+        verdicts.append(
+            target_line(target["ok"], f"{target['target']} ({_fmt(target['value'], 4)})")
+        )
         failed |= not target["ok"]
-    for line in lines:
+    verdicts += lines
+    write_results(
+        args.out,
+        stem,
+        report,
+        record,
+        script=__file__,
+        command=command,
+        seconds=elapsed,
+        verdicts=verdicts,
+    )
+    print(report)
+    for line in verdicts:
         print(line)
     return 1 if failed else 0
 

@@ -1,5 +1,13 @@
 """A production line's scale: what a lot of gyros costs to fit, serially and in parallel.
 
+Run (about 3 minutes on two cores)::
+
+    .venv/bin/python benchmarks/bench_scale.py
+
+``--quick`` (CI): 3, 4 and 6 units of 3 runs at 300 s sampling, the same targets (which need
+not hold at that size). Writes ``benchmarks/results/scale[_quick].md`` and ``.json``
+(``--out DIR`` elsewhere). The lots are built in ``_cases.py`` (its ``bench_scale`` section).
+
 Measures ``UnitwiseRegressor`` around the default pipeline
 (``make_compensation_pipeline(RBFNetRegressor(random_state=0))``) on simulated lots of similar
 units (``make_thermal_campaign``, one azimuth, ``--runs`` runs of about 280 rows per unit,
@@ -27,18 +35,9 @@ Targets (issue 26; a FAIL line each, exit 1 when one fails):
 
 The network's own scale (fit and predict at 1e6 rows against its peers) is measured by
 ``rbf_scale_check.py``.
-
-Run (about 3 minutes on two cores)::
-
-    .venv/bin/python benchmarks/bench_scale.py
-
-``--quick`` (CI): 3, 4 and 6 units of 3 runs at 300 s sampling, the same targets (which need
-not hold at that size). Writes ``benchmarks/results/scale[_quick].md`` and ``.json``
-(``--out DIR`` elsewhere).
 """
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -49,32 +48,18 @@ import joblib
 import numpy as np
 
 from sklearn_ifog import RBFNetRegressor, UnitwiseRegressor, make_compensation_pipeline
-from sklearn_ifog._io import write_text_files
-from sklearn_ifog.datasets import make_thermal_campaign
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _cases import scale_lot as lot
+from _cases import scale_sizes
+from _results import add_out_argument, command_line, write_results
 from _verdict import exit_code, target_line
 
-RESULTS = Path(__file__).resolve().parent / "results"
-LOT_SPREAD = 0.2
 PARTIAL_RATIO = 3.0  # "partial" fit <= 3 x "none"
 LARGE_LOT_SECONDS = 300.0  # 100 units with the default pooling
 UNIT_EXPONENT = 1.1  # "none": time ~ units ** exponent
 PARALLEL_RATIO = 0.6  # n_jobs=2 against serial
 DASK_TOLERANCE = 1e-12
-
-
-def lot(n_units, n_runs, sampling_period):
-    """The simulated lot: X, y."""
-    return make_thermal_campaign(
-        n_units=n_units,
-        n_runs=n_runs,
-        azimuths=(0.0,),
-        sampling_period=sampling_period,
-        lot_spread=LOT_SPREAD,
-        random_state=0,
-        return_X_y=True,
-    )
 
 
 def timed_fit(X, y, pooling, n_jobs=None, cpu=None):
@@ -226,21 +211,17 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="CI mode: small lots")
     parser.add_argument("--runs", type=int, default=20, help="runs per unit (full mode)")
-    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
+    add_out_argument(parser)
     args = parser.parse_args(argv)
-    if args.quick:
-        units, n_runs, period = (3, 4, 6), 3, 300.0
-    else:
-        units, n_runs, period = (10, 30, 100), args.runs, 60.0
+    units, n_runs, period = scale_sizes(args.quick, args.runs)
     start = time.perf_counter()
     record = measure(units, n_runs, period)
     seconds = time.perf_counter() - start
     verdicts = checks(record, units)
     lines = [target_line(ok, text) for ok, text in verdicts]
-    command = "python benchmarks/bench_scale.py" + (" --quick" if args.quick else "")
+    command = command_line(__file__, argv)
     stem = "scale_quick" if args.quick else "scale"
-    args.out.mkdir(parents=True, exist_ok=True)
-    payload = {
+    results = {
         "units": units,
         "runs_per_unit": n_runs,
         "sampling_period": period,
@@ -248,11 +229,15 @@ def main(argv=None):
         "none": {str(n): t for n, t in record["none"].items()},
         "checks": [{"pass": bool(ok), "target": text} for ok, text in verdicts],
     }
-    write_text_files(
-        {
-            args.out / f"{stem}.json": json.dumps(payload, indent=1),
-            args.out / f"{stem}.md": markdown(record, units, lines, command, seconds),
-        }
+    write_results(
+        args.out,
+        stem,
+        markdown(record, units, lines, command, seconds),
+        results,
+        script=__file__,
+        command=command,
+        seconds=seconds,
+        verdicts=lines,
     )
     print("\n".join(lines))
     return exit_code(ok for ok, _ in verdicts)

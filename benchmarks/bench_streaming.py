@@ -1,5 +1,9 @@
 """Real time in the field: streaming latency, chunked throughput, C, and online recalibration.
 
+Run: ``python benchmarks/bench_streaming.py`` (5 seeds) or ``--quick`` (3 seeds, fewer
+timing blocks). Writes ``benchmarks/results/bench_streaming[_quick].md`` and ``.json``
+(``--out DIR`` elsewhere; ``--output`` is the older spelling).
+
 Everything is measured in one run, against peers of the same run (issue 13):
 
 1. **Latency.** :meth:`StreamingCompensator.step` on one sample of the default pipeline
@@ -15,7 +19,8 @@ Everything is measured in one run, against peers of the same run (issue 13):
    ``"output"`` (``{prefix}_adapt`` on the samples with a reference, 30 % of them), compiled
    with ``cc -std=c99 -Wall -Wextra -Werror -O2``; time per sample, and the largest
    difference to Python over 10,000 samples relative to the largest drift.
-4. **An aged unit.** Per seed, one simulated unit (60 s samples, "cycle" chamber profile:
+4. **An aged unit.** Per seed, one simulated unit (``_cases.streaming_aged_unit``, the seeds
+   of ``_cases.SEEDS["bench_streaming"]``; 60 s samples, "cycle" chamber profile:
    a calibration programme spans the operating range, low-high-low):
    6 calibration runs of the new unit; then the unit ages
    (:func:`sklearn_ifog.datasets.age_campaign`: bias +0.05 deg/h, thermal sensitivity
@@ -33,13 +38,9 @@ unit, MSD with ``adapt="output"`` <= 0.5 x unadapted and <= 1.3 x refit, on ever
 no ageing, adapted MSD <= 1.05 x unadapted on every seed; C with adaptation equal to Python
 to 1e-11 (relative to the largest drift; the bound of ``tests/test_export.py``).
 ``adapt="bias"`` is reported against the same bounds for information.
-
-Run: ``python benchmarks/bench_streaming.py`` (5 seeds) or ``--quick`` (3 seeds, fewer
-timing blocks). Writes ``benchmarks/results/bench_streaming[_quick].md`` and ``.json``.
 """
 
 import argparse
-import json
 import platform
 import shutil
 import subprocess
@@ -53,20 +54,21 @@ from sklearn.linear_model import LinearRegression
 from threadpoolctl import threadpool_limits
 
 from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
-from sklearn_ifog._io import write_text_files
-from sklearn_ifog.datasets import age_campaign, make_thermal_campaign
 from sklearn_ifog.export import to_c
 from sklearn_ifog.streaming import StreamingCompensator
 
+from _cases import (  # isort: skip
+    SEEDS,
+    STREAMING_BIAS_SHIFT,
+    STREAMING_SENSITIVITY_CHANGE,
+    STREAMING_TEST_RUNS,
+    streaming_aged_unit,
+    streaming_c_samples,
+)
+from _results import add_out_argument, command_line, write_results  # isort: skip
 from _verdict import target_line  # isort: skip
 
-RESULTS = Path(__file__).parent / "results"
-N_CALIBRATION = 6
-N_TEST = 6
-BIAS_SHIFT = 0.05  # deg/h
-SENSITIVITY_CHANGE = 0.2
 FORGETTING = 0.999
-PROFILE = "cycle"
 STRICT = ["-std=c99", "-Wall", "-Wextra", "-Werror"]
 
 # rows: run-start flag, time, has-reference flag, rate, reference, temperature. Mode 0:
@@ -136,35 +138,6 @@ int main(int argc, char **argv)
 """
 
 
-def _campaign(seed, ageing):
-    """The unit's runs: calibration (as new), recalibration and later runs (aged or not).
-
-    ``aged_calibration``: the calibration runs' thermal histories recorded again after the
-    ageing (the same chamber programme, the usual calibration procedure), for the model
-    refitted from scratch.
-    """
-    n_runs = N_CALIBRATION + 1 + N_TEST
-    campaign = make_thermal_campaign(
-        n_units=1, n_runs=n_runs, azimuths=[0.0], profile=PROFILE, random_state=seed
-    )
-    runs = campaign.frame["run"].unique()
-    aged = age_campaign(
-        campaign,
-        bias_shift=BIAS_SHIFT if ageing else 0.0,
-        sensitivity_change=SENSITIVITY_CHANGE if ageing else 0.0,
-    ).frame
-    new = campaign.frame
-    calibration = runs[:N_CALIBRATION]
-    later = runs[N_CALIBRATION:]
-    parts = {
-        "calibration": new[new["run"].isin(calibration)],
-        "aged_calibration": aged[aged["run"].isin(calibration)],
-        "recalibration": aged[aged["run"].isin(later[:1])],
-        "test": aged[aged["run"].isin(later[1:])],
-    }
-    return aged, parts
-
-
 def _model():
     return make_compensation_pipeline(RBFNetRegressor(random_state=0))
 
@@ -190,7 +163,7 @@ def ageing_study(seeds):
     rows = []
     for seed in seeds:
         for ageing in (True, False):
-            _, parts = _campaign(seed, ageing)
+            parts = streaming_aged_unit(seed, ageing)
             model = _fit(parts["calibration"])
             test = parts["test"]
             row = {
@@ -244,7 +217,7 @@ def _stepper(compensator, rows, reference=False):
 
 
 def latency_study(blocks, calls):
-    _, parts = _campaign(0, ageing=False)
+    parts = streaming_aged_unit(0, ageing=False)
     model = _fit(parts["calibration"])
     test = parts["test"]
     rows = test[test["run"] == test["run"].iloc[0]]  # one run: time increases
@@ -291,14 +264,8 @@ def latency_study(blocks, calls):
 
 
 def c_study(model, min_seconds):
-    # 10,000 samples: the first of a campaign of the same unit type sampled every 10 s (the
-    # model's features are in seconds, so it applies at any sample period).
-    frame = make_thermal_campaign(
-        n_units=1, n_runs=8, azimuths=[0.0], sampling_period=10.0, random_state=0
-    ).frame
-    rows = frame.iloc[:10_000]
-    # References on 30 % of the samples, from a fixed draw.
-    has = np.random.default_rng(0).random(len(rows)) < 0.3
+    # 10,000 samples of the same unit type every 10 s, 30 % of them with a reference.
+    rows, has = streaming_c_samples()
     run = rows["run"].to_numpy()
     starts = np.r_[True, run[1:] != run[:-1]]
     data = np.column_stack(
@@ -453,8 +420,9 @@ def _markdown(meta, step_times, chunk_times, c_results, ageing, targets, info):
         lines.append(f"| {mode} | {row['max_relative_difference_to_python']:.2g} |")
     lines += [
         "",
-        f"## Aged unit (bias +{BIAS_SHIFT} deg/h, thermal sensitivity "
-        f"+{SENSITIVITY_CHANGE:.0%}); MSD on {N_TEST} later runs, (deg/h)²",
+        f"## Aged unit (bias +{STREAMING_BIAS_SHIFT} deg/h, thermal sensitivity "
+        f"+{STREAMING_SENSITIVITY_CHANGE:.0%}); MSD on {STREAMING_TEST_RUNS} later runs, "
+        "(deg/h)²",
         "",
         "| seed | ageing | centres | unadapted | refit | bias | output | output/unadapted | "
         "output/refit | bias/unadapted | bias/refit |",
@@ -493,11 +461,13 @@ def _markdown(meta, step_times, chunk_times, c_results, ageing, targets, info):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="3 seeds, fewer timing blocks")
-    parser.add_argument("--output", type=Path, default=RESULTS, help="results directory")
+    add_out_argument(parser, "--output")
     args = parser.parse_args(argv)
     if shutil.which("cc") is None:
         raise SystemExit("bench_streaming needs a C compiler ('cc').")
-    seeds = range(3) if args.quick else range(5)
+    start = time.perf_counter()
+    seeds = SEEDS["bench_streaming"]["judged"]
+    seeds = seeds[:3] if args.quick else seeds
     blocks, calls, min_seconds = (15, 200, 0.2) if args.quick else (41, 500, 1.0)
     model, _, step_times, chunk_times, _, n_centers = latency_study(blocks, calls)
     c_results = c_study(model, min_seconds)
@@ -505,7 +475,7 @@ def main(argv=None):
     targets, info = _targets(step_times, chunk_times, ageing, c_results)
     compiler = subprocess.run(["cc", "--version"], capture_output=True, text=True, check=True)
     meta = {
-        "command": "python benchmarks/bench_streaming.py" + (" --quick" if args.quick else ""),
+        "command": command_line(__file__, argv, drop=("--out", "--output")),
         "machine": platform.platform(),
         "compiler": compiler.stdout.splitlines()[0],
         "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
@@ -516,8 +486,7 @@ def main(argv=None):
     }
     markdown = _markdown(meta, step_times, chunk_times, c_results, ageing, targets, info)
     name = "bench_streaming_quick" if args.quick else "bench_streaming"
-    args.output.mkdir(parents=True, exist_ok=True)
-    payload = {
+    record = {
         **meta,
         "latency_seconds": step_times,
         "throughput_seconds": chunk_times,
@@ -526,20 +495,26 @@ def main(argv=None):
         "targets": targets,
         "information": info,
     }
-    write_text_files(
-        {
-            args.output / f"{name}.md": markdown,
-            args.output / f"{name}.json": json.dumps(payload, indent=1),
-        }
+    verdicts = [
+        target_line(
+            target["pass"],
+            f"{target['target']}: {target['value']:.4g} (bound {target['bound']:g})",
+        )
+        for target in targets
+    ]
+    write_results(
+        args.out,
+        name,
+        markdown,
+        record,
+        script=__file__,
+        command=meta["command"],
+        seconds=time.perf_counter() - start,
+        verdicts=verdicts,
     )
     print(markdown)
-    for target in targets:
-        print(
-            target_line(
-                target["pass"],
-                f"{target['target']}: {target['value']:.4g} (bound {target['bound']:g})",
-            )
-        )
+    for line in verdicts:
+        print(line)
     return 0 if all(target["pass"] for target in targets) else 1
 
 

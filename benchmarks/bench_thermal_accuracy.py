@@ -1,18 +1,24 @@
 """Thermal-drift accuracy: RBFNetRegressor against the usual regressors, leave-one-azimuth-out.
 
-On the simulated campaign (``make_thermal_campaign``), for every unit and every azimuth, the
-models are trained on that unit's runs at the other azimuths and scored on its runs at the
-held-out azimuth, all on the same features (``ThermalFeatures`` → ``StandardScaler``). The
-score is the mean squared deviation of the compensated rate from the reference, i.e. the MSE
-of the predicted drift (measurement noise included). "excess" is the MSE of the predicted drift
-against the simulator's noise-free drift (the part a model can remove; the noise floor is the
-difference). A fold is marked "beyond" when its held-out runs reach a temperature outside the
-range of the training runs. Baselines: ``BASELINES``; the first model is the reference.
-``linear (same features)`` is ``make_compensation_pipeline(LinearRegression())``: the default
-pipeline with a linear model in place of the network, the peer any claim that the network
-wins must beat (with the default features, whose T² and products carry the physics, it is
-a strong one). The table also counts the Gaussian units the default network keeps per fold:
-with none, "the network" is its linear tail.
+Run (a few minutes on two cores; ``--quick`` for CI)::
+
+    .venv/bin/python benchmarks/bench_thermal_accuracy.py
+
+On the simulated campaign (``_cases.thermal_accuracy_campaign``: ``make_thermal_campaign``
+with campaign seed 0, the ``judged`` seed of ``_cases.SEEDS["bench_thermal_accuracy"]``),
+for every unit and every azimuth, the models are trained on that unit's runs at the other
+azimuths and scored on its runs at the held-out azimuth, all on the same features
+(``ThermalFeatures`` → ``StandardScaler``). The score is the mean squared deviation of the
+compensated rate from the reference, i.e. the MSE of the predicted drift (measurement noise
+included). "excess" is the MSE of the predicted drift against the simulator's noise-free
+drift (the part a model can remove; the noise floor is the difference). A fold is marked
+"beyond" when its held-out runs reach a temperature outside the range of the training runs.
+Baselines: ``BASELINES``; the first model is the reference. ``linear (same features)`` is
+``make_compensation_pipeline(LinearRegression())``: the default pipeline with a linear model
+in place of the network, the peer any claim that the network wins must beat (with the
+default features, whose T² and products carry the physics, it is a strong one). The table
+also counts the Gaussian units the default network keeps per fold: with none, "the network"
+is its linear tail.
 
 Verdicts (printed last, and in the Markdown): one WIN/TIE/LOSS line of the reference against
 every other model of the table on the mean MSD over the folds (a tie: within the relative
@@ -20,11 +26,7 @@ margin of ``benchmarks/_verdict.py``), and the target of issue 12 for the simula
 default (lumped) physics: the reference's mean MSD at most ``TARGET_VS_BEST`` times the best
 baseline's (``PASS``/``FAIL``; the script exits 1 when it fails).
 
-Run (a few minutes on two cores)::
-
-    .venv/bin/python benchmarks/bench_thermal_accuracy.py
-
-Writes ``benchmarks/results/thermal_accuracy.md`` and ``thermal_accuracy.json``.
+The full run writes ``benchmarks/results/thermal_accuracy.md`` and ``thermal_accuracy.json``.
 
 ``--refine-modes`` runs the comparison of the four refine modes cited by
 :class:`~sklearn_ifog.RBFNetRegressor`'s Notes instead: ``RBFNetRegressor(refine=...)`` with
@@ -39,10 +41,8 @@ mode: mean MSD WIN/TIE/LOSS and the extra fit time)::
 """
 
 import argparse
-import json
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin, clone
@@ -55,16 +55,14 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
 from sklearn_ifog import RBFNetRegressor, ThermalFeatures, make_compensation_pipeline
-from sklearn_ifog._io import write_text_files
-from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.metrics import mean_squared_deviation
 
+from _cases import SEEDS, thermal_accuracy_campaign  # isort: skip
+from _results import add_out_argument, command_line, write_results  # isort: skip
 from _verdict import comparison_line, exit_code, target_line  # isort: skip
 
-RESULTS = Path(__file__).parent / "results"
 # Issue 12: on the lumped physics, no worse than 1.02x the best baseline.
 TARGET_VS_BEST = 1.02
-QUICK_CAMPAIGN = {"n_units": 1, "n_runs": 2}
 REFINE_MODES = ("varpro", "lm", "gd", None)
 # KernelRidge stores an n x n kernel: it is trained on an evenly strided subsample.
 KERNEL_RIDGE_ROWS = 4000
@@ -146,9 +144,7 @@ def refine_models(seed):
 
 
 def run(seed=0, campaign_seed=0, only=None, quick=False, refine_modes=False):
-    campaign = make_thermal_campaign(
-        random_state=campaign_seed, **(QUICK_CAMPAIGN if quick else {})
-    )
+    campaign = thermal_accuracy_campaign(campaign_seed, quick)
     X, y = campaign.data, np.asarray(campaign.target)
     true_drift = campaign.frame["drift"].to_numpy()
     rows = []
@@ -206,12 +202,12 @@ def _fold_line(row):
     return " | ".join(parts)
 
 
-def markdown(rows, command):
+def markdown(rows, command, seconds):
     names = _names(rows)
     lines = [
         "# Thermal-drift accuracy, leave-one-azimuth-out within each unit",
         "",
-        f"Command: `{command}`",
+        f"Command: `{command}` ({seconds:.0f} s).",
         "",
         "MSD = mean((rate - predicted drift - reference)²), (deg/h)²; * = held-out runs reach "
         "temperatures beyond the training runs'. Bold = best of the row.",
@@ -317,7 +313,12 @@ def verdicts(rows, refine_modes=False):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=0, help="seed of the models")
-    parser.add_argument("--campaign-seed", type=int, default=0, help="seed of the simulator")
+    parser.add_argument(
+        "--campaign-seed",
+        type=int,
+        default=SEEDS["bench_thermal_accuracy"]["judged"][0],
+        help="seed of the simulator (default 0)",
+    )
     parser.add_argument("--only", nargs="*", help="model names to run (default: all)")
     parser.add_argument("--tag", default="", help="suffix of the result file names")
     parser.add_argument(
@@ -326,15 +327,12 @@ def main():
         help="compare the four refine modes (the comparison RBFNetRegressor's Notes cite)",
     )
     parser.add_argument("--quick", action="store_true", help="CI mode: one small unit")
-    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
+    add_out_argument(parser)
     args = parser.parse_args()
+    started = time.perf_counter()
     rows = run(args.seed, args.campaign_seed, args.only, args.quick, args.refine_modes)
-    command = "python benchmarks/bench_thermal_accuracy.py " + " ".join(
-        f"--{k.replace('_', '-')}" + ("" if v is True else f" {v}")
-        for k, v in vars(args).items()
-        if k != "out" and v not in (None, "", False)
-    )
-    args.out.mkdir(parents=True, exist_ok=True)
+    seconds = time.perf_counter() - started
+    command = command_line(__file__)
     stem = (
         "thermal_accuracy"
         + ("_refine" if args.refine_modes else "")
@@ -342,23 +340,28 @@ def main():
         + (f"_{args.tag}" if args.tag else "")
     )
     targets, lines = verdicts(rows, args.refine_modes)
-    text = markdown(rows, command)
+    text = markdown(rows, command, seconds)
     text += "\n## Verdicts\n\n" + "".join(
         f"- {line}\n" for line in [target_line(ok, t) for ok, t in targets] + lines
     )
     payload = {
-        "command": command,
         "folds": rows,
         "targets": [{"pass": bool(ok), "target": t} for ok, t in targets],
         "comparisons": lines,
     }
-    write_text_files(
-        {args.out / f"{stem}.json": json.dumps(payload), args.out / f"{stem}.md": text}
+    verdict_lines = [target_line(ok, target) for ok, target in targets] + lines
+    write_results(
+        args.out,
+        stem,
+        text,
+        payload,
+        script=__file__,
+        command=command,
+        seconds=seconds,
+        verdicts=verdict_lines,
     )
     print(text)
-    for ok, target in targets:
-        print(target_line(ok, target))
-    for line in lines:
+    for line in verdict_lines:
         print(line)
     return exit_code(ok for ok, _ in targets)
 

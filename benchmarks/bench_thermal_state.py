@@ -1,4 +1,8 @@
-"""Thermal state: paper features against thermal-state features, over physics presets.
+"""Thermal state: how much drift models leave on the paper's and on thermal-state features.
+
+Run (about 20-30 min on two cores; ``--quick`` for CI, well under a minute)::
+
+    python benchmarks/bench_thermal_state.py --n-jobs 2
 
 For every seed, physics preset ({lumped, layered, layered_glass}) and sample period, one
 simulated campaign (``make_thermal_campaign``, sizes in the output) is split leave one
@@ -51,27 +55,22 @@ margin of ``benchmarks/_verdict.py``). They are reported, not targets. Besides t
 target 3 the table holds ``RBFNet (quadratic tail)``, the network with the tail it had by
 default before, and ``RBFNet (refine=None)``, the selected network without refinement.
 
-Run (about 20-30 min on two cores)::
-
-    python benchmarks/bench_thermal_state.py --n-jobs 2
-
-The default seeds (0-2) are the campaigns on which the default features (terms, lags,
-smoothing) were chosen; the same run on seeds no default was chosen on writes
+The default seeds (0-2, the ``tuning`` seeds of ``_cases.SEEDS["bench_thermal_state"]``)
+are the campaigns on which the default features (terms, lags, smoothing) were chosen; the
+same run on its ``judged`` seeds, on which no default was chosen, writes
 ``thermal_state_heldout.*``::
 
     python benchmarks/bench_thermal_state.py --seeds 8 9 10 --tag heldout --n-jobs 2
 
-``--quick`` (CI, well under a minute of CPU): one seed, 60 s samples, four models, one run
-per (unit, azimuth). Writes ``benchmarks/results/thermal_state[_quick].md`` and ``.json``
-(``--out DIR`` elsewhere).
+The campaigns are ``_cases.thermal_state_campaign``. ``--quick`` (CI, well under a minute
+of CPU): one seed, 60 s samples, four models, one run per (unit, azimuth). Writes
+``benchmarks/results/thermal_state[_quick].md`` and ``.json`` (``--out DIR`` elsewhere).
 """
 
 import argparse
-import json
 import sys
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 from joblib import Parallel, delayed
@@ -85,18 +84,22 @@ from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
 from sklearn_ifog import RBFNetRegressor, ThermalFeatures, make_compensation_pipeline
-from sklearn_ifog._io import write_text_files
-from sklearn_ifog.datasets import load_psim_tvc, make_thermal_campaign, noise_floor
+from sklearn_ifog.datasets import noise_floor
 from sklearn_ifog.model_selection import LeaveOneAzimuthOut, SubsampledRegressor
 
+import _cases  # isort: skip
+from _cases import (  # isort: skip
+    PHYSICS,
+    SEEDS,
+    THERMAL_STATE_FULL,
+    THERMAL_STATE_QUICK,
+    thermal_state_campaign,
+)
+from _results import add_out_argument, command_line, write_results  # isort: skip
 from _verdict import comparison_line, exit_code, target_line  # isort: skip
 
-RESULTS = Path(__file__).parent / "results"
-PHYSICS = ("lumped", "layered", "layered_glass")
 TARGET_RATIO = {"layered": 1.25, "layered_glass": 3.0}
 STATE_GAIN = 2.0  # thermal residual, paper / state, on "layered"
-FULL = {"n_units": 1, "n_runs": 3, "azimuths": (0.0, 90.0, 180.0, 270.0)}
-QUICK = {"n_units": 1, "n_runs": 1, "azimuths": (0.0, 90.0, 180.0)}
 
 
 def feature_sets(taus, smoothing, terms=None):
@@ -172,18 +175,8 @@ PEER_RATIO = 0.8  # RBFNet's thermal residual over the best peer's, layered pres
 LUMPED_RATIO = 1.02  # the same on "lumped"
 
 
-def _campaign(seed, physics, period, sizes):
-    return make_thermal_campaign(
-        **sizes,
-        profile="mix",
-        sampling_period=period,
-        physics=physics,
-        random_state=seed,
-    )
-
-
 def _evaluate_fold(seed, physics, period, sizes, fold, models, sets_spec):
-    campaign = _campaign(seed, physics, period, sizes)
+    campaign = thermal_state_campaign(seed, physics, period, sizes)
     X, y = campaign.data, np.asarray(campaign.target)
     drift = campaign.frame["drift"].to_numpy()
     train, test = list(LeaveOneAzimuthOut().split(X))[fold]
@@ -240,7 +233,7 @@ def real_recording(models, seed=0):
     white noise of one sample, about 55 deg/h, averages down by sqrt(250)): the mean of the
     squared burst-mean residuals, per axis of ``REAL_AXES``.
     """
-    recording = load_psim_tvc(drop_spikes=True)
+    recording = _cases.real_recording()
     X, Y = recording.data, recording.target
     burst = X["burst"].to_numpy()
     candidates = {**regressors(seed), "linear in T": LinearRegression}
@@ -308,7 +301,7 @@ def run(seeds, physics_list, periods, sizes, models, sets_spec, n_jobs):
     for seed in seeds:
         for physics in physics_list:
             for period in periods:
-                campaign = _campaign(seed, physics, period, sizes)
+                campaign = thermal_state_campaign(seed, physics, period, sizes)
                 n_folds = LeaveOneAzimuthOut().get_n_splits(campaign.data)
                 tasks += [(seed, physics, period, fold) for fold in range(n_folds)]
     print(f"{len(tasks)} folds to fit", file=sys.stderr, flush=True)
@@ -540,7 +533,9 @@ def _check_line(check):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="CI mode: small and fast")
-    parser.add_argument("--seeds", type=int, nargs="+", help="campaign seeds (default 0 1 2)")
+    parser.add_argument(
+        "--seeds", type=int, nargs="+", help="campaign seeds (default: the tuning seeds, 0 1 2)"
+    )
     parser.add_argument("--physics", nargs="+", choices=PHYSICS, help="presets (default all)")
     parser.add_argument("--periods", type=float, nargs="+", help="sample periods, s")
     parser.add_argument("--models", nargs="+", help="model names (default all)")
@@ -573,21 +568,22 @@ def main(argv=None):
     )
     parser.add_argument("--n-jobs", type=int, default=1)
     parser.add_argument("--tag", default="", help="suffix of the result file names")
-    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
+    add_out_argument(parser)
     args = parser.parse_args(argv)
 
     quick = args.quick
-    seeds = args.seeds or ([0] if quick else [0, 1, 2])
+    # The default run is on the seeds the default features were chosen on (the register's
+    # "tuning"); --seeds 8 9 10 --tag heldout judges them on its "judged" seeds.
+    tuning = list(SEEDS["bench_thermal_state"]["tuning"])
+    seeds = args.seeds or (tuning[:1] if quick else tuning)
     physics_list = args.physics or list(PHYSICS)
     periods = args.periods or ([60.0] if quick else [10.0, 60.0])
     models = args.models or (list(QUICK_MODELS) if quick else list(regressors(0)))
     unknown = sorted(set(models) - set(regressors(0)))
     if unknown:
         parser.error(f"unknown model(s) {unknown}; choose from {list(regressors(0))}")
-    sizes = QUICK if quick else FULL
-    command = "python benchmarks/bench_thermal_state.py " + " ".join(
-        arg for arg in (argv if argv is not None else sys.argv[1:])
-    )
+    sizes = THERMAL_STATE_QUICK if quick else THERMAL_STATE_FULL
+    command = command_line(__file__, argv)
     started = time.perf_counter()
     records = run(
         seeds,
@@ -605,7 +601,7 @@ def main(argv=None):
     elapsed = time.perf_counter() - started
     explicit = args.taus is not None or args.state_terms is not None
     state = feature_sets(args.taus, args.smoothing, args.state_terms)["state"]().fit(
-        _campaign(0, "lumped", 60.0, QUICK).data
+        thermal_state_campaign(0, "lumped", 60.0, THERMAL_STATE_QUICK).data
     )
     # The resolved terms and smoothing (fitted attributes when the parameters say "auto").
     terms = list(getattr(state, "terms_", state.terms))
@@ -619,7 +615,7 @@ def main(argv=None):
     header = [
         "# Thermal state: paper features against thermal-state features",
         "",
-        f"Command: `{command.strip()}` ({elapsed / 60:.1f} min, n_jobs={args.n_jobs})",
+        f"Command: `{command}` ({elapsed:.0f} s, n_jobs={args.n_jobs}).",
         "",
         f"Campaigns: make_thermal_campaign(n_units={sizes['n_units']}, "
         f"n_runs={sizes['n_runs']}, azimuths={list(sizes['azimuths'])}, profile='mix', "
@@ -640,9 +636,7 @@ def main(argv=None):
         "is better; the gyro noise is not in it).\n\n" + "".join(f"- {line}\n" for line in lines)
     )
     stem = "thermal_state" + ("_quick" if quick else "") + (f"_{args.tag}" if args.tag else "")
-    args.out.mkdir(parents=True, exist_ok=True)
     payload = {
-        "command": command.strip(),
         "sizes": {
             key: list(value) if isinstance(value, tuple) else value for key, value in sizes.items()
         },
@@ -656,16 +650,19 @@ def main(argv=None):
         "comparisons": lines,
         "folds": records,
     }
-    write_text_files(
-        {
-            args.out / f"{stem}.json": json.dumps(payload, indent=1),
-            args.out / f"{stem}.md": text,
-        }
+    verdicts = [_check_line(check) for check in checks] + lines
+    write_results(
+        args.out,
+        stem,
+        text,
+        payload,
+        script=__file__,
+        command=command,
+        seconds=elapsed,
+        verdicts=verdicts,
     )
     print(text)
-    for check in checks:
-        print(_check_line(check))
-    for line in lines:
+    for line in verdicts:
         print(line)
     return exit_code(check["pass"] for check in checks)
 

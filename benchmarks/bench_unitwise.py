@@ -1,4 +1,14 @@
-"""A production lot: one model per gyro, pooling "none", "full" and "partial".
+"""A production lot: the test error of one model per gyro, pooling "none", "full" and "partial".
+
+Run (the committed results took 1.3 minutes with ``--jobs 2``, which runs the cases in two
+processes, on a shared two-core machine)::
+
+    nice -n 10 .venv/bin/python benchmarks/bench_unitwise.py --jobs 2
+
+``--quick``: one seed, the lumped physics, the linear model only (a minute). Writes
+``benchmarks/results/unitwise.md`` and ``unitwise.json`` (``unitwise_quick.*`` with
+``--quick``; ``--out DIR`` elsewhere). The lots are built in ``_cases.py`` (its
+``bench_unitwise`` section).
 
 A simulated lot of ``N_UNITS`` gyros (``make_thermal_campaign``), each recorded ``N_RUNS`` times
 at one azimuth; every unit is calibrated on its first 1, 2 or 4 runs and tested on its last
@@ -44,24 +54,13 @@ calibrated on its first 0, 1, 2 or 3 runs and tested on its last ``N_TEST``: wit
 the lot's model), with ``"none"`` its own model on those runs alone (none with 0 runs), and
 with ``"full"`` the lot's model at every count. The MSD of that unit's test runs, mean over
 seeds, per physics, lot and model.
-
-Run (the committed results took 1.3 minutes with ``--jobs 2``, which runs the cases in two
-processes, on a shared two-core machine)::
-
-    nice -n 10 .venv/bin/python benchmarks/bench_unitwise.py --jobs 2
-
-``--quick``: one seed, the lumped physics, the linear model only (a minute). Writes
-``benchmarks/results/unitwise.md`` and ``unitwise.json`` (``unitwise_quick.*`` with
-``--quick``).
 """
 
 import argparse
 import copy
-import json
 import sys
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 from joblib import Parallel, delayed
@@ -69,29 +68,35 @@ from sklearn.base import clone
 from sklearn.linear_model import LinearRegression
 
 from sklearn_ifog import RBFNetRegressor, UnitwiseRegressor, make_compensation_pipeline
-from sklearn_ifog._io import write_text_files
-from sklearn_ifog.datasets import make_thermal_campaign, noise_floor
+from sklearn_ifog.datasets import noise_floor
 from sklearn_ifog.unitwise import _final_step
 
+from _cases import (  # isort: skip
+    SEEDS,
+    UNITWISE_CALIBRATION_RUNS as CALIBRATION_RUNS,
+    UNITWISE_LOT_SPREAD as LOT_SPREAD,
+    UNITWISE_LOTS as LOTS,
+    UNITWISE_N_RUNS as N_RUNS,
+    UNITWISE_N_TEST as N_TEST,
+    UNITWISE_N_UNITS as N_UNITS,
+    UNITWISE_PHYSICS,
+    UNITWISE_QUICK_PHYSICS,
+    UNITWISE_SAMPLING_PERIOD as SAMPLING_PERIOD,
+    unitwise_lot,
+)
+from _results import add_out_argument, command_line, write_results  # isort: skip
 from _verdict import compare, comparison_line, target_line  # isort: skip
 
-RESULTS = Path(__file__).parent / "results"
-N_UNITS = 6
-N_RUNS = 6
-N_TEST = 2
-CALIBRATION_RUNS = (1, 2, 4)
-LOT_SPREAD = 0.15
-SAMPLING_PERIOD = 300.0
 POOLINGS = ("none", "full", "partial")
 SKLEGO_SHRINKAGE = ("relative", "equal", "constant")
 # "constant" shrinkage needs its weight of the unit's own model against the lot's.
 SKLEGO_CONSTANT_ALPHA = 0.5
 TOLERANCE = 1.05
-LOTS = {"similar": LOT_SPREAD, "independent": None}
 # The lots OWN_MODEL_SPREAD and the far-unit rule were chosen on (unitwise_selection.py's
 # seed sets, 0-2 and 3-4): the verdict is scored on the seeds after them.
-SELECTION_SEEDS = (0, 1, 2, 3, 4)
-FIRST_SEED = 5
+SELECTION_SEEDS = SEEDS["bench_unitwise"]["tuning"]
+FIRST_SEED = SEEDS["bench_unitwise"]["judged"][0]
+N_SEEDS = len(SEEDS["bench_unitwise"]["judged"])
 
 
 def models(seed, quick):
@@ -156,21 +161,8 @@ def networks(model):
     return max(units), linear
 
 
-def lot_campaign(physics, lot, seed):
-    """The benchmark's lot: N_UNITS units, N_RUNS runs each at one azimuth."""
-    return make_thermal_campaign(
-        n_units=N_UNITS,
-        n_runs=N_RUNS,
-        azimuths=[0.0],
-        sampling_period=SAMPLING_PERIOD,
-        physics=physics,
-        lot_spread=LOTS[lot],
-        random_state=seed,
-    )
-
-
 def run_case(physics, lot, seed, quick):
-    campaign = lot_campaign(physics, lot, seed)
+    campaign = unitwise_lot(physics, lot, seed)
     frame, X, y = campaign.frame, campaign.data, campaign.target.to_numpy()
     runs = {unit: sorted(frame.loc[frame.unit == unit, "run"].unique()) for unit in range(N_UNITS)}
     test_runs = [run for unit in runs for run in runs[unit][-N_TEST:]]
@@ -229,7 +221,7 @@ LOT_CALIBRATION_RUNS = 4
 
 def new_unit_curve(physics, lot, seed, quick):
     """The last unit calibrated on 0-3 runs against the lot of the others (see docstring)."""
-    campaign = lot_campaign(physics, lot, seed)
+    campaign = unitwise_lot(physics, lot, seed)
     frame, X, y = campaign.frame, campaign.data, campaign.target.to_numpy()
     new_unit = N_UNITS - 1
     runs = {u: sorted(frame.loc[frame.unit == u, "run"].unique()) for u in range(N_UNITS)}
@@ -474,7 +466,9 @@ def markdown(summary, checks, command, seeds, elapsed):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one seed, lumped, linear model")
-    parser.add_argument("--seeds", type=int, default=3, help="number of seeds (default 3)")
+    parser.add_argument(
+        "--seeds", type=int, default=N_SEEDS, help=f"number of seeds (default {N_SEEDS})"
+    )
     parser.add_argument(
         "--first-seed",
         type=int,
@@ -485,16 +479,14 @@ def main(argv=None):
     parser.add_argument(
         "--jobs", type=int, default=1, help="parallel processes over the cases (default 1)"
     )
-    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
+    add_out_argument(parser)
     args = parser.parse_args(argv)
     if args.quick:
         seeds = [FIRST_SEED]
     else:
         seeds = list(range(args.first_seed, args.first_seed + args.seeds))
-    physics_presets = ("lumped",) if args.quick else ("lumped", "layered_glass")
-    command = "python benchmarks/bench_unitwise.py" + (" --quick" if args.quick else "")
-    if not args.quick and (args.seeds, args.first_seed) != (3, FIRST_SEED):
-        command += f" --seeds {args.seeds} --first-seed {args.first_seed}"
+    physics_presets = UNITWISE_QUICK_PHYSICS if args.quick else UNITWISE_PHYSICS
+    command = command_line(__file__, argv)
     start = time.perf_counter()
     cases = [(physics, lot, seed) for physics in physics_presets for lot in LOTS for seed in seeds]
 
@@ -518,19 +510,20 @@ def main(argv=None):
     elapsed = time.perf_counter() - start
     text = markdown(summary, checks, command, seeds, elapsed) + "\n" + curve_markdown(curve_rows)
     stem = "unitwise_quick" if args.quick else "unitwise"
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_text_files(
-        {
-            args.out / f"{stem}.json": json.dumps(
-                {"command": command, "rows": rows, "checks": checks, "new_unit": curve_rows},
-                indent=1,
-            ),
-            args.out / f"{stem}.md": text,
-        }
+    verdicts = [_target_text(check) for check in checks]
+    write_results(
+        args.out,
+        stem,
+        text,
+        {"rows": rows, "checks": checks, "new_unit": curve_rows},
+        script=__file__,
+        command=command,
+        seconds=elapsed,
+        verdicts=verdicts,
     )
     print(text)
-    for check in checks:
-        print(_target_text(check))
+    for line in verdicts:
+        print(line)
     return 1 if any(not check["passed"] for check in checks) else 0
 
 

@@ -1,10 +1,16 @@
-"""Which difficulty model for ConformalRegressor, and how close the fold targets can get.
+"""Coverage and width of ConformalRegressor's difficulty models, and how close folds can get.
+
+Run::
+
+    nice -n 10 python benchmarks/conformal_difficulty_check.py           # 3 presets x 5 seeds
+    nice -n 10 python benchmarks/conformal_difficulty_check.py --quick   # lumped, seed 0
 
 A diagnostic behind the choices of :mod:`sklearn_ifog.conformal` (no targets; exits 0 when it
-ran). On the campaigns and held-out folds of ``bench_conformal.py`` (one unit, four
-azimuths, three runs each, 300 s samples; leave one azimuth out; the drift model and
-``cv=GroupKFold(5)`` of that benchmark), the base models are fitted once per split and the
-calibrations below are compared on the same out-of-fold residuals, at 90 % nominal:
+ran). On the campaigns and held-out folds of ``bench_conformal.py``
+(``_cases.conformal_campaign``: one unit, four azimuths, three runs each, 300 s samples;
+leave one azimuth out; the drift model and ``cv=GroupKFold(5)`` of that benchmark), the base
+models are fitted once per split and the calibrations below are compared on the same
+out-of-fold residuals, at 90 % nominal:
 
 - ``flat``: run-wise CV+ on absolute residuals (``adaptive=False``);
 - ``features``: the first adaptive score (issue 14's first build): a ridge model of the
@@ -22,8 +28,9 @@ calibrations below are compared on the same out-of-fold residuals, at 90 % nomin
   in width to bring the last folds to 0.85.
 
 Seeds 0-2 are the ones ``bench_conformal.py`` reports (the calibration was chosen on them);
-seeds 3-4 were not looked at while choosing, and are reported apart. Two diagnostics say what
-limits the fold target:
+seeds 3-4 were not looked at while choosing, and are reported apart
+(``_cases.SEEDS["conformal_difficulty_check"]``). Two diagnostics say what limits the fold
+target:
 
 - ``hindsight``: the narrowest band of constant width, centred on the full model's prediction,
   that brings every held-out fold of a campaign to 0.85 coverage, as a ratio to the oracle
@@ -32,20 +39,14 @@ limits the fold target:
   quantile over the calibration runs') and what a method can see at prediction time (the fold
   models' spread, the distance ratio, the mean \\|dT\\|).
 
-Run::
-
-    nice -n 10 python benchmarks/conformal_difficulty_check.py           # 3 presets x 5 seeds
-    nice -n 10 python benchmarks/conformal_difficulty_check.py --quick   # lumped, seed 0
-
-Writes ``benchmarks/results/conformal_difficulty[_quick].md`` and ``.json``.
+Writes ``benchmarks/results/conformal_difficulty[_quick].md`` and ``.json`` (``--out DIR``
+elsewhere).
 """
 
 import argparse
-import json
 import sys
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 from scipy.stats import spearmanr
@@ -54,7 +55,6 @@ from sklearn.linear_model import Ridge
 from sklearn.model_selection import GroupKFold
 
 from sklearn_ifog import ConformalRegressor
-from sklearn_ifog._io import write_text_files
 from sklearn_ifog.conformal import (
     _EXTRAPOLATION_REFERENCE,
     _fit_difficulty,
@@ -68,11 +68,12 @@ from sklearn_ifog.conformal import (
 )
 from sklearn_ifog.model_selection import LeaveOneAzimuthOut
 
-from bench_conformal import NOMINAL, campaign, pipeline  # isort: skip
+from _cases import PHYSICS, SEEDS, conformal_campaign  # isort: skip
+from _results import add_out_argument, command_line, write_results  # isort: skip
+from bench_conformal import NOMINAL, pipeline  # isort: skip
 
-RESULTS = Path(__file__).parent / "results"
-DEV_SEEDS = (0, 1, 2)
-EXTRA_SEEDS = (3, 4)
+DEV_SEEDS = SEEDS["conformal_difficulty_check"]["tuning"]
+EXTRA_SEEDS = SEEDS["conformal_difficulty_check"]["judged"]
 VARIANTS = (
     "flat",
     "features",
@@ -208,7 +209,7 @@ def check_equal_to_estimator(X, y, runs, train, test, split):
 
 
 def run_campaign(physics, seed, check):
-    X, y = campaign(physics, seed, False)
+    X, y = conformal_campaign(physics, seed)
     runs = X["run"].to_numpy()
     base = pipeline()
     folds = list(LeaveOneAzimuthOut().split(X))
@@ -415,11 +416,11 @@ def markdown(results, command, elapsed):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="lumped, seed 0")
-    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
+    add_out_argument(parser)
     args = parser.parse_args(argv)
     warnings.filterwarnings("ignore", message=".*quadratic tail.*")
-    presets = ("lumped",) if args.quick else ("lumped", "layered", "layered_glass")
-    seeds = (0,) if args.quick else DEV_SEEDS + EXTRA_SEEDS
+    presets = PHYSICS[:1] if args.quick else PHYSICS
+    seeds = DEV_SEEDS[:1] if args.quick else DEV_SEEDS + EXTRA_SEEDS
     start = time.perf_counter()
     results = {}
     for physics in presets:
@@ -428,19 +429,12 @@ def main(argv=None):
             results[key] = run_campaign(physics, seed, check=not results)
             print(f"{key} ({time.perf_counter() - start:.0f} s)", flush=True)
     elapsed = time.perf_counter() - start
-    command = "python benchmarks/conformal_difficulty_check.py" + (
-        " --quick" if args.quick else ""
-    )
+    command = command_line(__file__, argv)
     text = markdown(results, command, elapsed)
     stem = "conformal_difficulty_quick" if args.quick else "conformal_difficulty"
-    args.out.mkdir(parents=True, exist_ok=True)
-    payload = {"command": command, "elapsed": elapsed, "results": results}
-    write_text_files(
-        {
-            args.out / f"{stem}.md": text,
-            args.out / f"{stem}.json": json.dumps(payload, indent=1) + "\n",
-        }
-    )
+    # No targets, so no verdict lines; the record is what this script always wrote.
+    record = {"command": command, "elapsed": elapsed, "results": results}
+    write_results(args.out, stem, text, record, script=__file__, command=command, seconds=elapsed)
     print(text)
     return 0
 

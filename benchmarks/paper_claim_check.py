@@ -1,13 +1,19 @@
-"""Does T·ΔT beat (T, ΔT)? The reference paper's Tables 3-4 claim, over seeds and networks.
+"""The reference paper's claims on the simulator: does T·ΔT beat (T, ΔT), does its recipe work?
+
+Run (about one and a half minutes on two cores; ``--quick`` for CI)::
+
+    .venv/bin/python benchmarks/paper_claim_check.py
 
 The paper reports that its RBF network fed (T, ΔT, T·ΔT) (the "modified" model) beats the
 same network fed (T, ΔT) (the "traditional" one) in every experiment of its Tables 3-4. This
 script repeats :func:`sklearn_ifog.experiments.run_paper_experiments` (each unit trained on
 its five runs at 0°, tested on five runs at 90°, 45° and 135°: 15 test runs) on several
-simulated campaigns, for several regressors, with the simulator's gyro noise and without it
-(``noise=False``: the noise-free drift, so that only model error remains). Per campaign seed
-it records the traditional/modified ratio of the mean MSD, how many of the 15 test runs the
-modified model wins, and the same against the simulator's noise-free drift ("truth").
+simulated campaigns (``_cases.paper_claim_campaign``, seeds 0-7: the ``judged`` seeds of
+``_cases.SEEDS["paper_claim_check"]``, on which nothing was chosen), for several regressors,
+with the simulator's gyro noise and without it (``noise=False``: the noise-free drift, so
+that only model error remains). Per campaign seed it records the traditional/modified ratio
+of the mean MSD, how many of the 15 test runs the modified model wins, and the same against
+the simulator's noise-free drift ("truth").
 
 A second table explains the result with the simulator's hidden truth: linear models of the
 static-bias-plus-Shupe form ``[T, T², ΔT]`` with and without ``T·ΔT``, once on the coil's true
@@ -19,56 +25,77 @@ A third table trains the default network on the paper's *error set* (``target="e
 each run's output minus its own mean) and records, per seed, the raw/modified cut of the
 mean-removed MSD (the numbers ``tests/test_paper_experiments.py`` cites).
 
-Targets (exit 1 when one fails; each must hold on every seed):
+A second part, on every run, applies the paper's own recipe to the simulator's default
+campaign (``_cases.paper_recipe_campaign``, seed 0, full size whatever ``--quick``,
+``--physics`` or ``--seeds`` say): per unit, trained on the runs at one azimuth and tested on
+the runs at another (0° -> 90°, 45° -> 135°), with hand-computed per-sample features (T, the
+per-sample ΔT, T·ΔT; ΔT also from the temperature EMA-smoothed over 6 samples). It records
+the raw and compensated MSD of several models ("vs drift": the prediction's MSD against the
+noise-free true drift, the model error without the noise floor).
+
+Targets (exit 1 when one fails; 1-3 must hold on every seed, 4-5 are the recipe part's, with
+the paper's per-sample ΔT, smoothing 0):
 
 1. the default RBF network (with gyro noise) cuts the mean MSD at least ``RAW_CUT``-fold
    against the raw output with the modified features (the paper: more than tenfold);
 2. the linear thermal model (with gyro noise): the modified features WIN against the
    traditional ones (mean MSD lower by more than the tie margin of ``_verdict.py``) and on
    more than half of the 15 test runs;
-3. error set, default RBF network: the mean-removed MSD cut at least ``ERROR_SET_CUT``-fold.
+3. error set, default RBF network: the mean-removed MSD cut at least ``ERROR_SET_CUT``-fold;
+4. the paper's recipe, the linear model on (T, ΔT, T·ΔT) cuts the MSD more than
+   ``RAW_CUT``-fold (median over the cases of raw / compensated MSD);
+5. the paper's recipe, the linear model on (T, ΔT, T·ΔT) WINs against the same model on
+   (T, ΔT): mean MSD lower by more than the tie margin.
 
 The comparison lines (WIN/TIE/LOSS of modified against traditional, mean MSD pooled over the
 seeds) report the paper's claim for every regressor, whatever it is; they are not targets.
+The recipe part adds one for every model of it on (T, ΔT, T·ΔT) against the same model on
+(T, ΔT), for each smoothing.
 
-Run (about four minutes on two cores)::
-
-    .venv/bin/python benchmarks/paper_claim_check.py
-
-Writes ``benchmarks/results/paper_claim.md`` and ``paper_claim.json``. ``--quick`` (CI):
-campaign seed 0 only, two runs per (unit, azimuth) instead of five, the default network and
-the linear model, with gyro noise; writes ``paper_claim_quick.*``. ``--out DIR`` writes elsewhere.
-``--physics NAME`` simulates that preset instead of the simulator's default (``"layered"``);
-``tests/test_paper_experiments.py`` cites ``--physics lumped --tag lumped``.
+The full run writes ``benchmarks/results/paper_claim.md`` and ``paper_claim.json``.
+``--quick`` (CI): campaign seed 0 only, two runs per (unit, azimuth) instead of five, the
+default network and the linear model, with gyro noise, and the recipe part on unit 0 with
+smoothing 0 only; writes ``paper_claim_quick.*``.
+``--out DIR`` writes elsewhere. ``--physics NAME`` simulates that preset instead of the
+simulator's default (``"layered"``); ``tests/test_paper_experiments.py`` cites
+``--physics lumped --tag lumped``.
 """
 
 import argparse
-import json
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 from joblib import Parallel, delayed
+from scipy.signal import lfilter
+from sklearn.compose import ColumnTransformer
 from sklearn.exceptions import ConvergenceWarning
-from sklearn.linear_model import LinearRegression
+from sklearn.kernel_approximation import Nystroem
+from sklearn.linear_model import LinearRegression, Ridge
+from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
 from sklearn_ifog import RBFNetRegressor, ThermalFeatures
-from sklearn_ifog._io import write_text_files
-from sklearn_ifog.datasets import make_thermal_campaign
-from sklearn_ifog.datasets._simulator import PHYSICS
 from sklearn_ifog.experiments import run_paper_experiments
 
+from _cases import PHYSICS, SEEDS, paper_claim_campaign, paper_recipe_campaign  # isort: skip
+from _results import add_out_argument, command_line, write_results  # isort: skip
 from _verdict import compare, comparison_line, exit_code, target_line  # isort: skip
 
-RESULTS = Path(__file__).parent / "results"
 RAW_CUT = 10.0
 ERROR_SET_CUT = 5.0
 DEFAULT = "RBF default"
 LINEAR = "linear thermal model"
 QUICK_REGRESSORS = (DEFAULT, LINEAR)
-# --quick: two runs per (unit, azimuth) instead of five, so 6 test runs instead of 15.
-QUICK_SIZES = {"n_runs": 2}
+# The recipe part: each model on (T, ΔT, T·ΔT) against the same model on (T, ΔT) (the first
+# pair gives target 5), the (train, test) azimuths of every unit, the EMA smoothings of ΔT.
+RECIPE_PAIRS = (
+    ("linear (T,dT,TdT)", "linear (T,dT)"),
+    ("poly3 (T,dT,TdT)", "poly3 (T,dT) [has T*dT cross]"),
+    ("gaussian-rbf (T,dT,TdT)", "gaussian-rbf (T,dT)"),
+)
+RECIPE_SPLITS = ((0.0, 90.0), (45.0, 135.0))
+RECIPE_SMOOTHINGS = (0.0, 6.0)
 
 
 def regressors():
@@ -87,11 +114,14 @@ def regressors():
     }
 
 
-def one_campaign(name, regressor, seed, noise, target="reference", sizes=None):
-    """Per-run MSDs of one (regressor, campaign seed, noise, training target) combination."""
+def one_campaign(name, regressor, seed, noise, target="reference", case=None):
+    """Per-run MSDs of one (regressor, campaign seed, noise, training target) combination.
+
+    ``case``: ``paper_claim_campaign``'s ``quick`` and ``physics``.
+    """
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
-        campaign = make_thermal_campaign(noise=noise, random_state=seed, **(sizes or {}))
+        campaign = paper_claim_campaign(seed, noise=noise, **(case or {}))
         result = run_paper_experiments(campaign, regressor=regressor, target=target)
     frame = campaign.frame
     runs = result.runs
@@ -123,11 +153,11 @@ def _design(temperature, rate, product):
     return np.column_stack(columns)
 
 
-def why_table(seeds, sizes=None):
+def why_table(seeds, case=None):
     """Held-out error of [T, T², ΔT] (± T·ΔT) linear models, true coil state vs sensor."""
     rows = []
     for seed in seeds:
-        campaign = make_thermal_campaign(noise=False, random_state=seed, **(sizes or {}))
+        campaign = paper_claim_campaign(seed, noise=False, **(case or {}))
         frame, components = campaign.frame, campaign.components
         sensor = ThermalFeatures(
             temperature="temperature", time="time", run="run", terms=("T", "dT")
@@ -271,7 +301,160 @@ def verdicts(summary, error_set):
     return checks, lines
 
 
-def markdown(summary, why, error_set, checks, lines_vs, command, seconds):
+def recipe_features(frame, smoothing):
+    """The paper's hand-computed features per sample, ``[T, ΔT, T·ΔT]``, run by run.
+
+    ΔT is the difference of consecutive samples of the temperature smoothed by an EMA over
+    ``smoothing`` samples (weight ``1 / (1 + smoothing)``; 0: the raw temperature, as the
+    paper does), 0 at a run's first sample; T·ΔT uses the unsmoothed T.
+    """
+    out = []
+    for _, run in frame.groupby("run", sort=False):
+        T = run["temperature"].to_numpy()
+        a = 1.0 / (1.0 + smoothing)
+        s, _ = lfilter([a], [1.0, a - 1.0], T[1:], zi=[(1.0 - a) * T[0]])
+        s = np.concatenate(([T[0]], s))
+        dT = np.diff(s, prepend=s[0])
+        out.append(np.column_stack([T, dT, T * dT]))
+    return np.vstack(out)
+
+
+def recipe_models():
+    """The recipe part's models by name, as (feature columns of ``recipe_features``, model)."""
+    poly = lambda: make_pipeline(  # noqa: E731
+        StandardScaler(), PolynomialFeatures(3), Ridge(alpha=1e-3)
+    )
+    additive = make_pipeline(
+        StandardScaler(),
+        ColumnTransformer(
+            [
+                ("T", PolynomialFeatures(3, include_bias=False), [0]),
+                ("dT", PolynomialFeatures(3, include_bias=False), [1]),
+            ]
+        ),
+        Ridge(alpha=1e-3),
+    )
+    rbf = lambda: make_pipeline(  # noqa: E731
+        StandardScaler(), Nystroem(gamma=0.5, n_components=100, random_state=0), Ridge(1e-3)
+    )
+    return {
+        "linear (T,dT)": ([0, 1], LinearRegression()),
+        "linear (T,dT,TdT)": ([0, 1, 2], LinearRegression()),
+        "additive poly3 g(T)+h(dT)": ([0, 1], additive),
+        "poly3 (T,dT) [has T*dT cross]": ([0, 1], poly()),
+        "poly3 (T,dT,TdT)": ([0, 1, 2], poly()),
+        "gaussian-rbf (T,dT)": ([0, 1], rbf()),
+        "gaussian-rbf (T,dT,TdT)": ([0, 1, 2], rbf()),
+    }
+
+
+def paper_recipe(quick):
+    """The recipe part: per-case MSDs, targets 4-5 and the comparison lines, as a record.
+
+    On ``paper_recipe_campaign`` with seed 0, per unit and ``RECIPE_SPLITS`` pair: every
+    ``recipe_models`` model (and the true drift, the oracle) fitted on the train azimuth's
+    runs of the output minus the reference, its MSD on the test azimuth's runs. ``quick``:
+    unit 0 and smoothing 0 only.
+    """
+    seed = SEEDS["paper_claim_check"]["judged"][0]
+    frame = paper_recipe_campaign(seed).frame
+    y_all = (frame["rate"] - frame["reference"]).to_numpy()
+    drift = frame["drift"].to_numpy()
+    units = sorted(frame["unit"].unique())[: 1 if quick else None]
+    checks, comparisons = [], []
+    record = {"seed": seed, "n_rows": len(frame), "units": units, "smoothings": []}
+    for smoothing in RECIPE_SMOOTHINGS[:1] if quick else RECIPE_SMOOTHINGS:
+        X_all = recipe_features(frame, smoothing)
+        results, errors, raws, cases = {}, {}, [], []
+        for unit in units:
+            for train_az, test_az in RECIPE_SPLITS:
+                cases.append({"unit": unit, "train_azimuth": train_az, "test_azimuth": test_az})
+                train = ((frame["unit"] == unit) & (frame["azimuth"] == train_az)).to_numpy()
+                test = ((frame["unit"] == unit) & (frame["azimuth"] == test_az)).to_numpy()
+                raws.append(np.mean(y_all[test] ** 2))
+                predictions = {"oracle (true drift)": drift[test]}
+                for name, (cols, model) in recipe_models().items():
+                    model.fit(X_all[train][:, cols], y_all[train])
+                    predictions[name] = model.predict(X_all[test][:, cols])
+                for name, pred in predictions.items():
+                    results.setdefault(name, []).append(np.mean((y_all[test] - pred) ** 2))
+                    errors.setdefault(name, []).append(np.mean((drift[test] - pred) ** 2))
+        record["smoothings"].append(
+            {
+                "smoothing": smoothing,
+                "cases": cases,
+                "raw_msd": raws,
+                "msd": results,
+                "msd_vs_drift": errors,
+            }
+        )
+        first = len(comparisons)
+        for modified, traditional in RECIPE_PAIRS:
+            comparisons.append(
+                comparison_line(
+                    modified,
+                    traditional,
+                    float(np.mean(results[modified])),
+                    float(np.mean(results[traditional])),
+                    f"paper's recipe, mean MSD, smoothing {smoothing:g}",
+                )
+            )
+        if smoothing == 0.0:
+            name, other = RECIPE_PAIRS[0]
+            cut = float(np.median(np.array(raws) / np.array(results[name])))
+            checks.append(
+                (
+                    cut > RAW_CUT,
+                    f"paper's recipe, {name}: median raw/compensated MSD {cut:.1f} > {RAW_CUT:g}",
+                )
+            )
+            outcome = comparisons[first].split(":")[0]
+            checks.append(
+                (
+                    outcome == "WIN",
+                    f"paper's recipe, {name} WINs against {other}: {comparisons[first]}",
+                )
+            )
+    record["checks"] = [{"pass": bool(ok), "target": target} for ok, target in checks]
+    record["comparisons"] = comparisons
+    return record, checks, comparisons
+
+
+def recipe_markdown(record):
+    """The recipe part's section: its MSD table per smoothing and model."""
+    n_cases = len(record["smoothings"][0]["cases"])
+    lines = [
+        "",
+        "## The paper's recipe on the simulator's default campaign",
+        "",
+        f"`make_thermal_campaign(random_state={record['seed']})` ({record['n_rows']} rows: "
+        "3 units, 5 runs at each of 0°, 45°, 90°, 135°), per unit: trained on its runs at "
+        "one azimuth, tested on its runs at another (0° -> 90°, 45° -> 135°; "
+        f"{n_cases} cases, unit(s) {', '.join(map(str, record['units']))}), on the paper's "
+        "hand-computed per-sample features T, ΔT, T·ΔT (ΔT from the temperature "
+        "EMA-smoothed over *smoothing* samples; 0: the paper's own ΔT). MSD of the output "
+        "minus the reference in (deg/h)², mean over the cases; *min* and *median ratio*: "
+        "raw / compensated MSD over the cases; *vs drift*: the prediction's MSD against the "
+        "noise-free drift (the model error without the noise floor); the oracle predicts "
+        "the true drift (the noise floor).",
+        "",
+        "| smoothing | model | MSD | min ratio | median ratio | vs drift |",
+        "|---|---|---|---|---|---|",
+    ]
+    for block in record["smoothings"]:
+        raw = np.array(block["raw_msd"])
+        smoothing = f"{block['smoothing']:g}"
+        lines.append(f"| {smoothing} | raw (no compensation) | {raw.mean():.2e} | | | |")
+        for name, values in block["msd"].items():
+            ratio = raw / np.array(values)
+            lines.append(
+                f"| {smoothing} | {name} | {np.mean(values):.2e} | {ratio.min():.1f} | "
+                f"{np.median(ratio):.1f} | {np.mean(block['msd_vs_drift'][name]):.2e} |"
+            )
+    return lines
+
+
+def markdown(summary, why, error_set, recipe, verdict_lines, command, seconds):
     lines = [
         "# The paper's claim: modified (T, ΔT, T·ΔT) against traditional (T, ΔT)",
         "",
@@ -330,18 +513,20 @@ def markdown(summary, why, error_set, checks, lines_vs, command, seconds):
             "|---|---|---|",
         ]
         lines += [f"| {e['seed']} | {e['raw_cut']:.2f} | {e['ratio']:.2f} |" for e in error_set]
+    lines += recipe_markdown(recipe)
     lines += ["", "## Verdicts", ""]
-    lines += [f"- {target_line(ok, text)}" for ok, text in checks]
-    lines += [f"- {line}" for line in lines_vs]
+    lines += [f"- {line}" for line in verdict_lines]
     return "\n".join(lines) + "\n"
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, help="campaign seeds 0..N-1 (default 8; quick 1)")
+    parser.add_argument(
+        "--seeds", type=int, help="campaign seeds 0..N-1 (default: the judged seeds 0-7; quick 0)"
+    )
     parser.add_argument("--n-jobs", type=int, default=2)
     parser.add_argument("--quick", action="store_true", help="CI mode: seed 0, two models")
-    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
+    add_out_argument(parser)
     parser.add_argument(
         "--regressors", nargs="+", choices=list(regressors()), help="subset (default all)"
     )
@@ -355,8 +540,8 @@ def main(argv=None):
         help="simulator physics (default: make_thermal_campaign's default)",
     )
     args = parser.parse_args(argv)
-    n_seeds = args.seeds or (1 if args.quick else 8)
-    seeds = range(n_seeds)
+    judged = SEEDS["paper_claim_check"]["judged"]
+    seeds = range(args.seeds) if args.seeds else (judged[:1] if args.quick else judged)
     chosen = {
         name: regressor
         for name, regressor in regressors().items()
@@ -364,63 +549,60 @@ def main(argv=None):
         or (args.quick and not args.regressors and name in QUICK_REGRESSORS)
     }
     noises = (True,) if args.quick or args.noise_only else (True, False)
-    sizes = dict(QUICK_SIZES if args.quick else {})
-    if args.physics:
-        sizes["physics"] = args.physics
+    case = {"quick": args.quick, "physics": args.physics}
     start = time.perf_counter()
     jobs = [
-        delayed(one_campaign)(name, regressor, seed, noise, sizes=sizes)
+        delayed(one_campaign)(name, regressor, seed, noise, case=case)
         for name, regressor in chosen.items()
         for noise in noises
         for seed in seeds
     ]
     jobs += [
-        delayed(one_campaign)(DEFAULT, chosen[DEFAULT], seed, True, "error_set", sizes)
+        delayed(one_campaign)(DEFAULT, chosen[DEFAULT], seed, True, "error_set", case)
         for seed in seeds
         if DEFAULT in chosen
     ]
     records = Parallel(n_jobs=args.n_jobs, verbose=5)(jobs)
-    why = why_table(seeds, sizes)
+    why = why_table(seeds, case)
+    recipe, recipe_checks, recipe_lines = paper_recipe(args.quick)
     seconds = time.perf_counter() - start
-    command = "python benchmarks/paper_claim_check.py" + (
-        " --quick" if args.quick else f" --seeds {n_seeds}"
-    )
-    if args.regressors:
-        command += " --regressors " + " ".join(f"'{name}'" for name in args.regressors)
-    if args.noise_only:
-        command += " --noise-only"
-    if args.physics:
-        command += f" --physics {args.physics}"
-    if args.tag:
-        command += f" --tag {args.tag}"
+    # --n-jobs changes no number: left out of the command, as before.
+    command = command_line(__file__, argv, drop=("--out", "--n-jobs"))
     summary = summarise(records)
     error_set = error_set_summary(records)
     checks, lines_vs = verdicts(summary, error_set)
-    text = markdown(summary, why, error_set, checks, lines_vs, command, seconds)
-    args.out.mkdir(parents=True, exist_ok=True)
+    # Both parts' targets first, then both parts' comparisons.
+    verdict_lines = (
+        [target_line(ok, target) for ok, target in checks + recipe_checks]
+        + lines_vs
+        + recipe_lines
+    )
+    text = markdown(summary, why, error_set, recipe, verdict_lines, command, seconds)
     payload = {
-        "command": command,
         "summary": summary,
         "error_set": error_set,
         "checks": [{"pass": bool(ok), "target": t} for ok, t in checks],
         "records": records,
         "why": why,
+        "paper_recipe_on_the_default_campaign": recipe,
     }
     stem = ("paper_claim_quick" if args.quick else "paper_claim") + (
         f"_{args.tag}" if args.tag else ""
     )
-    write_text_files(
-        {
-            args.out / f"{stem}.json": json.dumps(payload, indent=1) + "\n",
-            args.out / f"{stem}.md": text,
-        }
+    write_results(
+        args.out,
+        stem,
+        text,
+        payload,
+        script=__file__,
+        command=command,
+        seconds=seconds,
+        verdicts=verdict_lines,
     )
     print(text)
-    for ok, target in checks:
-        print(target_line(ok, target))
-    for line in lines_vs:
+    for line in verdict_lines:
         print(line)
-    return exit_code(ok for ok, _ in checks)
+    return exit_code(ok for ok, _ in checks + recipe_checks)
 
 
 if __name__ == "__main__":

@@ -1,5 +1,10 @@
 """Whole runs held out inside RBFNetRegressor: ``fit(X, y, groups=runs)`` against row blocks.
 
+Run::
+
+    python benchmarks/rbf_run_folds_check.py --n-jobs 2          # about 4 min on two cores
+    python benchmarks/rbf_run_folds_check.py --quick              # one seed, 60 s, 2 folds
+
 Issue 12 lists "more, shorter folds by run rather than by row blocks when runs are given"
 among the changes worth measuring. ``RBFNetRegressor.fit`` takes ``groups``: its
 cross-validation folds then hold out whole runs (one per fold, up to 10) and the
@@ -9,34 +14,31 @@ guard in both (a refined network is kept only when it beats the OLS network on t
 held-out rows by more than one standard error), in three settings:
 
 - **thermal-state folds**: the campaigns and folds of ``bench_thermal_state.py`` (one unit,
-  four azimuths, three runs each; leave one azimuth out; the default ThermalFeatures ->
-  StandardScaler -> regressor), RBFNetRegressor with and without the training runs as
-  ``groups``, and a linear Ridge(1e-3) on the same features (the network's own linear
-  tail, alone). Each number is the pooled excess ``sum(MSD - floor) / sum(floor)`` over the
-  folds of a campaign, as a ratio to Ridge's; "units" counts the folds whose network keeps
-  a Gaussian unit.
+  four azimuths, three runs each, ``thermal_state_campaign``; seeds 0-2, the ones the
+  network's defaults were chosen on, ``SEEDS["rbf_run_folds_check"]``; leave one azimuth
+  out; the default ThermalFeatures -> StandardScaler -> regressor), RBFNetRegressor with
+  and without the training runs as ``groups``, and a linear Ridge(1e-3) on the same
+  features (the network's own linear tail, alone). Each number is the pooled excess
+  ``sum(MSD - floor) / sum(floor)`` over the folds of a campaign, as a ratio to Ridge's;
+  "units" counts the folds whose network keeps a Gaussian unit.
 - **refinement on held-out runs**: the campaigns of ``tests/test_refine_holdout.py``
-  (azimuths 0 and 180 train, 90 tests; two runs each, 60 s; ten fixed units), the held-out
+  (azimuths 0 and 180 train, 90 tests; two runs each, 60 s; ten fixed units;
+  ``rbf_refine_split`` and ``RBF_REFINE_CASES`` in ``benchmarks/_cases.py``), the held-out
   MSD of each refinement mode over that of the unrefined network, with and without groups,
   and how often the guard rejected the refinement.
 - **real recording**: ``load_psim_tvc``'s alternate bursts (as in ``bench_thermal_state``),
   burst-mean MSD with and without the training bursts as groups.
 
-No targets: a diagnostic (exits 0 when it ran). Run::
-
-    python benchmarks/rbf_run_folds_check.py --n-jobs 2          # about 4 min on two cores
-    python benchmarks/rbf_run_folds_check.py --quick              # one seed, 60 s, 2 folds
-
-Writes ``benchmarks/results/rbf_run_folds[_quick].md`` and ``.json``.
+No targets: a diagnostic (exits 0 when it ran). Writes
+``benchmarks/results/rbf_run_folds[_quick].md`` and ``.json`` (the one result format of
+``benchmarks/_results.py``; ``--out DIR`` writes elsewhere).
 """
 
 import argparse
-import json
 import sys
 import time
 import warnings
 from collections import defaultdict
-from pathlib import Path
 
 import numpy as np
 from joblib import Parallel, delayed
@@ -45,16 +47,23 @@ from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 
 from sklearn_ifog import RBFNetRegressor, ThermalFeatures, make_compensation_pipeline
-from sklearn_ifog._io import write_text_files
-from sklearn_ifog.datasets import load_psim_tvc, make_thermal_campaign, noise_floor
+from sklearn_ifog.datasets import noise_floor
 from sklearn_ifog.model_selection import LeaveOneAzimuthOut
 
-RESULTS = Path(__file__).parent / "results"
-PHYSICS = ("lumped", "layered", "layered_glass")
-FULL = {"n_units": 1, "n_runs": 3, "azimuths": (0.0, 90.0, 180.0, 270.0)}
+from _cases import (  # isort: skip
+    PHYSICS,
+    RBF_REFINE_CASES,
+    SEEDS,
+    real_recording,
+    thermal_state_campaign,
+)
+
+# tests/test_refine_holdout.py and tests/test_rbf_groups.py import it from here.
+from _cases import rbf_refine_split as refine_split  # isort: skip
+from _results import add_out_argument, command_line, write_results  # isort: skip
+
 MODELS = ("RBFNet", "RBFNet (run groups)", "Ridge")
 REFINE_MODES = ("varpro", "lm", "gd")
-REFINE_CASES = [(physics, seed) for physics in ("lumped", "layered") for seed in range(5)]
 REAL_AXES = ("gyro_x", "gyro_y")
 
 
@@ -65,9 +74,7 @@ def _quiet_fit(model, X, y, **params):
 
 
 def thermal_fold(seed, physics, period, fold):
-    campaign = make_thermal_campaign(
-        **FULL, profile="mix", sampling_period=period, physics=physics, random_state=seed
-    )
+    campaign = thermal_state_campaign(seed, physics, period)
     X, y = campaign.data, np.asarray(campaign.target)
     train, test = list(LeaveOneAzimuthOut().split(X))[fold]
     floor = noise_floor(campaign.frame, test)
@@ -88,25 +95,6 @@ def thermal_fold(seed, physics, period, fold):
         units = int(regressor.centers_.shape[0]) if hasattr(regressor, "centers_") else 0
         record[name] = {"msd": msd, "units": units}
     return record
-
-
-def refine_split(physics, seed):
-    """One refinement case: (X_train, y_train, X_test, y_test), azimuth 90 held out.
-
-    ``tests/test_refine_holdout.py`` imports it, so that its expected losses are the ones
-    this script measures.
-    """
-    campaign = make_thermal_campaign(
-        n_units=1,
-        n_runs=2,
-        azimuths=(0.0, 90.0, 180.0),
-        sampling_period=60.0,
-        physics=physics,
-        random_state=seed,
-    )
-    X, y = campaign.data, np.asarray(campaign.target)
-    test = (X["azimuth"] == 90.0).to_numpy()
-    return X[~test], y[~test], X[test], y[test]
 
 
 def refine_case(physics, seed):
@@ -130,8 +118,8 @@ def refine_case(physics, seed):
     return record
 
 
-def real_recording(axes):
-    recording = load_psim_tvc(drop_spikes=True)
+def real_scores(axes):
+    recording = real_recording()
     X, Y = recording.data, recording.target
     burst = X["burst"].to_numpy()
     scores = {}
@@ -276,15 +264,16 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one seed, 60 s, two folds")
     parser.add_argument("--n-jobs", type=int, default=1)
-    parser.add_argument("--out", type=Path, default=RESULTS)
+    add_out_argument(parser)
     args = parser.parse_args(argv)
     start = time.perf_counter()
+    seeds = SEEDS["rbf_run_folds_check"]["tuning"]
     if args.quick:
-        seeds, periods, physics, n_folds = (0,), (60.0,), ("lumped", "layered_glass"), 2
-        cases, axes = REFINE_CASES[:1], REAL_AXES[:1]
+        seeds, periods, physics, n_folds = seeds[:1], (60.0,), ("lumped", "layered_glass"), 2
+        cases, axes = RBF_REFINE_CASES[:1], REAL_AXES[:1]
     else:
-        seeds, periods, physics, n_folds = (0, 1, 2), (10.0, 60.0), PHYSICS, 4
-        cases, axes = REFINE_CASES, REAL_AXES
+        periods, physics, n_folds = (10.0, 60.0), PHYSICS, 4
+        cases, axes = RBF_REFINE_CASES, REAL_AXES
     jobs = [
         delayed(thermal_fold)(seed, name, period, fold)
         for name in physics
@@ -299,23 +288,13 @@ def main(argv=None):
         "thermal": thermal_summary(done[: len(done) - len(cases)]),
         "thermal_folds": done[: len(done) - len(cases)],
         "refine": done[len(done) - len(cases) :],
-        "real": real_recording(axes),
+        "real": real_scores(axes),
     }
     elapsed = time.perf_counter() - start
-    command = (
-        "python benchmarks/rbf_run_folds_check.py"
-        + (" --quick" if args.quick else "")
-        + (f" --n-jobs {args.n_jobs}" if args.n_jobs != 1 else "")
-    )
+    command = command_line(__file__, argv)
     stem = "rbf_run_folds_quick" if args.quick else "rbf_run_folds"
     text = markdown(result, command, elapsed)
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_text_files(
-        {
-            args.out / f"{stem}.md": text,
-            args.out / f"{stem}.json": json.dumps(result, indent=1) + "\n",
-        }
-    )
+    write_results(args.out, stem, text, result, script=__file__, command=command, seconds=elapsed)
     print(text)
     return 0
 

@@ -1,8 +1,12 @@
 """Scale check of RBFNetRegressor's defaults: fit time, peak memory, predict latency.
 
+Run (about two minutes on two cores)::
+
+    python benchmarks/rbf_scale_check.py
+
 Each fit runs in its own process, so its peak resident memory is its own. Data: the smooth
 function of issue 3 (``y = sin 3x0 + x1 x2 + 0.5 cos 2x2 + noise 0.05``, x uniform in
-``[-1, 1]^3``).
+``[-1, 1]^3``; ``rbf_scale_smooth`` in ``benchmarks/_cases.py``).
 
 Targets (issue 26, "production scale"; PASS/FAIL lines printed last, exit 1 when one
 fails): RBF fit time at 1e5 rows at most half MLP(20)'s; RBF test MSE at 1e5 at most 0.3x
@@ -12,11 +16,8 @@ bare-numpy floor; one-row predict at most a one-row ``LinearRegression.predict``
 of five rounds, each timing the two in turn, so both see the same load); peak resident memory
 of the RBF fit at 1e6 rows at most 500 MB.
 
-Run (about two minutes on two cores)::
-
-    .venv/bin/python benchmarks/rbf_scale_check.py
-
-Writes ``benchmarks/results/rbf_scale.md`` and ``rbf_scale.json``. ``--quick`` (CI): every
+Writes ``benchmarks/results/rbf_scale.md`` and ``rbf_scale.json`` (the one result format of
+``benchmarks/_results.py``). ``--quick`` (CI): every
 size divided by 100 (1e3 and 1e4 rows, a 1e4-row batch), the same targets (which need not
 hold at those sizes), ``rbf_scale_quick.*``; ``--out DIR`` writes elsewhere.
 """
@@ -29,13 +30,19 @@ import sys
 import time
 import timeit
 import warnings
-from pathlib import Path
 
 import numpy as np
 
+from _cases import (  # isort: skip
+    RBF_SCALE_QUICK_SIZES,
+    RBF_SCALE_SIZES,
+    RBF_SCALE_TEST_ROWS,
+    rbf_scale_batch,
+    rbf_scale_smooth,
+)
+from _results import add_out_argument, command_line, write_results  # isort: skip
 from _verdict import exit_code, target_line  # isort: skip
 
-RESULTS = Path(__file__).parent / "results"
 # (ratio name, threshold, what it is): the targets, all "at most".
 TARGETS = (
     ("fit_1e5_vs_mlp", 0.5, "RBF fit time / MLP(20) fit time at the middle size"),
@@ -49,13 +56,6 @@ TARGETS = (
 # Rounds of the one-row timing (each times RBF then LinearRegression), and calls per round.
 SINGLE_ROW_ROUNDS = 5
 SINGLE_ROW_CALLS = 2000
-
-
-def smooth(n, seed):
-    rng = np.random.default_rng(seed)
-    X = rng.uniform(-1, 1, size=(n, 3))
-    f = np.sin(3 * X[:, 0]) + X[:, 1] * X[:, 2] + 0.5 * np.cos(2 * X[:, 2])
-    return X, f + 0.05 * rng.normal(size=n), f
 
 
 def make_model(name):
@@ -75,7 +75,7 @@ def make_model(name):
 
 def fit_once(name, n_samples):
     """One fit in this process: time, peak memory, test MSE against the noise-free f."""
-    X, y, _ = smooth(n_samples, 0)
+    X, y, _ = rbf_scale_smooth(n_samples, 0)
     model = make_model(name)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -83,7 +83,7 @@ def fit_once(name, n_samples):
         model.fit(X, y)
         fit_s = time.perf_counter() - start
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    X_test, _, f_test = smooth(20000, 1)
+    X_test, _, f_test = rbf_scale_smooth(RBF_SCALE_TEST_ROWS, 1)
     mse = float(np.mean((model.predict(X_test) - f_test) ** 2))
     return {"model": name, "n": n_samples, "fit_s": fit_s, "peak_MB": peak_mb, "mse": mse}
 
@@ -95,7 +95,7 @@ def predict_timings(batch_rows=1_000_000):
     from sklearn_ifog import RBFNetRegressor
     from sklearn_ifog.rbf._basis import tail_features
 
-    X, y, _ = smooth(20000, 0)
+    X, y, _ = rbf_scale_smooth(RBF_SCALE_TEST_ROWS, 0)
     rbf = RBFNetRegressor(random_state=0).fit(X, y)
     linear = LinearRegression().fit(X, y)
     row = X[:1].copy()
@@ -110,7 +110,7 @@ def predict_timings(batch_rows=1_000_000):
         rbf_rows.append(timeit.timeit(lambda: rbf.predict(row), number=SINGLE_ROW_CALLS))
         linear_rows.append(timeit.timeit(lambda: linear.predict(row), number=SINGLE_ROW_CALLS))
     rbf_rows, linear_rows = np.array(rbf_rows), np.array(linear_rows)
-    batch = np.random.default_rng(2).uniform(-1, 1, size=(batch_rows, 3))
+    batch = rbf_scale_batch(batch_rows)
     Z = (batch - rbf.x_mean_) / rbf.x_scale_
     inv_var = 1.0 / np.square(rbf.widths_)
     centers = rbf.centers_
@@ -144,9 +144,11 @@ def main(argv=None):
         return 0
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="CI mode: sizes / 100")
-    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
+    add_out_argument(parser)
     args = parser.parse_args(argv)
-    middle, large = (1e3, 1e4) if args.quick else (1e5, 1e6)
+    command = command_line(__file__, argv)
+    started = time.perf_counter()
+    middle, large = RBF_SCALE_QUICK_SIZES if args.quick else RBF_SCALE_SIZES
     fits = []
     for name, n_samples in [
         ("RBFNet (default)", middle),
@@ -183,9 +185,8 @@ def main(argv=None):
     lines = [
         "# RBFNetRegressor scale check",
         "",
-        "Command: `.venv/bin/python benchmarks/rbf_scale_check.py"
-        + (" --quick`" if args.quick else "`")
-        + f" (sizes {middle:.0e} and {large:.0e} rows; ratio names keep the full run's sizes)",
+        f"Command: `{command}` (sizes {middle:.0e} and {large:.0e} rows; ratio names keep the "
+        "full run's sizes)",
         "",
         "| model | rows | fit s | peak MB | test MSE |",
         "|---|---|---|---|---|",
@@ -196,26 +197,28 @@ def main(argv=None):
     ]
     lines += ["", "| measure | value |", "|---|---|"]
     lines += [f"| {k} | {v:.3g} |" for k, v in measures.items()]
-    lines += ["", "## Targets", ""] + [f"- {target_line(ok, text)}" for ok, text in checks]
-    args.out.mkdir(parents=True, exist_ok=True)
+    verdicts = [target_line(ok, text) for ok, text in checks]
+    lines += ["", "## Targets", ""] + [f"- {line}" for line in verdicts]
     payload = {
         "fits": fits,
         "predict": timings,
         "ratios": ratios,
         "checks": [{"pass": ok, "target": text} for ok, text in checks],
     }
-    from sklearn_ifog._io import write_text_files
-
     stem = "rbf_scale_quick" if args.quick else "rbf_scale"
-    write_text_files(
-        {
-            args.out / f"{stem}.json": json.dumps(payload, indent=1),
-            args.out / f"{stem}.md": "\n".join(lines) + "\n",
-        }
+    write_results(
+        args.out,
+        stem,
+        "\n".join(lines) + "\n",
+        payload,
+        script=__file__,
+        command=command,
+        seconds=time.perf_counter() - started,
+        verdicts=verdicts,
     )
     print("\n".join(lines))
-    for ok, text in checks:
-        print(target_line(ok, text))
+    for line in verdicts:
+        print(line)
     return exit_code(ok for ok, _ in checks)
 
 

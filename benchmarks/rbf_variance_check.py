@@ -1,9 +1,15 @@
 """Where the held-out excess of the thermal-state models comes from: bias or variance.
 
+Run::
+
+    python benchmarks/rbf_variance_check.py --n-jobs 2
+    python benchmarks/rbf_variance_check.py --quick        # one seed, 60 s, two presets
+
 Issue 12 asks the default RBF network to leave at most 0.8x the excess (MSD over the noise
 floor) of the best baseline on the thermal-state features. Before changing the network,
 this diagnostic measures what limits every model there, on the campaigns and folds of
-``bench_thermal_state.py`` (leave one azimuth out; features
+``bench_thermal_state.py`` (``thermal_state_campaign`` of ``benchmarks/_cases.py``, seeds
+0-2 as ``SEEDS["rbf_variance_check"]``; leave one azimuth out; features
 ``ThermalFeatures(time="time", run="run")``, the package default):
 
 - **representation**: a polynomial of degree 1, 2 or 3 in the features, fitted to the
@@ -21,23 +27,18 @@ the estimation residual says the excess is estimation variance (fitting slowly v
 gyro noise through slowly varying features), which a better-regularised output layer
 removes, not a more flexible one. No targets: a diagnostic (always exits 0 when it ran).
 
-Run::
-
-    python benchmarks/rbf_variance_check.py --n-jobs 2
-
 ``--rbf`` adds RBFNetRegressor(refine=None) with a free tail (``tail_alpha=0``, the
 default) and with ``tail_alpha="auto"``, fitted and scored the same way (slow: about 15 min
 on two cores). ``--quick``: one seed, 60 s samples, the lumped and layered presets.
-Writes ``benchmarks/results/rbf_variance[_quick].md`` and ``.json``.
+Writes ``benchmarks/results/rbf_variance[_quick][_rbf].md`` and ``.json`` (the one result
+format of ``benchmarks/_results.py``; ``--out DIR`` writes elsewhere).
 """
 
 import argparse
 import itertools
-import json
 import sys
 import time
 from collections import Counter
-from pathlib import Path
 
 import numpy as np
 from joblib import Parallel, delayed
@@ -46,13 +47,12 @@ from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
 from sklearn_ifog import RBFNetRegressor, ThermalFeatures
-from sklearn_ifog._io import write_text_files
-from sklearn_ifog.datasets import make_thermal_campaign, noise_floor
+from sklearn_ifog.datasets import noise_floor
 from sklearn_ifog.model_selection import LeaveOneAzimuthOut
 
-RESULTS = Path(__file__).parent / "results"
-PHYSICS = ("lumped", "layered", "layered_glass")
-FULL = {"n_units": 1, "n_runs": 3, "azimuths": (0.0, 90.0, 180.0, 270.0)}
+from _cases import PHYSICS, SEEDS, thermal_state_campaign  # isort: skip
+from _results import add_out_argument, command_line, write_results  # isort: skip
+
 RIDGE_ALPHAS = (1e-3, 1.0, 10.0, 100.0, 1000.0)
 
 
@@ -68,13 +68,7 @@ def polynomial(degree, alpha):
 
 
 def _campaign_rows(seed, physics, period, with_rbf=False):
-    campaign = make_thermal_campaign(
-        **FULL,
-        profile="mix",
-        sampling_period=period,
-        physics=physics,
-        random_state=seed,
-    )
+    campaign = thermal_state_campaign(seed, physics, period)
     X, y = campaign.data, np.asarray(campaign.target)
     drift = campaign.frame["drift"].to_numpy()
     rows = []
@@ -185,12 +179,13 @@ def main(argv=None):
     parser.add_argument("--quick", action="store_true", help="CI mode: small and fast")
     parser.add_argument("--rbf", action="store_true", help="add the RBF network's rows")
     parser.add_argument("--n-jobs", type=int, default=1)
-    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
+    add_out_argument(parser)
     args = parser.parse_args(argv)
+    seeds = SEEDS["rbf_variance_check"]["tuning"]
     if args.quick:
-        tasks = list(itertools.product([0], ("lumped", "layered"), [60.0]))
+        tasks = list(itertools.product(seeds[:1], ("lumped", "layered"), [60.0]))
     else:
-        tasks = list(itertools.product([0, 1, 2], PHYSICS, [10.0, 60.0]))
+        tasks = list(itertools.product(seeds, PHYSICS, [10.0, 60.0]))
     started = time.perf_counter()
     chunks = Parallel(n_jobs=args.n_jobs)(
         delayed(_campaign_rows)(*task, args.rbf) for task in tasks
@@ -204,18 +199,17 @@ def main(argv=None):
             key = f"{record['physics']}|{record['period']:g}"
             networks.setdefault((key, name), []).append(entry)
     networks = dict(sorted(networks.items()))
-    flags = [flag for flag, on in (("--quick", args.quick), ("--rbf", args.rbf)) if on]
-    command = " ".join(["python benchmarks/rbf_variance_check.py", *flags])
+    command = command_line(__file__, argv)
     text = markdown(summary, command, seconds, networks)
     stem = "rbf_variance" + ("_quick" if args.quick else "") + ("_rbf" if args.rbf else "")
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_text_files(
-        {
-            args.out / f"{stem}.md": text,
-            args.out / f"{stem}.json": json.dumps(
-                {"command": command, "summary": summary, "records": records}, indent=1
-            ),
-        }
+    write_results(
+        args.out,
+        stem,
+        text,
+        {"summary": summary, "records": records},
+        script=__file__,
+        command=command,
+        seconds=seconds,
     )
     print(text)
     return 0

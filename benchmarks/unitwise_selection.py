@@ -1,4 +1,12 @@
-"""How UnitwiseRegressor(pooling="partial") chooses: the selection rules measured.
+"""How UnitwiseRegressor(pooling="partial") chooses: the test error of each selection rule.
+
+Run (about a minute on two cores)::
+
+    nice -n 10 python benchmarks/unitwise_selection.py --jobs 2
+
+``--quick``: one seed, the lumped physics, the linear model. Writes
+``benchmarks/results/unitwise_selection[_quick].md`` and ``.json`` (``--out DIR``
+elsewhere). The lots are ``bench_unitwise.py``'s (``_cases.unitwise_lot``).
 
 On the lots of ``bench_unitwise.py`` (same simulator settings, same calibration and test
 runs, the linear pipeline and the RBF network with a linear tail), every unit's candidates
@@ -49,29 +57,19 @@ chosen) and seeds 3-4 (headed "held-out seeds") separately. A diagnostic: no tar
 when it ran. Both seed sets were read when ``OWN_MODEL_SPREAD`` and the far-unit rule were
 chosen here, so neither is held out for them: ``bench_unitwise.py`` scores them on seeds 5-7
 (its ``SELECTION_SEEDS`` are these 0-4).
-
-Run (about a minute on two cores)::
-
-    nice -n 10 python benchmarks/unitwise_selection.py --jobs 2
-
-``--quick``: one seed, the lumped physics, the linear model. Writes
-``benchmarks/results/unitwise_selection[_quick].md`` and ``.json``.
 """
 
 import argparse
-import json
 import sys
 import time
 import warnings
 from collections import defaultdict
-from pathlib import Path
 
 import numpy as np
 from joblib import Parallel, delayed
 from sklearn.base import clone
 
 from sklearn_ifog import _shrinkage
-from sklearn_ifog._io import write_text_files
 from sklearn_ifog.unitwise import (
     OWN_MODEL_SPREAD,
     _final_step,
@@ -81,19 +79,24 @@ from sklearn_ifog.unitwise import (
     layer_weights,
 )
 
-from bench_unitwise import (  # isort: skip
-    CALIBRATION_RUNS,
-    LOTS,
-    N_TEST,
-    N_UNITS,
-    TOLERANCE,
-    lot_campaign,
-    models,
+from _cases import (  # isort: skip
+    SEEDS,
+    UNITWISE_CALIBRATION_RUNS as CALIBRATION_RUNS,
+    UNITWISE_LOTS as LOTS,
+    UNITWISE_N_TEST as N_TEST,
+    UNITWISE_N_UNITS as N_UNITS,
+    UNITWISE_PHYSICS,
+    UNITWISE_QUICK_PHYSICS,
+    unitwise_lot,
 )
+from _results import add_out_argument, command_line, write_results  # isort: skip
+from bench_unitwise import TOLERANCE, models  # isort: skip
 
-RESULTS = Path(__file__).parent / "results"
-BENCH_SEEDS = (0, 1, 2)
-HELD_OUT_SEEDS = (3, 4)
+# Its two tables: the seeds bench_unitwise scored when the own-model rules were chosen (0-2)
+# and the two after them, held out from those rules (3-4); OWN_MODEL_SPREAD and the far-unit
+# rule were then chosen on all five (see the docstring), so none is held out from them.
+SELECTION_SEEDS = SEEDS["unitwise_selection"]["tuning"]
+BENCH_SEEDS, HELD_OUT_SEEDS = SELECTION_SEEDS[:3], SELECTION_SEEDS[3:]
 GRID = _shrinkage.SHRINKAGE_GRID
 RULES = (
     "cv_per_unit",
@@ -178,7 +181,7 @@ def unit_statistics(pipeline, Xi, y, runs, units, train, test):
 
 def run_case(physics, lot, seed, model_names):
     warnings.simplefilter("ignore", UserWarning)
-    campaign = lot_campaign(physics, lot, seed)
+    campaign = unitwise_lot(physics, lot, seed)
     frame, X, y = campaign.frame, campaign.data, campaign.target.to_numpy()
     units, runs = X["unit"].to_numpy(), X["run"].to_numpy()
     Xi = X.drop(columns="unit")
@@ -386,32 +389,34 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one seed, lumped, linear model")
     parser.add_argument("--jobs", type=int, default=1, help="parallel processes (default 1)")
-    parser.add_argument("--out", type=Path, default=RESULTS, help="results directory")
+    add_out_argument(parser)
     args = parser.parse_args(argv)
     if args.quick:
-        seed_sets, physics_presets, model_names = [("quick", (0,))], ("lumped",), ("linear",)
+        seed_sets = [("quick", BENCH_SEEDS[:1])]
+        physics_presets, model_names = UNITWISE_QUICK_PHYSICS, ("linear",)
     else:
         seed_sets = [("benchmark seeds", BENCH_SEEDS), ("held-out seeds", HELD_OUT_SEEDS)]
-        physics_presets, model_names = ("lumped", "layered_glass"), ("linear", "rbf")
+        physics_presets, model_names = UNITWISE_PHYSICS, ("linear", "rbf")
     seeds = sorted({seed for _, group in seed_sets for seed in group})
-    command = "python benchmarks/unitwise_selection.py" + (" --quick" if args.quick else "")
+    command = command_line(__file__, argv)
     start = time.perf_counter()
     cases = [(p, lot, seed) for p in physics_presets for lot in LOTS for seed in seeds]
     found = Parallel(n_jobs=args.jobs)(
         delayed(run_case)(physics, lot, seed, model_names) for physics, lot, seed in cases
     )
     cells = [cell for group in found for cell in group]
-    text, verdicts = markdown(cells, command, time.perf_counter() - start, seed_sets)
+    seconds = time.perf_counter() - start
+    text, summary = markdown(cells, command, seconds, seed_sets)
     stem = "unitwise_selection_quick" if args.quick else "unitwise_selection"
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_text_files(
-        {
-            args.out / f"{stem}.json": json.dumps(
-                {"command": command, "grid": GRID.tolist(), "cells": cells, "summary": verdicts},
-                indent=None,
-            ),
-            args.out / f"{stem}.md": text,
-        }
+    # A diagnostic: no target, so no verdict lines.
+    write_results(
+        args.out,
+        stem,
+        text,
+        {"grid": GRID.tolist(), "cells": cells, "summary": summary},
+        script=__file__,
+        command=command,
+        seconds=seconds,
     )
     print(text)
     return 0

@@ -1,7 +1,9 @@
 """Every benchmark's ``--quick`` mode runs to completion, so that none can rot.
 
 Each script in ``benchmarks/`` runs in a subprocess with its results directory set to a
-temporary one (``benchmarks/results/`` must not change). At quick size a target may
+temporary one (``--out``; ``benchmarks/results/`` must not change), and writes the one result
+format of ``benchmarks/_results.py`` (a Markdown file with its title and command line, a JSON
+file with the envelope and the verdict lines it printed). At quick size a target may
 legitimately fail (exit 1), so the tests assert the verdict lines' format and that the exit
 code agrees with them (1 exactly when a ``FAIL:`` line is printed), that every
 WIN/TIE/LOSS line's label agrees with its two scores and the tie margin (a tie is never a win),
@@ -38,12 +40,12 @@ SCORES = re.compile(
 # there, whether it prints targets (PASS/FAIL lines).
 QUICK_RUNS = {
     "bench_export": (
-        ["--quick", "--output", "{out}"],
+        ["--quick", "--out", "{out}"],
         ["bench_export.md", "bench_export.json"],
         False,
     ),
     "bench_rbf": (
-        ["--quick", "--output-dir", "{out}"],
+        ["--quick", "--out", "{out}"],
         ["bench_rbf_quick.md", "bench_rbf_quick.json"],
         True,
     ),
@@ -63,7 +65,7 @@ QUICK_RUNS = {
         True,
     ),
     "bench_streaming": (
-        ["--quick", "--output", "{out}"],
+        ["--quick", "--out", "{out}"],
         ["bench_streaming_quick.md", "bench_streaming_quick.json"],
         True,
     ),
@@ -115,11 +117,6 @@ QUICK_RUNS = {
     "bench_scale": (
         ["--quick", "--out", "{out}"],
         ["scale_quick.md", "scale_quick.json"],
-        True,
-    ),
-    "simulator_compensation_check": (
-        ["--quick", "--out", "{out}"],
-        ["simulator_compensation_quick.md"],
         True,
     ),
 }
@@ -232,6 +229,44 @@ def test_quick_run_completes_with_consistent_verdicts(script, tmp_path):
         path = tmp_path / name
         assert path.is_file(), f"{name} not written; {tail}"
         assert path.stat().st_size > 0, f"{name} is empty"
+        if script == "check_unchanged":  # a comparison of two snapshots, not a benchmark
+            continue
+        # The one result format (benchmarks/_results.py).
+        command = f"python benchmarks/{script}.py"
         if name.endswith(".json"):
-            assert json.loads(path.read_text()), f"{name} holds no results"
+            payload = json.loads(path.read_text())
+            assert set(payload) == {"benchmark", "command", "seconds", "verdicts", "results"}
+            assert payload["benchmark"] == script
+            assert payload["command"].startswith(command), payload["command"]
+            assert "--out" not in payload["command"]
+            assert payload["verdicts"] == lines, f"{name}: its verdicts are not the printed ones"
+            assert payload["results"], f"{name} holds no results"
+        else:
+            head = path.read_text().splitlines()[:6]
+            assert head[0].startswith("# "), f"{name} has no title"
+            assert any(line.startswith(f"Command: `{command}") for line in head), head
     assert _digest(results) == before, "a quick run wrote into benchmarks/results/"
+
+
+def test_the_seed_register_keeps_tuning_and_judging_apart():
+    """``benchmarks/_cases.SEEDS``: each entry names a script, says what its tuning seeds
+    chose, and judges on none of them."""
+    sys.path.insert(0, str(BENCHMARKS))
+    try:
+        from _cases import SEEDS
+    finally:
+        sys.path.remove(str(BENCHMARKS))
+    scripts = {path.stem for path in BENCHMARKS.glob("*.py")}
+    assert set(SEEDS) <= scripts, sorted(set(SEEDS) - scripts)
+    for script, groups in SEEDS.items():
+        assert set(groups) == {"tuning", "judged", "chose"}, script
+        assert groups["chose"], script
+        assert not set(groups["tuning"]) & set(groups["judged"]), script
+
+
+def test_the_readme_lists_every_script():
+    """``benchmarks/README.md`` says what each script measures and how to run it."""
+    readme = (BENCHMARKS / "README.md").read_text()
+    listed = set(re.findall(r"`(\w+)\.py`", readme))
+    scripts = {path.stem for path in BENCHMARKS.glob("*.py")}
+    assert scripts - listed == set(), sorted(scripts - listed)

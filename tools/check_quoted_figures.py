@@ -56,7 +56,6 @@ SCRIPT_STEMS = {
     "rbf_run_folds_check": "rbf_run_folds",
     "rbf_scale_check": "rbf_scale",
     "rbf_variance_check": "rbf_variance",
-    "simulator_compensation_check": "simulator_compensation",
     "unitwise_selection": "unitwise_selection",
 }
 
