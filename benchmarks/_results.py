@@ -9,8 +9,9 @@ Each script writes two files to its results folder (``--out``, default
 - ``<stem>.json``: ``{"benchmark": "<script>", "command": ..., "seconds": ...,
   "verdicts": [...], "results": {...}}``, where ``results`` is the script's own record.
 
-``write_results`` writes both atomically (a failure leaves neither half-written), and
-``add_out_argument`` gives every script the same ``--out`` option.
+``write_results`` writes both atomically (a failure leaves neither half-written),
+``publish`` also prints the report and its verdict lines, and ``add_out_argument`` gives
+every script the same ``--out`` option.
 """
 
 import json
@@ -95,6 +96,25 @@ def write_results(out, stem, markdown, results, *, script, command, seconds, ver
         }
     )
     return paths
+
+
+def publish(out, stem, markdown, results, *, script, command, seconds, verdicts=(), echo=None):
+    """:func:`write_results`, then print ``echo`` (default: the Markdown) and the verdict
+    lines, one per line, last: what every benchmark ends with (``tests/test_benchmarks.py``
+    reads the verdicts from the end of its output)."""
+    write_results(
+        out,
+        stem,
+        markdown,
+        results,
+        script=script,
+        command=command,
+        seconds=seconds,
+        verdicts=verdicts,
+    )
+    print(markdown if echo is None else echo)
+    for line in verdicts:
+        print(line)
 
 
 def read_results(path):

@@ -81,7 +81,7 @@ from _cases import (  # isort: skip
     conformal_campaign,
     conformal_real,
 )
-from _results import add_out_argument, command_line, read_results, write_results  # isort: skip
+from _results import add_out_argument, command_line, publish, read_results  # isort: skip
 from _verdict import target_line  # isort: skip
 
 NOMINAL = 0.9
@@ -570,7 +570,7 @@ def main(argv=None):
         "results": results,
         "failures": all_failures,
     }
-    write_results(
+    publish(
         args.out,
         stem,
         text,
@@ -580,9 +580,6 @@ def main(argv=None):
         seconds=elapsed,
         verdicts=verdicts,
     )
-    print(text)
-    for line in verdicts:
-        print(line)
     return 1 if all_failures else 0
 
 

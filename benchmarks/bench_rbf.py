@@ -101,7 +101,7 @@ from _cases import (  # isort: skip
     rbf_regression_data,
     rbf_thermal_campaign,
 )
-from _results import add_out_argument, command_line, read_results, write_results  # isort: skip
+from _results import add_out_argument, command_line, publish, read_results, write_results  # isort: skip
 from _verdict import TIE_MARGIN, compare, comparison_line, target_line  # isort: skip
 
 GD_LEARNING_RATE = 0.3
@@ -1016,7 +1016,7 @@ def main(argv=None):
         )
         failed |= not target["ok"]
     verdicts += lines
-    write_results(
+    publish(
         args.out,
         stem,
         report,
@@ -1026,9 +1026,6 @@ def main(argv=None):
         seconds=elapsed,
         verdicts=verdicts,
     )
-    print(report)
-    for line in verdicts:
-        print(line)
     return 1 if failed else 0
 
 

@@ -65,7 +65,7 @@ from _cases import (  # isort: skip
     streaming_aged_unit,
     streaming_c_samples,
 )
-from _results import add_out_argument, command_line, write_results  # isort: skip
+from _results import add_out_argument, command_line, publish  # isort: skip
 from _verdict import target_line  # isort: skip
 
 FORGETTING = 0.999
@@ -502,7 +502,7 @@ def main(argv=None):
         )
         for target in targets
     ]
-    write_results(
+    publish(
         args.out,
         name,
         markdown,
@@ -512,9 +512,6 @@ def main(argv=None):
         seconds=time.perf_counter() - start,
         verdicts=verdicts,
     )
-    print(markdown)
-    for line in verdicts:
-        print(line)
     return 0 if all(target["pass"] for target in targets) else 1
 
 

@@ -58,7 +58,7 @@ from sklearn_ifog import RBFNetRegressor, ThermalFeatures, make_compensation_pip
 from sklearn_ifog.metrics import mean_squared_deviation
 
 from _cases import SEEDS, thermal_accuracy_campaign  # isort: skip
-from _results import add_out_argument, command_line, write_results  # isort: skip
+from _results import add_out_argument, command_line, publish  # isort: skip
 from _verdict import comparison_line, exit_code, target_line  # isort: skip
 
 # Issue 12: on the lumped physics, no worse than 1.02x the best baseline.
@@ -350,7 +350,7 @@ def main():
         "comparisons": lines,
     }
     verdict_lines = [target_line(ok, target) for ok, target in targets] + lines
-    write_results(
+    publish(
         args.out,
         stem,
         text,
@@ -360,9 +360,6 @@ def main():
         seconds=seconds,
         verdicts=verdict_lines,
     )
-    print(text)
-    for line in verdict_lines:
-        print(line)
     return exit_code(ok for ok, _ in targets)
 
 

@@ -95,7 +95,7 @@ from _cases import (  # isort: skip
     THERMAL_STATE_QUICK,
     thermal_state_campaign,
 )
-from _results import add_out_argument, command_line, write_results  # isort: skip
+from _results import add_out_argument, command_line, publish  # isort: skip
 from _verdict import comparison_line, exit_code, target_line  # isort: skip
 
 TARGET_RATIO = {"layered": 1.25, "layered_glass": 3.0}
@@ -651,7 +651,7 @@ def main(argv=None):
         "folds": records,
     }
     verdicts = [_check_line(check) for check in checks] + lines
-    write_results(
+    publish(
         args.out,
         stem,
         text,
@@ -661,9 +661,6 @@ def main(argv=None):
         seconds=elapsed,
         verdicts=verdicts,
     )
-    print(text)
-    for line in verdicts:
-        print(line)
     return exit_code(check["pass"] for check in checks)
 
 

@@ -84,7 +84,7 @@ from _cases import (  # isort: skip
     UNITWISE_SAMPLING_PERIOD as SAMPLING_PERIOD,
     unitwise_lot,
 )
-from _results import add_out_argument, command_line, write_results  # isort: skip
+from _results import add_out_argument, command_line, publish  # isort: skip
 from _verdict import compare, comparison_line, target_line  # isort: skip
 
 POOLINGS = ("none", "full", "partial")
@@ -511,7 +511,7 @@ def main(argv=None):
     text = markdown(summary, checks, command, seeds, elapsed) + "\n" + curve_markdown(curve_rows)
     stem = "unitwise_quick" if args.quick else "unitwise"
     verdicts = [_target_text(check) for check in checks]
-    write_results(
+    publish(
         args.out,
         stem,
         text,
@@ -521,9 +521,6 @@ def main(argv=None):
         seconds=elapsed,
         verdicts=verdicts,
     )
-    print(text)
-    for line in verdicts:
-        print(line)
     return 1 if any(not check["passed"] for check in checks) else 0
 
 

@@ -79,7 +79,7 @@ from sklearn_ifog import RBFNetRegressor, ThermalFeatures
 from sklearn_ifog.experiments import run_paper_experiments
 
 from _cases import PHYSICS, SEEDS, paper_claim_campaign, paper_recipe_campaign  # isort: skip
-from _results import add_out_argument, command_line, write_results  # isort: skip
+from _results import add_out_argument, command_line, publish  # isort: skip
 from _verdict import compare, comparison_line, exit_code, target_line  # isort: skip
 
 RAW_CUT = 10.0
@@ -589,7 +589,7 @@ def main(argv=None):
     stem = ("paper_claim_quick" if args.quick else "paper_claim") + (
         f"_{args.tag}" if args.tag else ""
     )
-    write_results(
+    publish(
         args.out,
         stem,
         text,
@@ -599,9 +599,6 @@ def main(argv=None):
         seconds=seconds,
         verdicts=verdict_lines,
     )
-    print(text)
-    for line in verdict_lines:
-        print(line)
     return exit_code(ok for ok, _ in checks + recipe_checks)
 
 

@@ -40,7 +40,7 @@ from _cases import (  # isort: skip
     rbf_scale_batch,
     rbf_scale_smooth,
 )
-from _results import add_out_argument, command_line, write_results  # isort: skip
+from _results import add_out_argument, command_line, publish  # isort: skip
 from _verdict import exit_code, target_line  # isort: skip
 
 # (ratio name, threshold, what it is): the targets, all "at most".
@@ -206,7 +206,7 @@ def main(argv=None):
         "checks": [{"pass": ok, "target": text} for ok, text in checks],
     }
     stem = "rbf_scale_quick" if args.quick else "rbf_scale"
-    write_results(
+    publish(
         args.out,
         stem,
         "\n".join(lines) + "\n",
@@ -215,10 +215,8 @@ def main(argv=None):
         command=command,
         seconds=time.perf_counter() - started,
         verdicts=verdicts,
+        echo="\n".join(lines),
     )
-    print("\n".join(lines))
-    for line in verdicts:
-        print(line)
     return exit_code(ok for ok, _ in checks)
 
 
