@@ -615,6 +615,10 @@ def rbf_refine_split(physics, seed):
 #: run's 1e5 and 1e6; ``--quick`` divides both by 100), and its test rows.
 RBF_SCALE_SIZES = (1e5, 1e6)
 RBF_SCALE_QUICK_SIZES = (1e3, 1e4)
+#: The smallest size of rbf_scale_check's fit time against rows (with the two above: the
+#: fitted exponent over 1e4 ... 1e6 rows; ``--quick`` 1e2 ... 1e4).
+RBF_SCALE_SMALL_SIZE = 1e4
+RBF_SCALE_QUICK_SMALL_SIZE = 1e2
 RBF_SCALE_TEST_ROWS = 20000
 
 

@@ -14,7 +14,9 @@ MLP(20)'s; RBF fit time at 1e6 at most 2.5x poly3 Ridge's; log-log slope of the 
 from 1e5 to 1e6 at most 0.6 (issue 3's, kept); batch predict of 1e6 rows at most 1.5x the
 bare-numpy floor; one-row predict at most a one-row ``LinearRegression.predict`` (the median
 of five rounds, each timing the two in turn, so both see the same load); peak resident memory
-of the RBF fit at 1e6 rows at most 500 MB.
+of the RBF fit at 1e6 rows at most 500 MB. Also printed (not a target): the fit time of the
+network and of the polynomial Ridge against rows (1e4, 1e5 and 1e6), with the exponent of a
+least-squares line through their logs.
 
 Writes ``benchmarks/results/rbf_scale.md`` and ``rbf_scale.json`` (the one result format of
 ``benchmarks/_results.py``). ``--quick`` (CI): every
@@ -35,7 +37,9 @@ import numpy as np
 
 from _cases import (  # isort: skip
     RBF_SCALE_QUICK_SIZES,
+    RBF_SCALE_QUICK_SMALL_SIZE,
     RBF_SCALE_SIZES,
+    RBF_SCALE_SMALL_SIZE,
     RBF_SCALE_TEST_ROWS,
     rbf_scale_batch,
     rbf_scale_smooth,
@@ -149,8 +153,11 @@ def main(argv=None):
     command = command_line(__file__, argv)
     started = time.perf_counter()
     middle, large = RBF_SCALE_QUICK_SIZES if args.quick else RBF_SCALE_SIZES
+    small = RBF_SCALE_QUICK_SMALL_SIZE if args.quick else RBF_SCALE_SMALL_SIZE
     fits = []
     for name, n_samples in [
+        ("RBFNet (default)", small),
+        ("poly3 Ridge", small),
         ("RBFNet (default)", middle),
         ("MLP (20,)", middle),
         ("poly3 Ridge", middle),
@@ -178,6 +185,13 @@ def main(argv=None):
         "peak_1e6_MB": rbf6["peak_MB"],
     }
     measures = {**timings, **ratios}
+    sizes = (int(small), middle, large)
+    exponents = {
+        name: float(
+            np.polyfit(np.log10(sizes), np.log10([by[name, n]["fit_s"] for n in sizes]), 1)[0]
+        )
+        for name in ("RBFNet (default)", "poly3 Ridge")
+    }
     checks = [
         (bool(measures[key] <= threshold), f"{what}: {measures[key]:.3g} <= {threshold:g}")
         for key, threshold, what in TARGETS
@@ -195,6 +209,19 @@ def main(argv=None):
         f"| {f['model']} | {f['n']:.0e} | {f['fit_s']:.2f} | {f['peak_MB']:.0f} | {f['mse']:.2e} |"
         for f in fits
     ]
+    lines += [
+        "",
+        "Fit time against rows, and its exponent (least squares on the logs of the three sizes):",
+        "",
+        "| model | " + " | ".join(f"{n:.0e} rows (s)" for n in sizes) + " | exponent |",
+        "|---|" + "---|" * (len(sizes) + 1),
+    ]
+    lines += [
+        f"| {name} | "
+        + " | ".join(f"{by[name, n]['fit_s']:.3g}" for n in sizes)
+        + f" | {exponents[name]:.2f} |"
+        for name in exponents
+    ]
     lines += ["", "| measure | value |", "|---|---|"]
     lines += [f"| {k} | {v:.3g} |" for k, v in measures.items()]
     verdicts = [target_line(ok, text) for ok, text in checks]
@@ -203,6 +230,7 @@ def main(argv=None):
         "fits": fits,
         "predict": timings,
         "ratios": ratios,
+        "fit_time_exponents": exponents,
         "checks": [{"pass": ok, "target": text} for ok, text in checks],
     }
     stem = "rbf_scale_quick" if args.quick else "rbf_scale"

@@ -28,6 +28,7 @@ from numbers import Integral, Real
 from typing import ClassVar, NamedTuple
 
 import numpy as np
+import scipy.sparse as sp
 from sklearn.base import BaseEstimator, OutlierMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
@@ -547,13 +548,37 @@ def held_out_runs(temperature, rate, Y, runs):
     labels = np.unique(np.asarray(runs), return_inverse=True)[1].ravel()
     if labels.max(initial=0) < 1:
         return None
-    plane, constant = np.zeros(Y.shape[1]), np.zeros(Y.shape[1])
-    for run in range(labels.max() + 1):
-        held = labels == run
-        intercept, slope, rate_slope = _plane(temperature[~held], rate[~held], Y[~held])
-        predicted = intercept + temperature[held, None] * slope + rate[held, None] * rate_slope
-        plane += np.square(Y[held] - predicted).sum(axis=0)
-        constant += np.square(Y[held] - Y[~held].mean(axis=0)).sum(axis=0)
+    # Every leave-one-run-out plane from per-run sums (the totals less the held-out run's),
+    # so the cost is one pass over the rows however many runs: a lot of hundreds of runs
+    # would otherwise refit on nearly all rows once per run. The columns are standardised
+    # once, over all rows, to keep the sums' round-off small.
+    n_runs, n_outputs = labels.max() + 1, Y.shape[1]
+    Z = np.column_stack([temperature, rate])
+    Z = Z - Z.mean(axis=0)
+    spread = Z.std(axis=0)
+    Z = Z / np.where(spread > 0, spread, 1.0)
+    one_hot = sp.csr_array((np.ones(labels.size), (labels, np.arange(labels.size))))
+    pairs = (Z[:, :, None] * Z[:, None, :]).reshape(-1, 4)
+    cross = (Z[:, :, None] * Y[:, None, :]).reshape(-1, 2 * n_outputs)
+    per_run = [one_hot @ values for values in (np.ones((labels.size, 1)), Z, Y, pairs, cross)]
+    count, sum_z, sum_y, sum_zz, sum_zy = (
+        values.sum(axis=0) - values for values in per_run
+    )  # the other runs' sums, one row per held-out run
+    count = count[:, 0]
+    mean_z, mean_y = sum_z / count[:, None], sum_y / count[:, None]
+    gram = sum_zz.reshape(n_runs, 2, 2) - count[:, None, None] * (
+        mean_z[:, :, None] * mean_z[:, None, :]
+    )
+    moment = sum_zy.reshape(n_runs, 2, n_outputs) - count[:, None, None] * (
+        mean_z[:, :, None] * mean_y[:, None, :]
+    )
+    # The minimum-norm solution, as a least-squares solve gives it: a rate that does not
+    # vary over the other runs gets a rate slope of 0.
+    slopes = np.linalg.pinv(gram, rcond=1e-12, hermitian=True) @ moment
+    intercepts = mean_y - np.einsum("rj,rjk->rk", mean_z, slopes)
+    predicted = intercepts[labels] + np.einsum("nj,njk->nk", Z, slopes[labels])
+    plane = np.square(Y - predicted).sum(axis=0)
+    constant = np.square(Y - mean_y[labels]).sum(axis=0)
     return plane / np.where(constant > 0, constant, np.inf)
 
 

@@ -250,6 +250,48 @@ def test_plane_fallback_ignores_a_drift_the_runs_do_not_repeat():
     assert fallback_name(fallback) == "constant"
 
 
+def _held_out_runs_by_refits(temperature, rate, Y, runs):
+    """held_out_runs by its definition: one least-squares plane per held-out run."""
+    plane, constant = np.zeros(Y.shape[1]), np.zeros(Y.shape[1])
+    for run in np.unique(runs):
+        held = runs == run
+        columns = np.column_stack([np.ones((~held).sum()), temperature[~held], rate[~held]])
+        if np.ptp(rate[~held]) == 0:  # a rate that does not vary: no rate slope
+            columns = columns[:, :2]
+        coef = np.linalg.lstsq(columns, Y[~held], rcond=None)[0]
+        rows = np.column_stack([np.ones(held.sum()), temperature[held], rate[held]])
+        predicted = rows[:, : columns.shape[1]] @ coef
+        plane += np.square(Y[held] - predicted).sum(axis=0)
+        constant += np.square(Y[held] - Y[~held].mean(axis=0)).sum(axis=0)
+    return plane / constant
+
+
+@pytest.mark.parametrize(
+    "case", ["thermal", "one run at rest", "one run moves", "no rate", "two runs"]
+)
+def test_held_out_runs_equals_one_refit_per_run(case):
+    """The per-run sums give what refitting the plane without each run gives."""
+    rng = np.random.default_rng(7)
+    n_runs = 2 if case == "two runs" else 6
+    t, rate, runs = _heating_runs(rng, n_runs=n_runs)
+    if case == "one run at rest":
+        rate = np.where(runs == runs[0], 0.0, rate)
+    if case == "one run moves":  # held out, it leaves runs whose rate does not vary
+        rate = np.where(runs == runs[0], rate, 0.5)
+    if case == "no rate":
+        rate = np.zeros_like(rate)
+    Y = np.column_stack(
+        [0.05 * t + 0.8 * rate + 0.01 * t**2 / 40, np.cumsum(rng.normal(size=t.size))]
+    )
+    Y += rng.normal(scale=0.05, size=Y.shape)
+    labels = np.array([f"run-{run}" for run in runs])  # labels of any kind
+    np.testing.assert_allclose(
+        held_out_runs(t, rate, Y, labels),
+        _held_out_runs_by_refits(t, rate, Y, runs),
+        rtol=1e-9,
+    )
+
+
 def test_fallback_rate_term_is_bounded_to_the_calibrated_rates():
     fallback = Fallback(
         np.array([1.0]),

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
+from sklearn_ifog.rbf import _basis
 from sklearn_ifog.rbf._basis import (
     gaussian_design,
     guarded_lstsq,
@@ -235,6 +236,45 @@ def test_chunked_solve_equals_direct_solve(tiny, chunk_rows):
     )
     for a, b in zip(direct, chunked, strict=True):
         assert_allclose(a, b, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("tail_alpha", [0.0, 0.2])
+def test_chunked_solve_gram_and_qr_agree(tiny, monkeypatch, tail_alpha):
+    # A well-conditioned design: the Gram (Cholesky) factor and the tall-skinny QR give
+    # the same weights; forcing the QR (a limit below any condition number) changes nothing.
+    Z, Y, _, sw = tiny
+    centers, widths = Z[:6], np.linspace(0.5, 1.5, 6)
+    args = dict(sample_weight=sw, alpha=0.3, tail_alpha=tail_alpha, chunk_rows=16)
+    gram = solve_output_weights_chunked(Z, Y, centers, widths, **args)
+    monkeypatch.setattr(_basis, "GRAM_CONDITION_LIMIT", 0.0)
+    qr = solve_output_weights_chunked(Z, Y, centers, widths, **args)
+    for a, b in zip(gram, qr, strict=True):
+        assert_allclose(a, b, rtol=1e-9, atol=1e-12)
+
+
+def test_chunked_solve_ill_conditioned_keeps_qr_accuracy(monkeypatch):
+    # Wide, overlapping Gaussians make a design conditioned near 2e7: the normal equations
+    # square that, so the solve must take the QR and match a direct least-squares solve of
+    # the whole design; the Gram factor forced on it (no limit) does visibly worse.
+    rng = np.random.default_rng(5)
+    Z = rng.uniform(-1, 1, size=(3000, 1))
+    centers = np.linspace(-1, 1, 6)[:, None]
+    widths = np.full(6, 1.2)
+    y = np.sin(3 * Z[:, 0]) + 0.01 * rng.normal(size=3000)
+    design = np.column_stack([np.ones(3000), Z, gaussian_design(Z, centers, widths)])
+    assert np.linalg.cond(design) > 100 * _basis.GRAM_CONDITION_LIMIT
+    exact = np.linalg.lstsq(design, y, rcond=None)[0]
+
+    def relative_error():
+        coef, tail, intercept = solve_output_weights_chunked(
+            Z, y[:, None], centers, widths, chunk_rows=500
+        )
+        found = np.r_[intercept, tail[0], coef[0]]
+        return np.linalg.norm(found - exact) / np.linalg.norm(exact)
+
+    assert relative_error() < 1e-7
+    monkeypatch.setattr(_basis, "GRAM_CONDITION_LIMIT", np.inf)
+    assert relative_error() > 1e-6
 
 
 def test_chunked_solve_rank_deficient_is_finite(tiny):
