@@ -27,6 +27,8 @@ methods:
   whole heading held out per fold as in the test, the runs still the scoring groups; the
   real recording, which has no heading, keeps ``GroupKFold(5)``);
 - ``ours_flat``: the same with ``adaptive=False`` (run-wise, absolute scores);
+- ``ours_c08``: ``ours`` with ``confidence=0.8`` (the per-run promise of the issue on a lot
+  and its intervals);
 - ``mapie_rows``: MAPIE ``CrossConformalRegressor(cv=KFold(5, shuffle))``, CV+;
 - ``mapie_runs``: MAPIE ``CrossConformalRegressor(cv=GroupKFold(5))`` with the runs as groups.
 
@@ -53,7 +55,10 @@ Targets (on ``ours``, every preset, every seed): mean coverage in [0.87, 0.95], 
 fold >= 0.85, mean width <= 1.2 x oracle, out-of-range coverage >= 0.85 pooled and on every
 run group (each cold run of the out-of-range split; the worst one is printed, and any below
 fails), and coverage on rows outside the domain >= coverage - 0.05 (0.85) on every split with
-at least MIN_OUTSIDE_ROWS such rows.
+at least MIN_OUTSIDE_ROWS such rows. The issue on a lot and its intervals adds, per seed group
+(:func:`lot_interval_targets`): with ``confidence=0.8`` at least 95 % of the held-out runs
+covered >= 0.85, and ``ours``' mean width over the held-out folds <= 1.15 x the oracle's on
+smooth physics (lumped) and <= 1.3 x on nonlinear physics (layered, layered_glass).
 Results go to ``benchmarks/results/conformal[_quick][_cvruns|_cvheadings].md`` and
 ``.json`` (``--out DIR`` elsewhere); exit 1 if a target fails.
 """
@@ -90,7 +95,15 @@ OUTSIDE_TOLERANCE = 0.05
 # A split's outside rows enter the target when there are at least this many (half a run of
 # the campaigns' 300-s samples): fewer say little about a coverage.
 MIN_OUTSIDE_ROWS = 30
-METHODS = ("ours", "ours_flat", "mapie_rows", "mapie_runs")
+METHODS = ("ours", "ours_flat", "ours_c08", "mapie_rows", "mapie_runs")
+# The issue on a lot and its intervals states the per-run promise as a probability over runs:
+# with confidence=0.8, at least RUN_SHARE of the held-out runs covered >= RUN_COVERAGE; and
+# the mean width over the held-out folds at most WIDTH_LIMITS times the oracle's (smooth
+# physics: the lumped preset; nonlinear: layered and layered_glass), per seed group.
+LOT_CONFIDENCE = 0.8
+RUN_COVERAGE = 0.85
+RUN_SHARE = 0.95
+WIDTH_LIMITS = {"lumped": 1.15, "layered": 1.3, "layered_glass": 1.3}
 # How ``ours`` splits its calibration runs: GroupKFold(5) (the folds of MAPIE by run, the
 # default here) or, with ``--ours-cv runs``, the estimator's own default (one fold per run).
 OURS_CV = {
@@ -117,12 +130,13 @@ def pipeline(**kwargs):
 
 def fit_predict(method, X_train, y_train, groups, X_test, base):
     """(point prediction, bounds) of one method on the test rows."""
-    if method in ("ours", "ours_flat"):
+    if method in ("ours", "ours_flat", "ours_c08"):
         model = ConformalRegressor(
             base,
             coverage=NOMINAL,
             cv=OURS_CV[SETTINGS["ours_cv"]](X_train),
-            adaptive=method == "ours",
+            adaptive=method != "ours_flat",
+            **({"confidence": LOT_CONFIDENCE} if method == "ours_c08" else {}),
         )
         model.fit(X_train, y_train, groups=groups)
         return model.predict(X_test), model.predict_interval(X_test)
@@ -387,6 +401,76 @@ def _seed_of(key):
     return int(key.rsplit(" ", 1)[1])
 
 
+def _physics_of(key):
+    return key.rsplit(" seed ", 1)[0]
+
+
+def lot_interval_targets(results):
+    """The issue's targets on a lot's intervals, per seed group: (lines, verdicts).
+
+    With ``confidence=0.8`` (``ours_c08``), the share of the held-out runs (every run of
+    every held-out fold) covered at least RUN_COVERAGE; and, per physics, the mean over the
+    held-out folds of ``ours``' width over the oracle's against WIDTH_LIMITS.
+    """
+    campaigns = {key: value for key, value in results.items() if not key.startswith("real")}
+    lines = [
+        "## A lot's intervals: the per-run promise and the width",
+        "",
+        f"Held-out runs covered >= {RUN_COVERAGE} (every run of every held-out fold) with "
+        f"`ours` (confidence 0.6, the default) and `ours_c08` (confidence {LOT_CONFIDENCE}); "
+        "mean width over the held-out folds / oracle, per physics (target: "
+        + ", ".join(f"{physics} <= {limit}" for physics, limit in WIDTH_LIMITS.items())
+        + f"; runs: >= {RUN_SHARE:.0%} with ours_c08).",
+        "",
+        "| seeds | physics | runs | ours: runs >= 0.85 | ours_c08: runs >= 0.85 "
+        "| ours width / oracle | ours_c08 width / oracle |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    verdicts = []
+    for seeds in (CHOSEN_SEEDS, HELD_OUT_SEEDS):
+        group = {key: value for key, value in campaigns.items() if _seed_of(key) in seeds}
+        if not group or "ours_c08" not in next(iter(group.values())):
+            continue
+        label = ", ".join(str(seed) for seed in sorted({_seed_of(key) for key in group}))
+        pooled = {"ours": [], "ours_c08": []}
+        for physics in dict.fromkeys(_physics_of(key) for key in group):
+            rows = [value for key, value in group.items() if _physics_of(key) == physics]
+            shares, widths = {}, {}
+            for method in ("ours", "ours_c08"):
+                runs = [
+                    coverage
+                    for row in rows
+                    for fold in row[method]["folds"]
+                    for _, coverage in fold["run_coverage"]
+                ]
+                pooled[method] += runs
+                shares[method] = np.mean(np.array(runs) >= RUN_COVERAGE)
+                widths[method] = float(
+                    np.mean([fold["ratio"] for row in rows for fold in row[method]["folds"]])
+                )
+            lines.append(
+                f"| {label} | {physics} | {len(runs)} | {shares['ours']:.3f} | "
+                f"{shares['ours_c08']:.3f} | {widths['ours']:.3f} | {widths['ours_c08']:.3f} |"
+            )
+            limit = WIDTH_LIMITS[physics]
+            verdicts.append(
+                target_line(
+                    widths["ours"] <= limit,
+                    f"seeds {label}, {physics}: ours mean width / oracle <= {limit} "
+                    f"({widths['ours']:.3f})",
+                )
+            )
+        share = float(np.mean(np.array(pooled["ours_c08"]) >= RUN_COVERAGE))
+        verdicts.append(
+            target_line(
+                share >= RUN_SHARE,
+                f"seeds {label}: with confidence={LOT_CONFIDENCE}, held-out runs covered >= "
+                f"{RUN_COVERAGE}: {share:.3f} of {len(pooled['ours_c08'])} >= {RUN_SHARE}",
+            )
+        )
+    return lines, verdicts
+
+
 def summary_lines(results):
     """Per method and seed group: ranges, failing folds, lowest out-of-range coverage."""
     campaigns = {key: value for key, value in results.items() if not key.startswith("real")}
@@ -434,7 +518,7 @@ def summary_lines(results):
     return lines[:-1]
 
 
-def markdown(results, failures, command, elapsed):
+def markdown(results, failures, command, elapsed, lot_lines=()):
     lines = [
         "# Conformal intervals: ours vs MAPIE row-wise vs MAPIE by run",
         "",
@@ -468,6 +552,8 @@ def markdown(results, failures, command, elapsed):
     lines += ["", *summary_lines(results)]
     if any("domain" in row for result in results.values() for row in result.values()):
         lines += ["", *domain_lines(results)]
+    if lot_lines:
+        lines += ["", *lot_lines]
     lines += ["", "## Verdict", ""]
     lines += [f"- FAIL {f}" for f in failures] or ["- PASS: every target on every campaign."]
     return "\n".join(lines) + "\n"
@@ -499,7 +585,10 @@ def main(argv=None):
         )
         record = read_results(args.out / f"{stem}.json")
         elapsed = record.get("elapsed", float("nan"))
-        text = markdown(record["results"], record["failures"], record["command"], elapsed)
+        lot_lines, _ = lot_interval_targets(record["results"])
+        text = markdown(
+            record["results"], record["failures"], record["command"], elapsed, lot_lines
+        )
         write_text_files({args.out / f"{stem}.md": text})
         print(text)
         return 1 if record["failures"] else 0
@@ -538,9 +627,15 @@ def main(argv=None):
     failures = check_targets(results)
     run_failures, lowest_run, worst_run = out_of_range_target(results)
     outside_failures, lowest, where = domain_target(results)
+    lot_lines, lot_verdicts = lot_interval_targets(results)
     command = command_line(__file__, argv)
-    all_failures = failures + run_failures + outside_failures
-    text = markdown(results, all_failures, command, elapsed)
+    all_failures = (
+        failures
+        + run_failures
+        + outside_failures
+        + [line.removeprefix("FAIL: ") for line in lot_verdicts if line.startswith("FAIL")]
+    )
+    text = markdown(results, all_failures, command, elapsed, lot_lines)
     stem = ("conformal_quick" if args.quick else "conformal") + (
         "" if args.ours_cv == "groupkfold5" else f"_cv{args.ours_cv}"
     )
@@ -561,6 +656,7 @@ def main(argv=None):
             f"{OUTSIDE_TOLERANCE} ({NOMINAL - OUTSIDE_TOLERANCE:.2f}) on every split with at "
             f"least {MIN_OUTSIDE_ROWS} such rows (lowest {lowest:.3f}: {where})",
         ),
+        *lot_verdicts,
     ]
     # The record keeps the command and duration beside the envelope's, so that --rewrite
     # re-renders the Markdown from read_results alone.

@@ -1,5 +1,6 @@
 """ConformalRegressor around a CompensationPipeline: the band outside the calibration domain."""
 
+import copy
 import warnings
 
 import numpy as np
@@ -9,7 +10,7 @@ from sklearn.linear_model import LinearRegression
 from sklearn_ifog import ConformalRegressor, make_compensation_pipeline
 from sklearn_ifog.conformal import conformal_quantile, run_quantile_scores
 from sklearn_ifog.datasets import make_thermal_campaign
-from sklearn_ifog.domain import OutsideCalibrationWarning, fallback_weight
+from sklearn_ifog.domain import OutsideCalibrationWarning, fallback_weight, temperature_excess
 from sklearn_ifog.pipeline import CompensationPipeline
 
 # The Shupe-like rate term of the synthetic drift, deg/h per degC/min: what a line in T (the
@@ -136,7 +137,17 @@ def test_band_is_unchanged_inside_and_holds_both_candidates_outside(fitted, warm
     full = fitted.estimator_
     share = fallback_weight(full.calibration_distance(X_cold), full.domain_.margin)
     assert (share == 1).sum() >= 20
-    np.testing.assert_array_equal(bounds[share == 0], plain[share == 0])
+    # unchanged where the prediction is the regressor's, within the calibrated temperatures
+    domain = full.domain_
+    beyond = temperature_excess(
+        fitted._thermal_rows(X_cold),
+        domain.temperature_columns_,
+        domain.data_min_,
+        domain.data_max_,
+    )
+    kept = (share == 0) & (beyond == 0)
+    assert kept.sum() >= 20
+    np.testing.assert_array_equal(bounds[kept], plain[kept])
     # only ever wider than without the terms
     assert np.all(bounds[:, 0] <= plain[:, 0])
     assert np.all(bounds[:, 1] >= plain[:, 1])
@@ -147,6 +158,45 @@ def test_band_is_unchanged_inside_and_holds_both_candidates_outside(fitted, warm
     # ... and where the prediction is the fallback's, at least its held-out error quantile
     width = bounds[:, 1] - bounds[:, 0]
     assert np.all(width[share == 1] >= 2 * fitted.fallback_quantile_)
+
+
+def test_band_beyond_the_calibrated_temperatures_spans_the_slope(fitted, warm_cold):
+    """Beyond the calibrated temperatures the drift may go on at its calibrated slope or
+    stop: the band's half-width grows, in quadrature, by the slope times the degrees
+    beyond; within the calibrated temperatures it is the band without that term."""
+    X_warm, y_warm, X_cold, _ = warm_cold
+    full = fitted.estimator_
+    column = full.fallback_.column
+    temperature = fitted._raw_features(X_warm)[:, column]
+    # the plane's slope in T, not the line's (which the heating runs' rate term inflates)
+    assert full.fallback_.rate_column is not None
+    assert fitted.thermal_slope_ == full.fallback_.slope[0]
+    assert fitted.thermal_slope_ == pytest.approx(0.003, rel=0.2)
+    assert abs(np.polyfit(temperature, y_warm, 1)[0]) > 3 * abs(fitted.thermal_slope_)
+    without = copy.copy(fitted)
+    without.thermal_slope_ = 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OutsideCalibrationWarning)
+        bounds = fitted.predict_interval(X_cold)
+        flat = without.predict_interval(X_cold)
+        centre = fitted.predict(X_cold)
+    raw = fitted._raw_features(X_cold)
+    domain = full.domain_
+    beyond = temperature_excess(
+        fitted._thermal_rows(X_cold),
+        domain.temperature_columns_,
+        domain.data_min_,
+        domain.data_max_,
+    )
+    assert (beyond > 5.0).sum() >= 20
+    np.testing.assert_array_equal(bounds[beyond == 0], flat[beyond == 0])
+    # both bands are stretched by the same shift onto the regressor's own extrapolation
+    shift = np.abs(full[-1].predict(raw) - centre)
+    half = (bounds[:, 1] - bounds[:, 0] - shift) / 2
+    flat_half = (flat[:, 1] - flat[:, 0] - shift) / 2
+    np.testing.assert_allclose(
+        half**2 - flat_half**2, (fitted.thermal_slope_ * beyond) ** 2, rtol=1e-6, atol=1e-12
+    )
 
 
 def test_bounds_from_the_fallback_share_are_predict_interval(fitted, warm_cold):
@@ -161,8 +211,24 @@ def test_bounds_from_the_fallback_share_are_predict_interval(fitted, warm_cold):
     full = fitted.estimator_
     share = fallback_weight(full.calibration_distance(X_cold), full.domain_.margin)
     raw = fitted._raw_features(X_cold)
-    bounds = fitted.bounds_from_predictions(centre, predictions, raw, fallback_share=share)
+    domain = full.domain_
+    beyond = temperature_excess(
+        np.asarray(full[0].transform(X_cold), dtype=float),
+        domain.temperature_columns_,
+        domain.data_min_,
+        domain.data_max_,
+    )
+    bounds = fitted.bounds_from_predictions(
+        centre, predictions, raw, fallback_share=share, temperature_beyond=beyond
+    )
     np.testing.assert_array_equal(bounds, expected)
+    # without the degrees beyond, the band lacks the slope term there, and only there
+    partial = fitted.bounds_from_predictions(centre, predictions, raw, fallback_share=share)
+    np.testing.assert_array_equal(partial[beyond == 0], expected[beyond == 0])
+    assert np.all(
+        partial[beyond > 0, 1] - partial[beyond > 0, 0]
+        < expected[beyond > 0, 1] - expected[beyond > 0, 0]
+    )
 
 
 def test_band_outside_grows_with_the_coverage(fitted, warm_cold):
@@ -197,9 +263,10 @@ def test_coverage_on_rows_outside_the_domain_every_seed(seed):
     domain the band covers at least 0.85 (nominal 0.9 - 0.05); the terms outside the domain
     never narrow the band, widen it there, and never lose coverage.
 
-    Checked on seeds 0-9 (coverage outside 0.967-0.983; without the terms 0.867-0.945, the
-    fallback being a plane in T and dT fitted on the warm runs; mean width outside 1.36-1.56 x
-    the band without the terms); the test runs seeds 0-4.
+    Checked on seeds 0-9 (coverage outside 0.984-0.997; without the terms 0.867-0.945, the
+    fallback being a plane in T and dT fitted on the warm runs; mean width outside 3.42-4.94 x
+    the band without the terms, most of it the slope term: this drift's line in T does go on
+    beyond the calibration, which the calibration cannot know); the test runs seeds 0-4.
     """
     X_warm, y_warm = _thermal_table(seed, (10.0, 40.0))
     X_cold, y_cold = _thermal_table(seed + 100, (-10.0, 40.0))

@@ -3,7 +3,7 @@
 import numpy as np
 
 from sklearn_ifog._compiled import compile_domain, compile_steps
-from sklearn_ifog.domain import fallback_weight
+from sklearn_ifog.domain import fallback_weight, temperature_excess
 
 
 def as_frame(features, names):
@@ -96,7 +96,11 @@ class ConformalBand:
         if distance is not None and getattr(conformal, "fallback_scores_", None) is not None:
             # As ConformalRegressor._fallback_share: the full model's fallback weight.
             share = fallback_weight(distance, margin)
+            domain = conformal.estimator_.domain_
+            beyond = temperature_excess(
+                features, domain.temperature_columns_, domain.data_min_, domain.data_max_
+            )
             return conformal.bounds_from_predictions(
-                centre, predictions, raw, fallback_share=share
+                centre, predictions, raw, fallback_share=share, temperature_beyond=beyond
             )
         return conformal.bounds_from_predictions(centre, predictions, raw)
