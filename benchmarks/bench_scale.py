@@ -19,9 +19,9 @@ units (``make_thermal_campaign``, one azimuth, ``--runs`` runs of about 280 rows
   100 units in seconds;
 - ``n_jobs=2`` against serial (``n_jobs=None``) on 30 units with ``"none"``, the worker
   processes started beforehand (their start-up timed on its own), the median ratio of three
-  pairs of fits timed back to back (serial, then parallel), with the cores this
-  process sees, the load average before the run, and how many cores a serial fit already
-  keeps busy (numpy's BLAS threads);
+  pairs of fits timed back to back (serial, then parallel; one pair in ``--quick``), with
+  the cores this process sees, the load average before the run, and how many cores a
+  serial fit already keeps busy (numpy's BLAS threads);
 - a two-worker Dask ``LocalCluster`` (``joblib.parallel_config(backend="dask")``) against
   serial on 10 units: the largest absolute difference of the predictions.
 
@@ -127,12 +127,14 @@ def measure(units, n_runs, sampling_period, log=print):
     two = X_small["unit"].isin(np.unique(X_small["unit"])[:2]).to_numpy()
     record["worker_startup"], _ = timed_fit(X_small[two], y_small[two], "none", n_jobs=2)
     record["parallel_pairs"] = []
-    for _ in range(PARALLEL_PAIRS):
+    for _ in range(PARALLEL_PAIRS if large >= 100 else 1):  # one pair on the quick lots
         serial, _ = timed_fit(*lots[middle], "none")
         parallel, _ = timed_fit(*lots[middle], "none", n_jobs=2)
         record["parallel_pairs"].append([serial, parallel])
         log(f"{middle} units, serial {serial:.1f} s, n_jobs=2 {parallel:.1f} s")
-    pair = sorted(record["parallel_pairs"], key=lambda p: p[1] / p[0])[PARALLEL_PAIRS // 2]
+    pair = sorted(record["parallel_pairs"], key=lambda p: p[1] / p[0])[
+        len(record["parallel_pairs"]) // 2
+    ]
     record["parallel_middle"] = pair[1]
     record["parallel_serial"] = pair[0]
     record["dask_difference"] = dask_difference(*lots[small])

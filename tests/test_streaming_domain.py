@@ -223,6 +223,10 @@ def test_conformal_streams_the_policy_and_the_band(calibration, wide_run, policy
     model = ConformalRegressor(make_compensation_pipeline(Ridge(), outside=policy), cv=3)
     model.fit(calibration, _drift(calibration))
     assert model.estimator_.outside_calibration(wide_run).mean() > 0.3
+    if policy == "blend":
+        # the band's terms beyond the calibrated temperatures are streamed too
+        assert model.thermal_slope_ != 0.0
+        assert wide_run["temperature"].max() > calibration["temperature"].max()
     drift = _batch(model, wide_run)
     band = _batch(model, wide_run, "predict_interval")
     stepper = StreamingCompensator(model)
