@@ -66,6 +66,15 @@ def _without_domain_terms(model, X):
     return model.bounds_from_predictions(model.predict(X), predictions, model._raw_features(X))
 
 
+def _degrees_beyond(model, X):
+    """Degrees beyond the full model's calibrated temperatures of every row of X."""
+    domain = model.estimator_.domain_
+    rows = np.asarray(model.estimator_[0].transform(X), dtype=float)
+    return temperature_excess(
+        rows, domain.temperature_columns_, domain.data_min_, domain.data_max_
+    )
+
+
 def _folds(model, X):
     """(fold model, its held-out rows) of a model fitted with the default cv (run by run)."""
     runs = X["run"].to_numpy()
@@ -138,13 +147,7 @@ def test_band_is_unchanged_inside_and_holds_both_candidates_outside(fitted, warm
     share = fallback_weight(full.calibration_distance(X_cold), full.domain_.margin)
     assert (share == 1).sum() >= 20
     # unchanged where the prediction is the regressor's, within the calibrated temperatures
-    domain = full.domain_
-    beyond = temperature_excess(
-        fitted._thermal_rows(X_cold),
-        domain.temperature_columns_,
-        domain.data_min_,
-        domain.data_max_,
-    )
+    beyond = _degrees_beyond(fitted, X_cold)
     kept = (share == 0) & (beyond == 0)
     assert kept.sum() >= 20
     np.testing.assert_array_equal(bounds[kept], plain[kept])
@@ -181,13 +184,7 @@ def test_band_beyond_the_calibrated_temperatures_spans_the_slope(fitted, warm_co
         flat = without.predict_interval(X_cold)
         centre = fitted.predict(X_cold)
     raw = fitted._raw_features(X_cold)
-    domain = full.domain_
-    beyond = temperature_excess(
-        fitted._thermal_rows(X_cold),
-        domain.temperature_columns_,
-        domain.data_min_,
-        domain.data_max_,
-    )
+    beyond = _degrees_beyond(fitted, X_cold)
     assert (beyond > 5.0).sum() >= 20
     np.testing.assert_array_equal(bounds[beyond == 0], flat[beyond == 0])
     # both bands are stretched by the same shift onto the regressor's own extrapolation
@@ -211,13 +208,7 @@ def test_bounds_from_the_fallback_share_are_predict_interval(fitted, warm_cold):
     full = fitted.estimator_
     share = fallback_weight(full.calibration_distance(X_cold), full.domain_.margin)
     raw = fitted._raw_features(X_cold)
-    domain = full.domain_
-    beyond = temperature_excess(
-        np.asarray(full[0].transform(X_cold), dtype=float),
-        domain.temperature_columns_,
-        domain.data_min_,
-        domain.data_max_,
-    )
+    beyond = _degrees_beyond(fitted, X_cold)
     bounds = fitted.bounds_from_predictions(
         centre, predictions, raw, fallback_share=share, temperature_beyond=beyond
     )
