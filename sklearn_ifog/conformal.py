@@ -107,7 +107,12 @@ from sklearn_ifog._compat import (
     _routing_enabled,
     _safe_indexing,
 )
-from sklearn_ifog.domain import OutsideCalibrationWarning, fallback_weight, temperature_excess
+from sklearn_ifog.domain import (
+    OutsideCalibrationWarning,
+    box_distance,
+    fallback_weight,
+    temperature_excess,
+)
 from sklearn_ifog.pipeline import CompensationPipeline
 
 __all__ = [
@@ -879,30 +884,27 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         _, group_scores = run_quantile_scores(self.fallback_scores_, self.score_groups_, coverage)
         return float(conformal_quantile(group_scores, self.confidence))
 
-    def _fallback_share(self, X):
-        """The full model's ``"blend"`` weight of every row (None without the terms).
+    def _outside_terms(self, X):
+        """(fallback share, degrees beyond the calibrated temperatures) of every row, or
+        (None, None) without the terms outside the domain.
 
-        :func:`~sklearn_ifog.domain.fallback_weight` of the row's distance outside the full
-        model's calibration domain: the fallback's share of the prediction.
+        The share is :func:`~sklearn_ifog.domain.fallback_weight` of the row's distance
+        outside the full model's calibration domain (the fallback's share of the
+        prediction); both come from one pass of the rows through the feature step.
         """
         if getattr(self, "fallback_scores_", None) is None:
-            return None
-        model = self.estimator_
-        return fallback_weight(model.calibration_distance(X), model.domain_.margin)
+            return None, None
+        domain = self.estimator_.domain_
+        rows = self._thermal_rows(X)
+        share = fallback_weight(box_distance(domain.box_, rows), domain.margin)
+        beyond = temperature_excess(
+            rows, domain.temperature_columns_, domain.data_min_, domain.data_max_
+        )
+        return share, beyond
 
     def _thermal_rows(self, X):
         """The rows through the full model's feature step (degrees, not standardised)."""
         return _fallback_features(self.estimator_, X)
-
-    def _temperature_beyond(self, X):
-        """Degrees beyond the full model's calibrated temperatures (None without the terms
-        outside the domain)."""
-        if getattr(self, "fallback_scores_", None) is None:
-            return None
-        domain = self.estimator_.domain_
-        return temperature_excess(
-            self._thermal_rows(X), domain.temperature_columns_, domain.data_min_, domain.data_max_
-        )
 
     def _raw_features(self, X):
         model = self.estimator_
@@ -974,13 +976,14 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             )
         centre = self.predict(X)
         _reissue(caught, skip=(OutsideCalibrationWarning,))
+        share, beyond = self._outside_terms(X)
         return self.bounds_from_predictions(
             centre,
             predictions,
             raw,
             coverage=coverage,
-            fallback_share=self._fallback_share(X),
-            temperature_beyond=self._temperature_beyond(X),
+            fallback_share=share,
+            temperature_beyond=beyond,
         )
 
     def bounds_from_predictions(

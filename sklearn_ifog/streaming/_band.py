@@ -94,7 +94,7 @@ class ConformalBand:
             raw = np.asarray(raw, dtype=float)
         centre = np.asarray(drift, dtype=float).reshape(n_samples)
         if distance is not None and getattr(conformal, "fallback_scores_", None) is not None:
-            # As ConformalRegressor._fallback_share: the full model's fallback weight.
+            # As ConformalRegressor._outside_terms: the full model's fallback weight.
             share = fallback_weight(distance, margin)
             domain = conformal.estimator_.domain_
             beyond = temperature_excess(
