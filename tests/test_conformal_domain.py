@@ -254,10 +254,9 @@ def test_coverage_on_rows_outside_the_domain_every_seed(seed):
     domain the band covers at least 0.85 (nominal 0.9 - 0.05); the terms outside the domain
     never narrow the band, widen it there, and never lose coverage.
 
-    Checked on seeds 0-9 (coverage outside 0.984-0.997; without the terms 0.867-0.945, the
-    fallback being a plane in T and dT fitted on the warm runs; mean width outside 3.42-4.94 x
-    the band without the terms, most of it the slope term: this drift's line in T does go on
-    beyond the calibration, which the calibration cannot know); the test runs seeds 0-4.
+    The fallback here is a plane in T and dT fitted on the warm runs, and this drift's line
+    in T does go on beyond the calibration (which the calibration cannot know): most of the
+    widening outside is the slope term. The test runs seeds 0-4.
     """
     X_warm, y_warm = _thermal_table(seed, (10.0, 40.0))
     X_cold, y_cold = _thermal_table(seed + 100, (-10.0, 40.0))
