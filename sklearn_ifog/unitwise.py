@@ -108,6 +108,34 @@ def _check_partial(estimator):
         )
 
 
+def _check_units_change_temperature(lot, X_inner, rows, unit_column):
+    """A ValueError naming the first unit whose calibrated temperature never changes.
+
+    Only for a lot model that knows its temperature columns (a fitted
+    :class:`~sklearn_ifog.pipeline.CompensationPipeline`); ``rows``: unit -> row indices.
+    A single row is a spot calibration that ``"partial"`` shrinks to the lot (see
+    ``_enough_rows``); many rows at one exact temperature are a stuck or misassigned sensor.
+    """
+    domain = getattr(lot, "domain_", None)
+    columns = getattr(domain, "temperature_columns_", None)
+    if not columns or not hasattr(lot, "_transform_features"):
+        return
+    raw = np.asarray(lot._transform_features(X_inner), dtype=np.float64)[:, columns]
+    names = getattr(lot, "feature_names_out_", None)
+    for unit, index in rows.items():
+        constant = np.flatnonzero(np.ptp(raw[index], axis=0) == 0)
+        if index.size > 1 and constant.size:
+            column = int(constant[0])
+            name = repr(str(names[columns[column]])) if names is not None else column
+            raise ValueError(
+                f"unit {unit!r} (column {unit_column!r} of X): its temperature (feature "
+                f"{name}) is constant ({float(raw[index[0], column])!r}) over its "
+                f"{index.size} calibration rows. A unit calibrated at one temperature says "
+                "nothing of its thermal drift (a stuck or misassigned sensor?); calibrate it "
+                "on runs that change temperature, or leave it out of the lot."
+            )
+
+
 def _layer_inputs(model, X):
     """What the final regressor of the fitted ``model`` sees for ``X``, as a float array."""
     if isinstance(model, Pipeline):
@@ -527,7 +555,10 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             If the unit column is missing, if a unit fitted on its rows alone
             (``pooling="none"``) has fewer rows than its model needs (named, with the
             count: at least ``MIN_UNIT_ROWS``, and one per weight of a linear output layer),
-            or if a unit's model cannot be fitted (named).
+            if a unit's model cannot be fitted (named), if the unit column has a missing
+            id (NaN or None; the first such row named), or if, with a
+            :func:`~sklearn_ifog.make_compensation_pipeline` model, a unit's temperature
+            never changes over its rows (named, with the sensor's feature and value).
         TypeError
             If the unit column (or, for ``"partial"``, the run column) mixes ids of
             different types, e.g. the string ``"0"`` among integers.
@@ -623,6 +654,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         elif self.pooling == "full":
             models = dict.fromkeys(rows, self.lot_estimator_)
         else:
+            _check_units_change_temperature(self.lot_estimator_, X_inner, rows, self.unit)
             models = self._add_partial(X_inner, y, self._runs(X, X.shape[0]), rows, params)
         self.estimators_.update(models)
         self.units_ = np.unique(np.concatenate([self.units_, new]))
@@ -700,6 +732,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         started = time.perf_counter()
         lot = clone(self.estimator).fit(X_inner, y, **params)
         self._report(f"lot model fitted on {len(rows)} units", started)
+        _check_units_change_temperature(lot, X_inner, rows, self.unit)
         self.lot_estimator_ = lot
         if self.pooling == "full":
             self.estimators_ = dict.fromkeys(rows, lot)

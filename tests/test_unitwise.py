@@ -493,6 +493,60 @@ def test_unknown_unit_at_predict_is_named(lot):
         model.predict(X)
 
 
+@pytest.mark.parametrize("missing", [np.nan, None])
+@pytest.mark.parametrize("pooling", ["none", "partial", "full"])
+def test_a_missing_unit_id_is_named_with_its_row(lot, pooling, missing):
+    """A NaN (or None) in the unit column is a missing unit id: a ValueError naming the
+    column and the first such row, at fit and at predict; a fitted model stays as it was."""
+    X, y = lot.data, lot.target.to_numpy()
+    model = UnitwiseRegressor(_linear(), pooling=pooling).fit(X, y)
+    state, expected = _fitted_state(model), model.predict(X)
+    holed = X.astype({"unit": object})
+    holed.loc[holed.index[7], "unit"] = missing
+    message = r"unit column 'unit' has missing unit ids \(first at row 7\)"
+    with pytest.raises(ValueError, match=message):
+        model.fit(holed, y)
+    _assert_unchanged(model, state, X, expected)
+    with pytest.raises(ValueError, match=message):
+        model.predict(holed)
+
+
+@pytest.mark.parametrize("pooling", ["none", "partial", "full"])
+def test_a_unit_at_one_temperature_is_named(lot, pooling):
+    """A unit whose temperature never changes (a stuck sensor, or a unit calibrated at one
+    temperature) says nothing of its thermal drift: a ValueError naming the unit, the
+    feature and the value, whatever the pooling; a fitted model stays as it was."""
+    X, y = lot.data, lot.target.to_numpy()
+    model = UnitwiseRegressor(_linear(), pooling=pooling).fit(X, y)
+    state, expected = _fitted_state(model), model.predict(X)
+    stuck = X.copy()
+    stuck.loc[_unit_rows(lot, 2), "temperature"] = 21.5
+    n_rows = int(_unit_rows(lot, 2).sum())
+    message = (
+        rf"unit 2 \(column 'unit'.*'T'.* is constant \(21\.5\) over the "
+        rf"{n_rows} calibration rows"
+        if pooling == "none"
+        else rf"unit 2 \(column 'unit' of X\): its temperature \(feature 'T'\) is constant "
+        rf"\(21\.5\) over its {n_rows} calibration rows"
+    )
+    with pytest.raises(ValueError, match=message):
+        model.fit(stuck, y)
+    _assert_unchanged(model, state, X, expected)
+
+
+def test_add_units_names_a_new_unit_at_one_temperature(lot):
+    X, y = lot.data, lot.target.to_numpy()
+    fitted = ~_unit_rows(lot, 3)
+    model = UnitwiseRegressor(_linear(), pooling="partial").fit(X[fitted], y[fitted])
+    new = X[~fitted].copy()
+    new["temperature"] = 30.0
+    with pytest.raises(ValueError, match=r"unit 3 \(column 'unit' of X\): .*constant \(30\.0\)"):
+        model.add_units(new, y[~fitted])
+    assert 3 not in model.estimators_
+    model.add_units(X[~fitted], y[~fitted])  # the same unit with its real temperatures
+    assert 3 in model.estimators_
+
+
 def test_unknown_pooling_is_rejected(lot):
     with pytest.raises(InvalidParameterError, match="pooling"):
         UnitwiseRegressor(_linear(), pooling="some").fit(lot.data, lot.target)
