@@ -43,7 +43,7 @@ SEEDS = {
     "bench_extrapolation": {
         "tuning": tuple(range(8)),
         "judged": (8, 9, 10, 11, 12),
-        "chose": "the blend width, the domain margin and REPEATED_RATIO (--tune)",
+        "chose": "the blend width, the domain margin, REPEATED_RATIO and CARRIED_SCALE (--tune)",
     },
     "bench_conformal": {
         "tuning": (0, 1, 2),

@@ -67,7 +67,10 @@ case; seed 3 then showed it keeping a network 11-18 x worse than the line (``--t
 transition seen heating only), so safety decided for the narrowest width of the sweep.
 The fallback's plane in T and dT (``sklearn_ifog.domain.REPEATED_RATIO``, 0.75) was chosen
 the same way: on seeds 0-7, from the ``repeated_ratio`` sweep of ``--tune``, as the ratio
-with the fewest first-rule failures, then the fewest outside-T failures.
+with the fewest first-rule failures, then the fewest outside-T failures; and then the held-out
+scale at which a plane with a ratio between it and 1 is trusted too
+(``sklearn_ifog.domain.CARRIED_SCALE``, 0.9), from the ``carried_scale`` sweep by the same
+order, a tie going to the value that trusts the plane less.
 
 Also printed (not a target): the fallback's evidence, per case, against what the line in T
 and the default do outside the calibrated temperatures, and how the plane's
@@ -94,6 +97,7 @@ from sklearn.preprocessing import PolynomialFeatures
 from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
 from sklearn_ifog.datasets import noise_floor
 from sklearn_ifog.domain import (
+    CARRIED_SCALE,
     REPEATED_RATIO,
     box_distance,
     extremes_held_out,
@@ -132,6 +136,10 @@ CLAMP_FACTORS = (1.0, 1.5, 2.0, 3.0)
 # (``repeated_ratio``; the default, ``sklearn_ifog.domain.REPEATED_RATIO``, was chosen on the
 # tuning seeds from this sweep).
 REPEATED_RATIOS = (0.5, 0.6, 0.75, 0.9, 1.0)
+# Held-out scales at which ``fit_fallback`` would also trust a plane whose ratio lies between
+# REPEATED_RATIO and 1 (``carried_scale``; the default, ``sklearn_ifog.domain.CARRIED_SCALE``,
+# was chosen on the tuning seeds from this sweep; inf: never, the rule before it).
+CARRIED_SCALES = (0.8, 0.85, 0.9, 0.95, np.inf)
 
 OUTSIDE_RATIO = 1.5  # outside T: <= 1.5 x the better of uncompensated and the line
 RATE_RATIO = 1.2  # new rates: <= 1.2 x the line
@@ -189,10 +197,13 @@ def fallback_evidence(X_cal, y_cal):
     temperature, rate = raw[:, names.index("T")], raw[:, names.index("dT")]
     line = extremes_held_out(temperature, y_cal[:, None])
     plane = extremes_held_out(temperature, y_cal[:, None], rate)
-    runs = held_out_runs(temperature, rate, y_cal[:, None], X_cal["run"].to_numpy())
+    runs, scale = held_out_runs(
+        temperature, rate, y_cal[:, None], X_cal["run"].to_numpy(), return_scale=True
+    )
     return {
         "line": max(float(end[1].mean() / end[0].mean()) for end in line),
         "runs": float(runs[0]),
+        "scale": float(scale[0]),
         "plane ends": [float(end[1].mean() / end[0].mean()) for end in plane],
     }
 
@@ -210,17 +221,21 @@ def fallback_kind(fallback):
 
 
 def repeated_sweep(model, X_cal, y_cal, features_op, network_op):
-    """The blend with the fallback ``fit_fallback`` gives at each ``REPEATED_RATIOS`` entry.
+    """The blend with the fallback ``fit_fallback`` gives at each ``REPEATED_RATIOS`` entry
+    (``carried_scale`` at its default) and at each ``CARRIED_SCALES`` entry
+    (``repeated_ratio`` at its default).
 
     The same network (``outside="none"``) and blend weights as the default's predict, only
-    the fallback's ``repeated_ratio`` changes.
+    the fallback's rule changes.
     """
     transformer = model.steps[0][1]
     raw = np.asarray(transformer.transform(X_cal))
     column, rate_column = model.fallback_.column, list(model.feature_names_out_).index("dT")
     weight = fallback_weight(box_distance(model.domain_.box_, features_op), model.margin)
     out = {}
-    for ratio in REPEATED_RATIOS:
+    rules = [(f"repeated {ratio:g}", ratio, CARRIED_SCALE) for ratio in REPEATED_RATIOS]
+    rules += [(f"scale {scale:g}", REPEATED_RATIO, scale) for scale in CARRIED_SCALES]
+    for key, ratio, scale in rules:
         fallback = fit_fallback(
             raw[:, column],
             y_cal[:, None],
@@ -229,9 +244,10 @@ def repeated_sweep(model, X_cal, y_cal, features_op, network_op):
             rate_column=rate_column,
             runs=X_cal["run"].to_numpy(),
             repeated_ratio=ratio,
+            carried_scale=scale,
         )
         blended = fallback.predict(features_op)[:, 0]
-        out[f"repeated {ratio:g}"] = (1.0 - weight) * network_op + weight * blended
+        out[key] = (1.0 - weight) * network_op + weight * blended
     return out
 
 
@@ -670,11 +686,12 @@ def evidence_markdown(simulated):
         "",
         "Evidence: squared error over the constant's, for the line in T at the worse "
         "calibrated extreme, for the plane in T and dT on each calibration run held out and "
-        "at the cold / warm extreme. Outside T: MSD over uncompensated's.",
+        "at the cold / warm extreme; the held-out runs' scale (how far they bear out the "
+        "plane's predictions, 1 in full). Outside T: MSD over uncompensated's.",
         "",
-        "| case | line, extremes | plane, held-out runs | plane, cold / warm extreme | "
-        "fallback | line outside T | default outside T |",
-        "|---|---|---|---|---|---|---|",
+        "| case | line, extremes | plane, held-out runs | held-out scale | plane, cold / warm "
+        "extreme | fallback | line outside T | default outside T |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for (physics, seed), record in simulated.items():
         for profile, cell in record.items():
@@ -685,22 +702,25 @@ def evidence_markdown(simulated):
             cold, warm = evidence["plane ends"]
             out.append(
                 f"| {physics} s{seed} {profile} | {evidence['line']:.3f} | "
-                f"{evidence['runs']:.3f} | {cold:.3f} / {warm:.3f} | {cell['fallback']} | "
+                f"{evidence['runs']:.3f} | {evidence['scale']:.3f} | {cold:.3f} / {warm:.3f} | "
+                f"{cell['fallback']} | "
                 f"{scores['line in T'] / uncompensated:.3f} | "
                 f"{scores['default'] / uncompensated:.3f} |"
             )
     out += [
         "",
         f"Trust the plane when its held-out-run ratio is at most ... (the default "
-        f"{REPEATED_RATIO:g}); failures of each target:",
+        f"{REPEATED_RATIO:g}), or below 1 with a held-out scale of at least ... (the default "
+        f"{CARRIED_SCALE:g}; inf: never); failures of each target:",
         "",
-        f"| ratio | outside T (<= {OUTSIDE_RATIO:g} x min(uncompensated, line)) | first rule "
+        f"| rule | outside T (<= {OUTSIDE_RATIO:g} x min(uncompensated, line)) | first rule "
         f"(<= {NEVER_WORSE:g} x uncompensated, outside T and new rates) | new rates "
         f"(<= {RATE_RATIO:g} x line) |",
         "|---|---|---|---|",
     ]
-    for ratio in REPEATED_RATIOS:
-        key = f"repeated {ratio:g}"
+    keys = [f"repeated {ratio:g}" for ratio in REPEATED_RATIOS]
+    keys += [f"scale {scale:g}" for scale in CARRIED_SCALES]
+    for key in keys:
         outside = first = rates = total = 0
         for record in simulated.values():
             for cell in record.values():
@@ -716,7 +736,8 @@ def evidence_markdown(simulated):
                         outside += ours > OUTSIDE_RATIO * best
                     else:
                         rates += ours > RATE_RATIO * scores["line in T"]
-        out.append(f"| {ratio:g} | {outside} of {total} | {first} | {rates} |")
+        label = key.replace("repeated", "ratio <=").replace("scale", "scale >=")
+        out.append(f"| {label} | {outside} of {total} | {first} | {rates} |")
     return out
 
 

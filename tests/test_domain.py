@@ -21,6 +21,7 @@ from sklearn_ifog._compat import InvalidParameterError
 from sklearn_ifog.datasets import load_psim_tvc, make_thermal_campaign
 from sklearn_ifog.domain import (
     BLEND_WIDTH,
+    CARRIED_SCALE,
     REPEATED_RATIO,
     Fallback,
     box_distance,
@@ -250,9 +251,63 @@ def test_plane_fallback_ignores_a_drift_the_runs_do_not_repeat():
     assert fallback_name(fallback) == "constant"
 
 
+def _run_offsets_hide_a_plane(seed):
+    """Four heating runs of a thermal plane, each run offset by a turn-on bias of its own
+    (0.8 deg/h standard deviation) that leaves the plane's held-out ratio near 1."""
+    rng = np.random.default_rng(seed)
+    t, rate, runs = _heating_runs(rng, n_runs=4)
+    y = 0.05 * t + 0.8 * rate + rng.normal(scale=0.8, size=4)[runs]
+    return t, rate, runs, y + rng.normal(scale=0.05, size=t.size)
+
+
+def test_a_plane_the_held_out_runs_bear_out_is_trusted_through_their_offsets():
+    """Turn-on biases that differ from run to run raise the plane's held-out ratio above
+    REPEATED_RATIO, but the held-out runs still follow its predictions in proportion (a
+    scale of CARRIED_SCALE or more): the fallback is the plane. The rule before the scale
+    (``carried_scale=np.inf``) kept a constant; the threshold is the measured scale's."""
+    t, rate, runs, y = _run_offsets_hide_a_plane(seed=6)
+    ratio, scale = held_out_runs(t, rate, y[:, None], runs, return_scale=True)
+    assert REPEATED_RATIO < ratio[0] < 1.0
+    assert scale[0] >= CARRIED_SCALE
+
+    def fallback(**rule):
+        return fit_fallback(t, y[:, None], 0, rate=rate, rate_column=1, runs=runs, **rule)
+
+    assert fallback_name(fallback()) == "plane"
+    assert fallback_name(fallback(carried_scale=np.inf)) == "constant"
+    assert fallback_name(fallback(carried_scale=float(scale[0]))) == "plane"
+    assert fallback_name(fallback(carried_scale=float(scale[0]) + 1e-9)) == "constant"
+    # trusted by its ratio alone, the same plane
+    np.testing.assert_array_equal(
+        fallback().predict(np.c_[t, rate]),
+        fallback(repeated_ratio=1.0, carried_scale=np.inf).predict(np.c_[t, rate]),
+    )
+
+
+def test_held_out_runs_of_a_single_run_is_none_with_or_without_the_scale():
+    t, rate, _, y = _run_offsets_hide_a_plane(seed=0)
+    one_run = np.zeros(t.size)
+    assert held_out_runs(t, rate, y[:, None], one_run) is None
+    assert held_out_runs(t, rate, y[:, None], one_run, return_scale=True) == (None, None)
+
+
+def test_a_plane_the_held_out_runs_do_not_bear_out_is_not_trusted():
+    """The same construction where the held-out runs follow the plane's predictions by a
+    scale below CARRIED_SCALE (it overshoots them) and its ratio is above REPEATED_RATIO: a
+    constant."""
+    t, rate, runs, y = _run_offsets_hide_a_plane(seed=2)
+    ratio, scale = held_out_runs(t, rate, y[:, None], runs, return_scale=True)
+    assert REPEATED_RATIO < ratio[0] < 1.0
+    assert scale[0] < CARRIED_SCALE
+    fallback = fit_fallback(t, y[:, None], 0, rate=rate, rate_column=1, runs=runs)
+    assert fallback_name(fallback) == "constant"
+
+
 def _held_out_runs_by_refits(temperature, rate, Y, runs):
-    """held_out_runs by its definition: one least-squares plane per held-out run."""
+    """held_out_runs by its definition: one least-squares plane per held-out run; the ratio
+    and the held-out scale."""
     plane, constant = np.zeros(Y.shape[1]), np.zeros(Y.shape[1])
+    along, spread = np.zeros(Y.shape[1]), np.zeros(Y.shape[1])
     for run in np.unique(runs):
         held = runs == run
         columns = np.column_stack([np.ones((~held).sum()), temperature[~held], rate[~held]])
@@ -263,7 +318,11 @@ def _held_out_runs_by_refits(temperature, rate, Y, runs):
         predicted = rows[:, : columns.shape[1]] @ coef
         plane += np.square(Y[held] - predicted).sum(axis=0)
         constant += np.square(Y[held] - Y[~held].mean(axis=0)).sum(axis=0)
-    return plane / constant
+        along += ((Y[held] - Y[~held].mean(axis=0)) * (predicted - Y[~held].mean(axis=0))).sum(
+            axis=0
+        )
+        spread += np.square(predicted - Y[~held].mean(axis=0)).sum(axis=0)
+    return plane / constant, along / spread
 
 
 @pytest.mark.parametrize(
@@ -285,11 +344,11 @@ def test_held_out_runs_equals_one_refit_per_run(case):
     )
     Y += rng.normal(scale=0.05, size=Y.shape)
     labels = np.array([f"run-{run}" for run in runs])  # labels of any kind
-    np.testing.assert_allclose(
-        held_out_runs(t, rate, Y, labels),
-        _held_out_runs_by_refits(t, rate, Y, runs),
-        rtol=1e-9,
-    )
+    ratio, scale = _held_out_runs_by_refits(t, rate, Y, runs)
+    np.testing.assert_allclose(held_out_runs(t, rate, Y, labels), ratio, rtol=1e-9)
+    both = held_out_runs(t, rate, Y, labels, return_scale=True)
+    np.testing.assert_allclose(both[0], ratio, rtol=1e-9)
+    np.testing.assert_allclose(both[1], scale, rtol=1e-9)
 
 
 def test_fallback_rate_term_is_bounded_to_the_calibrated_rates():
