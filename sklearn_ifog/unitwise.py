@@ -118,9 +118,10 @@ def _check_units_change_temperature(lot, X_inner, rows, unit_column):
     """
     domain = getattr(lot, "domain_", None)
     columns = getattr(domain, "temperature_columns_", None)
-    if not columns or not hasattr(lot, "_transform_features"):
+    if not columns or not isinstance(lot, Pipeline):
         return
-    raw = np.asarray(lot._transform_features(X_inner), dtype=np.float64)[:, columns]
+    # the rows as the domain reads them: the output of the pipeline's feature step
+    raw = np.asarray(lot.steps[0][1].transform(X_inner), dtype=np.float64)[:, columns]
     names = getattr(lot, "feature_names_out_", None)
     for unit, index in rows.items():
         constant = np.flatnonzero(np.ptp(raw[index], axis=0) == 0)
