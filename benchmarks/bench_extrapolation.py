@@ -70,7 +70,11 @@ the same way: on seeds 0-7, from the ``repeated_ratio`` sweep of ``--tune``, as 
 with the fewest first-rule failures, then the fewest outside-T failures; and then the held-out
 scale at which a plane with a ratio between it and 1 is trusted too
 (``sklearn_ifog.domain.CARRIED_SCALE``, 0.9), from the ``carried_scale`` sweep by the same
-order, a tie going to the value that trusts the plane less.
+order, a tie going to the value that trusts the plane less. The weight of a rate's excess in
+the domain's distance (``sklearn_ifog.domain.RATE_WEIGHT``, 2) came last, from the
+``rate weight`` sweep of ``--tune`` (0, no rate term, to 4): the largest weight that keeps
+the shared-profile rows inside the calibrated temperatures flagged at most 2 % on every
+tuning seed (3 and 4 do not).
 
 Also printed (not a target): the fallback's evidence, per case, against what the line in T
 and the default do outside the calibrated temperatures, and how the plane's
@@ -98,6 +102,7 @@ from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
 from sklearn_ifog.datasets import noise_floor
 from sklearn_ifog.domain import (
     CARRIED_SCALE,
+    RATE_WEIGHT,
     REPEATED_RATIO,
     box_distance,
     extremes_held_out,
@@ -140,6 +145,10 @@ REPEATED_RATIOS = (0.5, 0.6, 0.75, 0.9, 1.0)
 # REPEATED_RATIO and 1 (``carried_scale``; the default, ``sklearn_ifog.domain.CARRIED_SCALE``,
 # was chosen on the tuning seeds from this sweep; inf: never, the rule before it).
 CARRIED_SCALES = (0.8, 0.85, 0.9, 0.95, np.inf)
+# Weights of a rate's excess beyond its calibrated range in the domain's distance (the
+# default, ``sklearn_ifog.domain.RATE_WEIGHT``, was chosen on the tuning seeds from this
+# sweep; 0: no rate term, the domain before it).
+RATE_WEIGHTS = (0.0, 1.0, 2.0, 3.0, 4.0)
 
 OUTSIDE_RATIO = 1.5  # outside T: <= 1.5 x the better of uncompensated and the line
 RATE_RATIO = 1.2  # new rates: <= 1.2 x the line
@@ -220,6 +229,32 @@ def fallback_kind(fallback):
     return "line" if fallback.slope[0] != 0 else "constant"
 
 
+def rate_weighted_distance(model, features, rate_weight):
+    """The domain's distance of feature rows with the rate term at ``rate_weight`` (0: none).
+
+    ``model.domain_``'s box with its rate scale rescaled from ``RATE_WEIGHT`` to
+    ``rate_weight``: the distance ``predict`` would use had the domain been fitted with it.
+    """
+    box = model.domain_.box_
+    if rate_weight == 0 or not box.rate_columns:
+        box = box._replace(rate_columns=())
+    else:
+        box = box._replace(rate_scale=box.rate_scale * RATE_WEIGHT / rate_weight)
+    return box_distance(box, features)
+
+
+def rate_weight_sweep(model, features, network):
+    """The blend at each ``RATE_WEIGHTS`` entry: the same network and fallback as the
+    default's predict, only the rate term of the distance changes."""
+    fallback = model.fallback_.predict(features)[:, 0]
+    out = {}
+    for rate_weight in RATE_WEIGHTS:
+        distance = rate_weighted_distance(model, features, rate_weight)
+        weight = fallback_weight(distance, model.margin)
+        out[f"rate weight {rate_weight:g}"] = (1.0 - weight) * network + weight * fallback
+    return out
+
+
 def repeated_sweep(model, X_cal, y_cal, features_op, network_op):
     """The blend with the fallback ``fit_fallback`` gives at each ``REPEATED_RATIOS`` entry
     (``carried_scale`` at its default) and at each ``CARRIED_SCALES`` entry
@@ -281,6 +316,7 @@ def peers(X_cal, y_cal, X_op):
         weight = fallback_weight(distance, default.margin, width)
         sweep[f"blend width {width:g}"] = (1.0 - weight) * none + weight * fallback
     sweep.update(deviation_clamp(default, X_cal, X_op))
+    sweep.update(rate_weight_sweep(default, features, none))
     return predictions, sweep, default, features
 
 
@@ -348,7 +384,7 @@ def shared_profile_case(physics, seed, sampling_period, n_runs):
     """
     X, y = extrapolation_shared_profiles(physics, seed, sampling_period, n_runs)
     flagged, flagged_inside_t, rows, rows_inside_t = 0, 0, 0, 0
-    by_margin = {}
+    by_margin, by_rate = {}, {}
     for azimuth in np.unique(X["azimuth"]):
         held = (X["azimuth"] == azimuth).to_numpy()
         model = make_compensation_pipeline(LinearRegression()).fit(X[~held], y[~held])
@@ -362,6 +398,12 @@ def shared_profile_case(physics, seed, sampling_period, n_runs):
         distance = model.calibration_distance(X[held])[inside_t]
         for margin in SWEEP_MARGINS:
             by_margin[margin] = by_margin.get(margin, 0) + int((distance > margin).sum())
+        rows_held = model.steps[0][1].transform(X[held])[inside_t]
+        for rate_weight in RATE_WEIGHTS:
+            weighted = rate_weighted_distance(model, rows_held, rate_weight)
+            by_rate[rate_weight] = by_rate.get(rate_weight, 0) + int(
+                (weighted > model.margin).sum()
+            )
         rows += int(held.sum())
         rows_inside_t += int(inside_t.sum())
     mixed = extrapolation_mixed_profiles(physics, seed, sampling_period, n_runs)
@@ -378,6 +420,9 @@ def shared_profile_case(physics, seed, sampling_period, n_runs):
                 squared[name] = squared.get(name, 0.0) + float(np.sum((y[held] - clamped) ** 2))
             model.set_params(outside="none")
             free = model.predict(X[held])
+        features_held = model.steps[0][1].transform(X[held])
+        for name, blended in rate_weight_sweep(model, features_held, free).items():
+            squared[name] = squared.get(name, 0.0) + float(np.sum((y[held] - blended) ** 2))
         squared["default, outside='none'"] += float(np.sum((y[held] - free) ** 2))
         floor += noise_floor(mixed.frame, np.flatnonzero(held)) * held.sum()
         outside_rows += int(model.outside_calibration(X[held]).sum())
@@ -387,6 +432,7 @@ def shared_profile_case(physics, seed, sampling_period, n_runs):
         "rows": rows,
         "rows inside T": rows_inside_t,
         "flagged inside T by margin": {m: n / rows_inside_t for m, n in by_margin.items()},
+        "flagged inside T by rate weight": {k: n / rows_inside_t for k, n in by_rate.items()},
         "msd/floor": {name: value / floor for name, value in squared.items()},
         "mixed rows outside": outside_rows / X.shape[0],
     }
@@ -599,6 +645,7 @@ def markdown(simulated, shared, real, sweep_only, lines, command, seconds):
                 + " | ".join(f"{shares[m]:.4f}" for m in SWEEP_MARGINS)
                 + " |"
             )
+    out += rate_weight_markdown(simulated, shared)
     out += evidence_markdown(simulated)
     out += clamp_markdown(simulated, shared, real)
     out += ["", "## Verdict", "", *lines, ""]
@@ -668,6 +715,53 @@ def clamp_markdown(simulated, shared, real):
         cells = [f"{failed} of {total}" if total else "-" for failed, total in counts.values()]
         rows.append(f"| {policy} | " + " | ".join(cells) + " |")
     return header + rows
+
+
+def rate_weight_markdown(simulated, shared):
+    """Each target's failures at each weight of the rate term (``RATE_WEIGHTS``).
+
+    The same network and fallback as the default's (:func:`rate_weight_sweep`); the flags
+    and the cost where calibration and use share profiles from the shared-profile case.
+    """
+    out = [
+        "",
+        f"## Rate weight sweep (the rate's excess in the distance; the default "
+        f"{RATE_WEIGHT:g}, 0: no rate term)",
+        "",
+        f"| rate weight | outside T (<= {OUTSIDE_RATIO:g} x min(uncompensated, line)) | first "
+        f"rule (<= {NEVER_WORSE:g} x uncompensated) | new rates (<= {RATE_RATIO:g} x line) | "
+        f"shared profiles: flagged inside T > {FLAGGED_SHARED:g} | largest share flagged "
+        f"inside T | shared profiles: cost > {UNCHANGED_RATIO:g} x outside='none' |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for rate_weight in RATE_WEIGHTS:
+        key = f"rate weight {rate_weight:g}"
+        outside = first = rates = total = 0
+        for record in simulated.values():
+            for cell in record.values():
+                for group in ("outside T", "new rates"):
+                    scores, sweep = cell["scores"][group], cell["sweep"][group]
+                    if not scores["rows"]:
+                        continue
+                    ours = sweep[key]
+                    first += ours > NEVER_WORSE * scores["uncompensated"]
+                    if group == "outside T":
+                        total += 1
+                        best = min(scores["uncompensated"], scores["line in T"])
+                        outside += ours > OUTSIDE_RATIO * best
+                    else:
+                        rates += ours > RATE_RATIO * scores["line in T"]
+        shares = [cell["flagged inside T by rate weight"][rate_weight] for cell in shared.values()]
+        costs = [
+            cell["msd/floor"][key] > UNCHANGED_RATIO * cell["msd/floor"]["default, outside='none'"]
+            for cell in shared.values()
+        ]
+        out.append(
+            f"| {rate_weight:g} | {outside} of {total} | {first} | {rates} | "
+            f"{sum(share > FLAGGED_SHARED for share in shares)} of {len(shares)} | "
+            f"{max(shares, default=0.0):.4f} | {sum(costs)} of {len(costs)} |"
+        )
+    return out
 
 
 def evidence_markdown(simulated):
@@ -802,6 +896,9 @@ def main(argv=None):
                 **v,
                 "flagged inside T by margin": {
                     str(m): share for m, share in v["flagged inside T by margin"].items()
+                },
+                "flagged inside T by rate weight": {
+                    str(k): share for k, share in v["flagged inside T by rate weight"].items()
                 },
             }
             for (p, s), v in shared.items()

@@ -439,6 +439,13 @@ class CompiledDomain:
             (column, float(self.data_min[column]), float(self.data_max[column]))
             for column in self.temperature_columns
         ]
+        # The rate term of box_distance: (column, low, high, scale) per rate feature.
+        self._rate_bounds = [
+            (int(column), float(low), float(high), float(scale))
+            for column, low, high, scale in zip(
+                box.rate_columns, box.rate_low, box.rate_high, box.rate_scale, strict=True
+            )
+        ]
 
     def where(self, features):
         """Distance of every feature row outside the box, and whether it is outside.
@@ -473,6 +480,12 @@ class CompiledDomain:
         for excess in (self._excess_matrix @ np.array([*row, 1.0])).tolist():
             if excess > 0.0:
                 squares += excess * excess
+        for column, low, high, scale in self._rate_bounds:
+            value = row[column]
+            if value < low:
+                squares += ((low - value) / scale) ** 2
+            elif value > high:
+                squares += ((value - high) / scale) ** 2
         distance = math.sqrt(squares)
         # outside_domain: beyond the margin, or any temperature beyond its range.
         outside = distance > self.margin

@@ -30,7 +30,7 @@ from sklearn_ifog._output_layer import layer_kind, read_layer, supported_names
 from sklearn_ifog.features import ThermalFeatures
 
 SCHEMA_NAME = "sklearn-ifog-pipeline"
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 4
 
 
 def _floats(values):
@@ -334,6 +334,8 @@ def describe_domain(pipeline, n_features, n_outputs):
     >>> domain = describe_domain(model, n_features=2, n_outputs=1)
     >>> domain["outside"], domain["margin"], len(domain["axes"]), domain["temperature_columns"]
     ('clip', 0.5, 2, [0])
+    >>> domain["rate_columns"], len(domain["rate_low"]), len(domain["rate_scale"])
+    ([1], 1, 1)
     """
     from sklearn_ifog.pipeline import OUTSIDE_POLICIES, CompensationPipeline
 
@@ -376,6 +378,12 @@ def describe_domain(pipeline, n_features, n_outputs):
         "temperature_columns": columns,
         "temperature_low": _floats(pipeline.domain_.data_min_[columns]),
         "temperature_high": _floats(pipeline.domain_.data_max_[columns]),
+        # One more term of the distance per rate feature (dT of each sensor): the excess
+        # beyond its calibrated range over its scale (empty for a domain without them).
+        "rate_columns": [int(column) for column in box.rate_columns],
+        "rate_low": _floats(box.rate_low),
+        "rate_high": _floats(box.rate_high),
+        "rate_scale": _floats(box.rate_scale),
         "projection_rounds": int(_domain.PROJECTION_ROUNDS),
         "outside": outside,
         "fallback": _describe_fallback(fallback, n_outputs),

@@ -39,6 +39,7 @@ __all__ = [
     "BLEND_WIDTH",
     "CARRIED_SCALE",
     "PROJECTION_ROUNDS",
+    "RATE_WEIGHT",
     "REPEATED_RATIO",
     "CalibrationDomain",
     "Fallback",
@@ -81,6 +82,16 @@ PROJECTION_ROUNDS = 8
 # extrapolates worse than a constant. On the shipped recording the x and y axes' ratios are
 # 0.001-0.06 and the z axis's (no thermal drift) 0.47-5.8, for every half of the recording.
 _REAL_SLOPE_RATIO = 0.25
+#: Weight of a rate's excess in the distance: a rate feature (``rate`` of
+#: :class:`CalibrationDomain`) that lies beyond its calibrated range adds its excess, in
+#: standard deviations of that feature times this weight, to the distance as one more
+#: axis. The decorrelated axes spread a rate excess over several of them and a heating-only
+#: calibration covers its rates one-sidedly, so a cooling row of such a calibration would
+#: otherwise stay within the margin while its network extrapolates to rates it never saw.
+#: Chosen on the tuning seeds 0-7 of ``benchmarks/bench_extrapolation.py --tune`` (its
+#: sweep): the largest weight that keeps the shared-profile rows inside the calibrated
+#: temperatures flagged at most 2 % there; judged on seeds 8-12.
+RATE_WEIGHT = 2.0
 #: Largest held-out-run error ratio of the plane in T and dT (:func:`held_out_runs`, its
 #: squared error over a constant's) at which :func:`fit_fallback` trusts it: chosen on the
 #: tuning seeds 0-7 of ``benchmarks/bench_extrapolation.py --tune`` (its sweep of 0.5-1.0),
@@ -135,6 +146,14 @@ class Box(NamedTuple):
         ``1e-6`` times the largest).
     lower, upper : ndarray of shape (n_features,)
         Smallest and largest coordinate of the calibration rows along each axis.
+    rate_columns : tuple of int, default=()
+        Rate features whose excess beyond their calibrated range is one more term of the
+        distance (:func:`box_distance`).
+    rate_low, rate_high : ndarray of shape (n_rates,), default=empty
+        Calibrated range of each rate feature, in its own units.
+    rate_scale : ndarray of shape (n_rates,), default=empty
+        The rate feature's standard deviation over ``RATE_WEIGHT``: its excess is divided
+        by it.
     """
 
     center: np.ndarray
@@ -143,15 +162,21 @@ class Box(NamedTuple):
     axis_scale: np.ndarray
     lower: np.ndarray
     upper: np.ndarray
+    rate_columns: tuple = ()
+    rate_low: np.ndarray = np.empty(0)
+    rate_high: np.ndarray = np.empty(0)
+    rate_scale: np.ndarray = np.empty(0)
 
 
-def fit_box(X):
+def fit_box(X, rate_columns=()):
     """Fit the decorrelated box of the rows ``X``.
 
     Parameters
     ----------
     X : ndarray of shape (n_samples, n_features)
         Calibration rows; every column must vary.
+    rate_columns : sequence of int, default=()
+        Rate features whose range is checked on its own too (see :class:`Box`).
 
     Returns
     -------
@@ -179,7 +204,19 @@ def fit_box(X):
     axis_scale = singular / np.sqrt(X.shape[0])
     axis_scale = np.maximum(axis_scale, _AXIS_FLOOR * axis_scale.max())
     projected = Z @ axes.T
-    return Box(center, scale, axes, axis_scale, projected.min(axis=0), projected.max(axis=0))
+    rates = [int(column) for column in rate_columns]
+    return Box(
+        center,
+        scale,
+        axes,
+        axis_scale,
+        projected.min(axis=0),
+        projected.max(axis=0),
+        tuple(rates),
+        X[:, rates].min(axis=0),
+        X[:, rates].max(axis=0),
+        scale[rates] / RATE_WEIGHT,
+    )
 
 
 def check_varies(X, names=None):
@@ -224,8 +261,10 @@ def _coordinates(box, X):
 def box_distance(box, X):
     """Distance of every row of ``X`` outside ``box``, in decorrelated standard deviations.
 
-    ``sqrt(sum_k (excess_k / axis_scale_k)²)`` with ``excess_k`` the row's coordinate
-    beyond ``[lower_k, upper_k]`` along axis ``k`` (0 inside the range).
+    ``sqrt(sum_k (excess_k / axis_scale_k)² + sum_r (rate_excess_r / rate_scale_r)²)``
+    with ``excess_k`` the row's coordinate beyond ``[lower_k, upper_k]`` along axis ``k``
+    and ``rate_excess_r`` its rate feature ``r`` beyond ``[rate_low_r, rate_high_r]`` (0
+    inside the ranges; no rate term for a box without ``rate_columns``).
 
     Parameters
     ----------
@@ -246,16 +285,24 @@ def box_distance(box, X):
     >>> box_distance(box, [[5.0], [10.0], [13.16227766]]).round(3).tolist()
     [0.0, 0.0, 1.0]
     """
+    X = np.asarray(X, dtype=np.float64)
     P = _coordinates(box, X)
     excess = np.maximum(box.lower - P, 0.0) + np.maximum(P - box.upper, 0.0)
-    return np.sqrt(np.square(excess / box.axis_scale).sum(axis=1))
+    squares = np.square(excess / box.axis_scale).sum(axis=1)
+    if box.rate_columns:
+        rates = X[:, list(box.rate_columns)]
+        beyond = np.maximum(box.rate_low - rates, 0.0) + np.maximum(rates - box.rate_high, 0.0)
+        squares = squares + np.square(beyond / box.rate_scale).sum(axis=1)
+    return np.sqrt(squares)
 
 
 def project_to_box(box, X, margin):
     """The nearest point of ``box`` widened by ``margin`` (the ``"clip"`` policy).
 
     Rows within ``margin`` of the box are returned unchanged; a row farther out moves along
-    its excess towards the box until its distance is ``margin``. For one feature this is
+    its excess towards the box until its distance is ``margin``. Only the box's axes count
+    here: a rate beyond its own range (the ``rate_columns`` term of :func:`box_distance`)
+    is not moved. For one feature this is
     clamping to ``[min - margin·sd, max + margin·sd]``.
 
     Parameters
@@ -881,6 +928,17 @@ def apply_policy(policy, prediction, features, distance, outside, *, domain, fal
     return prediction
 
 
+def _columns(value, name, n_features):
+    """The columns a ``temperature`` or ``rate`` parameter names, checked against X."""
+    columns = [] if value is None else np.atleast_1d(value).tolist()
+    bad = [c for c in columns if not isinstance(c, Integral) or not 0 <= c < n_features]
+    if bad:
+        raise ValueError(
+            f"{name} must name columns 0 to {n_features - 1} of X by position, got {bad[0]!r}."
+        )
+    return [int(c) for c in columns]
+
+
 class CalibrationDomain(OutlierMixin, BaseEstimator):
     """Where a model was calibrated: the box of its rows in decorrelated coordinates.
 
@@ -903,6 +961,11 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
     temperature : int, list of int or None, default=None
         Column(s) holding a temperature, whose calibrated range admits no margin. None: the
         distance alone decides.
+    rate : int, list of int or None, default=None
+        Column(s) holding a temperature rate, whose excess beyond its calibrated range is one
+        more term of the distance: in the rate's standard deviations times
+        :data:`RATE_WEIGHT` (a heating-only calibration's cooling rows lie there). None: no
+        rate term.
 
     Attributes
     ----------
@@ -920,6 +983,11 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         Range of every feature, in its own units (degrees, degrees per minute, ...).
     temperature_columns_ : list of int
         The temperature columns (from ``temperature``).
+    rate_columns_ : list of int
+        The rate columns (from ``rate``).
+    rate_scale_ : ndarray of shape (n_rates,)
+        Standard deviation of each rate column over :data:`RATE_WEIGHT`: the unit of its
+        excess in the distance.
     offset_ : float
         ``-margin``: :meth:`decision_function` is ``score_samples - offset_``.
     n_features_in_ : int
@@ -952,11 +1020,13 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
     _parameter_constraints: ClassVar[dict] = {
         "margin": [Interval(Real, 0, None, closed="left")],
         "temperature": [Interval(Integral, 0, None, closed="left"), list, None],
+        "rate": [Interval(Integral, 0, None, closed="left"), list, None],
     }
 
-    def __init__(self, *, margin=1.5, temperature=None):
+    def __init__(self, *, margin=1.5, temperature=None, rate=None):
         self.margin = margin
         self.temperature = temperature
+        self.rate = rate
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None):
@@ -982,17 +1052,12 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         """
         X = validate_data(self, X, dtype=np.float64, ensure_min_samples=2)
         check_varies(X, getattr(self, "feature_names_in_", None))
-        columns = [] if self.temperature is None else np.atleast_1d(self.temperature).tolist()
-        bad = [c for c in columns if not isinstance(c, Integral) or not 0 <= c < X.shape[1]]
-        if bad:
-            raise ValueError(
-                f"temperature must name columns 0 to {X.shape[1] - 1} of X by position, got "
-                f"{bad[0]!r}."
-            )
-        self.temperature_columns_ = [int(c) for c in columns]
-        box = fit_box(X)
+        self.temperature_columns_ = _columns(self.temperature, "temperature", X.shape[1])
+        self.rate_columns_ = _columns(self.rate, "rate", X.shape[1])
+        box = fit_box(X, self.rate_columns_)
         self.center_, self.scale_, self.components_ = box.center, box.scale, box.axes
         self.axis_scale_, self.lower_, self.upper_ = box.axis_scale, box.lower, box.upper
+        self.rate_scale_ = box.rate_scale
         self.data_min_, self.data_max_ = X.min(axis=0), X.max(axis=0)
         self.offset_ = -float(self.margin)
         return self
@@ -1001,6 +1066,8 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
     def box_(self):
         """The fitted :class:`Box` (the record the plain functions take)."""
         check_is_fitted(self)
+        # A domain fitted before the rate term existed has no rate columns.
+        rates = list(getattr(self, "rate_columns_", []))
         return Box(
             self.center_,
             self.scale_,
@@ -1008,6 +1075,10 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
             self.axis_scale_,
             self.lower_,
             self.upper_,
+            tuple(rates),
+            self.data_min_[rates],
+            self.data_max_[rates],
+            getattr(self, "rate_scale_", np.empty(0)),
         )
 
     def _validated(self, X):
@@ -1017,7 +1088,9 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
     def distance(self, X):
         """Distance of every row outside the calibrated box (0 inside).
 
-        In decorrelated standard deviations: ``sqrt(sum_k (excess_k / axis_scale_k)²)``.
+        In decorrelated standard deviations: ``sqrt(sum_k (excess_k / axis_scale_k)²)``, plus
+        under the root, for every ``rate`` column, the square of its excess beyond its
+        calibrated range over ``rate_scale_`` (:func:`box_distance`).
 
         Parameters
         ----------

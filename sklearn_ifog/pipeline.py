@@ -178,6 +178,20 @@ def _temperature_columns(features):
     ]
 
 
+def _rate_columns(features):
+    """Columns of every sensor's rate dT among a fitted ThermalFeatures' outputs (first
+    sensor first); empty for another first step or without a ``"dT"`` term."""
+    if not isinstance(features, ThermalFeatures) or "dT" not in features.terms_:
+        return []
+    terms = list(features.terms_)
+    first_sensor_terms = [term for term in terms if get_term(term).first_sensor]
+    n_sensors = len(sensor_keys(features.temperature))
+    later = len(first_sensor_terms) + terms.index("dT")
+    return [first_sensor_terms.index("dT")] + [
+        later + sensor * len(terms) for sensor in range(n_sensors - 1)
+    ]
+
+
 def _rate_column(features):
     """Column of the first sensor's rate dT among a fitted ThermalFeatures' outputs; None
     for another first step or without a ``"dT"`` term."""
@@ -372,7 +386,9 @@ class CompensationPipeline(Pipeline):
         check_varies(raw, names)
         columns = _temperature_columns(features)
         self.feature_names_out_ = names
-        self.domain_ = CalibrationDomain(margin=self.margin, temperature=columns).fit(raw)
+        self.domain_ = CalibrationDomain(
+            margin=self.margin, temperature=columns, rate=_rate_columns(features)
+        ).fit(raw)
         column = columns[0] if columns else None
         rate_column = _rate_column(features)
         Y = np.asarray(y, dtype=np.float64).reshape(raw.shape[0], -1)
@@ -468,7 +484,7 @@ class CompensationPipeline(Pipeline):
         distance, beyond, outside = self._where(rows)
         if not outside.any():
             return prediction
-        self._warn_outside(distance, beyond, outside)
+        self._warn_outside(distance, beyond, outside, rows)
 
         def evaluate(projected):
             predicted = self._predict_features(_like(features, projected), **params)
@@ -486,7 +502,7 @@ class CompensationPipeline(Pipeline):
         )
         return policed.reshape(prediction.shape)
 
-    def _warn_outside(self, distance, beyond, outside):
+    def _warn_outside(self, distance, beyond, outside, rows):
         message = (
             f"{outside.sum()} of {outside.size} rows ({outside.mean():.1%}) lie outside the "
             f"calibration domain (largest distance {distance.max():.3g} decorrelated "
@@ -499,6 +515,19 @@ class CompensationPipeline(Pipeline):
                 f"; up to {beyond.max():.3g} degC beyond the calibrated temperatures "
                 f"{low:.4g} to {high:.4g} degC"
             )
+        rates = list(getattr(self.domain_, "rate_columns_", []))
+        if rates:
+            # The first sensor's rate, in the rate feature's own unit (degC per minute by
+            # default), as the temperatures are read in degC.
+            column = rates[0]
+            low, high = self.domain_.data_min_[column], self.domain_.data_max_[column]
+            rate = rows[outside, column]
+            excess = float(np.max(np.maximum(low - rate, 0.0) + np.maximum(rate - high, 0.0)))
+            if excess > 0:
+                message += (
+                    f"; rates up to {excess:.3g} beyond the calibrated "
+                    f"{self.feature_names_out_[column]} {low:.3g} to {high:.3g}"
+                )
         message += f"); their predictions follow outside={self.outside!r}."
         warnings.warn(message, OutsideCalibrationWarning, stacklevel=3)
 

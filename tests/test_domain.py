@@ -22,6 +22,7 @@ from sklearn_ifog.datasets import load_psim_tvc, make_thermal_campaign
 from sklearn_ifog.domain import (
     BLEND_WIDTH,
     CARRIED_SCALE,
+    RATE_WEIGHT,
     REPEATED_RATIO,
     Fallback,
     box_distance,
@@ -129,6 +130,44 @@ def test_project_to_box_one_feature_is_a_clamp():
     assert box_distance(box, clamped).max() == pytest.approx(1.0)
 
 
+def _heating_rows(n=400):
+    """A temperature that soaks and ramps up only, and its rate (never below 0)."""
+    t = np.linspace(0.0, 1.0, n)
+    temperature = 10.0 + 30.0 * np.clip((t - 0.2) / 0.6, 0.0, 1.0)
+    rate = np.gradient(temperature)
+    return np.column_stack([temperature, rate, temperature * rate])
+
+
+def test_rate_excess_is_one_more_term_of_the_distance():
+    X = _heating_rows()
+    plain = CalibrationDomain(margin=1.5, temperature=0).fit(X)
+    rated = CalibrationDomain(margin=1.5, temperature=0, rate=1).fit(X)
+    assert rated.rate_columns_ == [1]
+    assert rated.rate_scale_[0] == pytest.approx(X[:, 1].std() / RATE_WEIGHT)
+    np.testing.assert_array_equal(rated.distance(X), 0.0)
+    # The box of the other axes and the rate term add in quadrature.
+    row = np.array([[25.0, -0.75 * X[:, 1].std(), -25.0 * 0.75 * X[:, 1].std()]])
+    box_part = plain.distance(row)[0]
+    rate_part = 0.75 * RATE_WEIGHT  # 0.75 standard deviations below the smallest rate (0)
+    assert rated.distance(row)[0] == pytest.approx(np.hypot(box_part, rate_part))
+    assert rated.score_samples(row)[0] == pytest.approx(-np.hypot(box_part, rate_part))
+
+
+def test_a_cooling_row_inside_the_box_is_outside_by_its_rate():
+    # Heating only: a slow cooling rate at a calibrated temperature stays within the
+    # decorrelated box's margin, and is outside once the rate counts on its own.
+    X = _heating_rows()
+    sd = X[:, 1].std()
+    cooling = np.array([[25.0, -sd, -25.0 * sd]])
+    plain = CalibrationDomain(margin=1.5, temperature=0).fit(X)
+    rated = CalibrationDomain(margin=1.5, temperature=0, rate=1).fit(X)
+    assert plain.predict(cooling).tolist() == [1]
+    assert rated.predict(cooling).tolist() == [-1]
+    assert rated.decision_function(cooling)[0] < 0
+    # The "clip" projection moves the box's axes only: this row is left as it is.
+    np.testing.assert_array_equal(rated.project(cooling), cooling)
+
+
 def test_domain_errors_name_the_problem():
     X = _curve()
     X[:, 1] = 3.0
@@ -138,6 +177,8 @@ def test_domain_errors_name_the_problem():
         CalibrationDomain(margin=-1.0).fit(_curve())
     with pytest.raises(ValueError, match="temperature must name columns 0 to 2"):
         CalibrationDomain(temperature=[5]).fit(_curve())
+    with pytest.raises(ValueError, match="rate must name columns 0 to 2"):
+        CalibrationDomain(rate=[3]).fit(_curve())
     fitted = CalibrationDomain().fit(_curve())
     with pytest.raises(ValueError, match="NaN"):
         fitted.predict([[np.nan, 0.5, 100.0]])
@@ -457,6 +498,12 @@ def test_warning_once_per_call_with_share_and_degrees(fitted, heating_and_cyclin
     beyond = X["temperature"].min() - X_op["temperature"].min()
     assert f"up to {beyond:.3g} degC beyond" in messages[0]
     assert "outside='blend'" in messages[0]
+    # Cooling after a heating-only calibration: how far the rates went beyond, in dT's unit.
+    column = list(fitted.feature_names_out_).index("dT")
+    rate = fitted.steps[0][1].transform(X_op)[fitted.outside_calibration(X_op), column]
+    slowest = fitted.domain_.data_min_[column]
+    assert slowest >= -0.01  # heating only
+    assert f"rates up to {slowest - rate.min():.3g} beyond the calibrated dT" in messages[0]
 
 
 def test_bad_input_is_named(heating_and_cycling, fitted):
@@ -475,6 +522,47 @@ def test_bad_input_is_named(heating_and_cycling, fitted):
     assert "first at row 7" in str(info.value)
     with pytest.raises(ValueError, match="drift target"):
         make_compensation_pipeline(LinearRegression()).fit(X)
+
+
+def test_pipeline_flags_new_rates_inside_the_calibrated_temperatures():
+    # The paper's heating-only calibration, then cooling through the same temperatures.
+    unit = dict(SMALL, azimuths=(0.0, 90.0))
+    calibration = make_thermal_campaign(profile="paper", temperature_range=(10.0, 40.0), **unit)
+    operation = make_thermal_campaign(profile="cooling", temperature_range=(10.0, 40.0), **unit)
+    model = make_compensation_pipeline(LinearRegression()).fit(
+        calibration.data, calibration.target
+    )
+    X = operation.data
+    names = list(model.feature_names_out_)
+    t, r = names.index("T"), names.index("dT")
+    assert model.domain_.rate_columns_ == [r]
+    features = model.steps[0][1].transform(X)
+    low, high = model.domain_.data_min_, model.domain_.data_max_
+    inside_t = (features[:, t] >= low[t]) & (features[:, t] <= high[t])
+    new_rates = inside_t & (features[:, r] < low[r])
+    box = model.domain_.box_._replace(rate_columns=())
+    within_box = box_distance(box, features) <= model.margin
+    # Rows the box alone would leave inside are outside by their rate, and blended.
+    rate_only = new_rates & within_box & model.outside_calibration(X)
+    assert rate_only.sum() >= 10
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OutsideCalibrationWarning)
+        blended = model.predict(X)
+        model.set_params(outside="none")
+        free = model.predict(X)
+    assert np.all(blended[rate_only] != free[rate_only])
+    np.testing.assert_array_equal(
+        blended[~model.outside_calibration(X)], free[~model.outside_calibration(X)]
+    )
+
+
+def test_a_domain_fitted_before_the_rate_term_still_predicts(heating_and_cycling, fitted):
+    _, _, X_op, _ = heating_and_cycling
+    old = pickle.loads(pickle.dumps(fitted))
+    del old.domain_.rate_columns_, old.domain_.rate_scale_
+    box = fitted.domain_.box_._replace(rate_columns=())
+    features = fitted.steps[0][1].transform(X_op)
+    np.testing.assert_array_equal(old.calibration_distance(X_op), box_distance(box, features))
 
 
 def test_fits_in_grid_search_and_pickles(heating_and_cycling):

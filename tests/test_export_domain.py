@@ -5,7 +5,9 @@ the generated C is compiled with the strict flags of ``tests/test_export.py`` an
 calibration run (inside the domain) followed by a colder and hotter excursion (mostly
 outside it, by its distance to the decorrelated box and by its temperatures). Its drift,
 distance and flag are compared with ``pipeline.predict``, ``pipeline.calibration_distance``
-and ``pipeline.outside_calibration``, for every ``outside`` policy.
+and ``pipeline.outside_calibration``, for every ``outside`` policy. The distance's rate term
+is checked apart: a unit calibrated on heating runs and operated on cooling runs within the
+calibrated temperatures, whose negative rates alone put rows outside.
 """
 
 import json
@@ -141,12 +143,13 @@ int main(int argc, char **argv)
 """
 
 
-def _campaign(random_state, temperature_range, n_runs):
+def _campaign(random_state, temperature_range, n_runs, profile="paper", sampling_period=30.0):
     frame = make_thermal_campaign(
         n_units=1,
         n_runs=n_runs,
         azimuths=[0.0],
-        sampling_period=30.0,
+        profile=profile,
+        sampling_period=sampling_period,
         temperature_range=temperature_range,
         random_state=random_state,
     ).frame
@@ -211,8 +214,8 @@ MODELS = {
 }
 
 
-def _fit(name, outside, frame):
-    make, target = MODELS[name]
+def _fit(name, outside, frame, models=MODELS):
+    make, target = models[name]
     y = frame[target].to_numpy() if len(target) > 1 else frame[target[0]]
     return make(outside).fit(frame, y)
 
@@ -296,7 +299,7 @@ def _assert_close(actual, expected, rtol=RTOL):
 def test_schema_carries_the_exact_domain(calibration, tmp_path):
     model = _fit("two-sensors-two-outputs", "clip", calibration)
     document = json.loads(to_json(model, tmp_path / "model.json").read_text())
-    assert document["schema_version"] == SCHEMA_VERSION == 3
+    assert document["schema_version"] == SCHEMA_VERSION == 4
     domain = document["domain"]
     box = model.domain_.box_
     for key in ("center", "scale", "axes", "axis_scale", "lower", "upper"):
@@ -308,6 +311,11 @@ def test_schema_carries_the_exact_domain(calibration, tmp_path):
     assert domain["temperature_columns"] == model.domain_.temperature_columns_ == [0, 3]
     np.testing.assert_array_equal(domain["temperature_low"], model.domain_.data_min_[[0, 3]])
     np.testing.assert_array_equal(domain["temperature_high"], model.domain_.data_max_[[0, 3]])
+    # the rate term: dT of each sensor
+    assert domain["rate_columns"] == list(box.rate_columns) == [1, 4]
+    for key in ("rate_low", "rate_high", "rate_scale"):
+        np.testing.assert_array_equal(domain[key], getattr(box, key))
+    np.testing.assert_array_equal(domain["rate_low"], model.domain_.data_min_[[1, 4]])
     assert domain["projection_rounds"] == domain_module.PROJECTION_ROUNDS
     fallback = domain["fallback"]
     np.testing.assert_array_equal(fallback["intercept"], model.fallback_.intercept)
@@ -344,6 +352,7 @@ def test_domain_c_is_self_contained(adapt, calibration, tmp_path):
     for name in (
         "#define IFOG_HAS_DOMAIN 1",
         "#define IFOG_N_TEMPERATURES 2",
+        "#define IFOG_N_RATES 2",
         "double last_distance;",
         "int last_outside;",
         "double ifog_calibration_distance(",
@@ -409,7 +418,12 @@ def _evaluate_domain(domain, features, network, evaluate):
         c = np.clip(p, lower, upper)
         return p, c, np.sqrt((((p - c) / axis_scale) ** 2).sum(axis=1))
 
+    # The distance: the box's, with under the root every rate's excess over its scale.
     _, _, d = box(features)
+    rates = features[:, domain["rate_columns"]]
+    rate_low, rate_high = np.array(domain["rate_low"]), np.array(domain["rate_high"])
+    beyond = np.maximum(rate_low - rates, 0.0) + np.maximum(rates - rate_high, 0.0)
+    d = np.sqrt(d**2 + ((beyond / np.array(domain["rate_scale"])) ** 2).sum(axis=1))
     outside = (d > margin) | np.any(
         (features[:, columns] < low) | (features[:, columns] > high), 1
     )
@@ -422,7 +436,7 @@ def _evaluate_domain(domain, features, network, evaluate):
     elif domain["outside"] == "clip":
         x = features[outside].copy()
         for _ in range(domain["projection_rounds"] if columns else 1):
-            point, clamped, gap = box(x)
+            point, clamped, gap = box(x)  # by the box alone: the rates are not moved
             far = gap > margin
             q = clamped[far] + (point[far] - clamped[far]) * (margin / gap[far])[:, None]
             x[far] = (q @ axes) * scale + center
@@ -499,6 +513,151 @@ def test_c_float_follows_the_domain(outside, calibration, excursion, tmp_path):
     header = (tmp_path / "ifog.h").read_text()
     assert "typedef float ifog_real;" in header
     assert f"#define IFOG_MARGIN {model.margin!r}\n" in header  # a double literal
+
+
+# --- the rate term: a heating-only calibration operated on cooling runs --------------------
+
+
+@pytest.fixture(scope="module")
+def heating():
+    """Three heating-only runs (soak, ramp up, soak) between 10 and 40 degC."""
+    return _campaign(0, (10.0, 40.0), n_runs=3, profile="paper", sampling_period=60.0)
+
+
+@pytest.fixture(scope="module")
+def cooling():
+    """Two cooling-only runs of the same unit in the same range: rates of the other sign."""
+    return _campaign(0, (10.0, 40.0), n_runs=2, profile="cooling", sampling_period=60.0)
+
+
+# name -> (make the pipeline for a policy, target columns), at the default margin (the one
+# the rate weight was chosen with): one rate column (dT), one per sensor, and no temperature
+# column ("clip" projects once, by the box alone).
+RATE_MODELS = {
+    "default": (
+        lambda outside: make_compensation_pipeline(Ridge(1e-3), outside=outside),
+        ["drift"],
+    ),
+    "two-sensors-two-outputs": (
+        lambda outside: make_compensation_pipeline(
+            Ridge(1e-3),
+            temperature=["temperature", "temperature_2"],
+            terms=("T", "dT", "T_lag900s", "gradient"),
+            outside=outside,
+        ),
+        ["drift", "drift_2"],
+    ),
+    "no-temperature": (
+        lambda outside: make_compensation_pipeline(
+            Ridge(1e-3), terms=("dT", "T_lag900s", "T_lag3600s"), outside=outside
+        ),
+        ["drift"],
+    ),
+}
+
+
+def _outside_by_rates(model, calibration, frame):
+    """The rows of ``frame`` outside the domain by the rate term alone (flagged, every
+    temperature within its calibrated range, the box's distance within the margin), and the
+    box's distance of every row."""
+    box = model.domain_.box_
+    assert box.rate_columns, "the model has a rate term"
+    features = np.asarray(model[0].transform(frame), dtype=np.float64)
+    pure = domain_module.box_distance(box._replace(rate_columns=()), features)
+    sensors = describe_pipeline(model)["features"]["temperature"]
+    low, high = calibration[sensors].min(), calibration[sensors].max()
+    within = ((frame[sensors] >= low) & (frame[sensors] <= high)).all(axis=1).to_numpy()
+    by_rates = model.outside_calibration(frame) & within & (pure <= model.margin)
+    return by_rates, pure
+
+
+def _distance_atol(model, distance):
+    """The absolute tolerance of a distance: RTOL of the largest, or one rounding of a unit
+    coordinate over the narrowest axis's scale. Along an axis whose spread is floored (two
+    sensors' gradient is an exact difference of them), a row on the box's edge reads 0 in
+    one summation order and about 1e-11 in another."""
+    floor = np.finfo(np.float64).eps / model.domain_.box_.axis_scale.min()
+    return max(RTOL * distance.max(), floor)
+
+
+@pytest.mark.parametrize("outside", POLICIES)
+@pytest.mark.parametrize("name", sorted(RATE_MODELS))
+def test_json_follows_the_rate_term(name, outside, heating, cooling, tmp_path):
+    model = _fit(name, outside, heating, RATE_MODELS)
+    domain = json.loads(to_json(model, tmp_path / "model.json").read_text())["domain"]
+    box = model.domain_.box_
+    assert domain["rate_columns"] == list(box.rate_columns)
+    by_rates, _ = _outside_by_rates(model, heating, cooling)
+    assert by_rates.sum() >= 10  # the rows the rate term exists for
+    features = np.asarray(model[0].transform(cooling), dtype=np.float64)
+    network = model[1:].predict(features)
+    drift, distance, flag = _evaluate_domain(domain, features, network, model[1:].predict)
+    expected = model.calibration_distance(cooling)
+    np.testing.assert_array_equal(flag, model.outside_calibration(cooling))
+    atol = _distance_atol(model, expected)
+    np.testing.assert_allclose(distance, expected, rtol=RTOL, atol=atol)
+    _assert_close(drift, _quiet(model.predict, cooling))
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler ('cc') on this machine")
+@pytest.mark.parametrize("outside", POLICIES)
+@pytest.mark.parametrize("name", sorted(RATE_MODELS))
+def test_c_follows_the_rate_term(name, outside, heating, cooling, tmp_path):
+    model = _fit(name, outside, heating, RATE_MODELS)
+    by_rates, pure = _outside_by_rates(model, heating, cooling)
+    flag = model.outside_calibration(cooling)
+    distance = model.calibration_distance(cooling)
+    # Rows outside by their rates alone, rows the box puts outside, and rows inside: no path
+    # of the C can pass vacuously.
+    assert by_rates.sum() >= 10
+    assert (flag & (pure > model.margin)).sum() >= 10
+    assert (~flag).sum() >= 10
+    c = _run(_build(model, tmp_path), model, cooling)
+    header = (tmp_path / "ifog.h").read_text()
+    assert f"#define IFOG_N_RATES {len(model.domain_.box_.rate_columns)}\n" in header
+    expected = _quiet(model.predict, cooling).reshape(len(cooling), -1)
+    np.testing.assert_array_equal(c["outside"], flag)
+    atol = _distance_atol(model, distance)
+    np.testing.assert_allclose(c["distance"], distance, rtol=RTOL, atol=atol)
+    np.testing.assert_allclose(c["stateless_distance"], distance, rtol=RTOL, atol=atol)
+    _assert_close(c["streamed"], expected)
+    _assert_close(c["stateless"], expected)
+    np.testing.assert_array_equal(c["batched"], c["streamed"])
+    network = model[:].predict(cooling).reshape(expected.shape)  # a plain Pipeline
+    moved = np.max(np.abs(expected - network), axis=1) > 1e-9
+    if outside == "blend":
+        # weighed by the full distance: the rows outside by their rates move to the fallback
+        assert moved[by_rates].mean() > 0.9
+    elif outside == "clip":
+        # projected by the box alone: the rows outside by their rates are evaluated as they
+        # are (a shrink of margin / distance would have moved them), the others move
+        _assert_close(c["streamed"][by_rates], network[by_rates])
+        assert not moved[by_rates].any()
+        assert moved[flag & (pure > model.margin)].mean() > 0.5
+    else:
+        assert not moved.any()
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler ('cc') on this machine")
+@pytest.mark.parametrize("outside", POLICIES)
+def test_domain_without_rates_writes_no_rate_code(outside, calibration, excursion, tmp_path):
+    model = make_compensation_pipeline(
+        Ridge(1e-3), terms=("T", "T_lag900s"), outside=outside, margin=1.0
+    ).fit(calibration, calibration["drift"])
+    assert model.domain_.box_.rate_columns == ()
+    domain = describe_pipeline(model)["domain"]
+    for key in ("rate_columns", "rate_low", "rate_high", "rate_scale"):
+        assert domain[key] == []
+    c = _run(_build(model, tmp_path), model, excursion)
+    text = (tmp_path / "ifog.h").read_text() + (tmp_path / "ifog.c").read_text()
+    for absent in ("IFOG_N_RATES", "ifog_with_rates", "ifog_rate_", "a rate ("):
+        assert absent not in text
+    flag = model.outside_calibration(excursion)
+    distance = model.calibration_distance(excursion)
+    assert 0.3 < flag.mean() < 0.95
+    np.testing.assert_array_equal(c["outside"], flag)
+    np.testing.assert_allclose(c["distance"], distance, rtol=RTOL, atol=RTOL * distance.max())
+    _assert_close(c["streamed"], _quiet(model.predict, excursion).reshape(len(excursion), -1))
 
 
 # --- a production lot ----------------------------------------------------------------------
@@ -648,6 +807,27 @@ def test_c_references_outside_the_domain_change_nothing(adapt, calibration, excu
         )
         np.testing.assert_allclose(offset, offset[0], rtol=0, atol=RTOL * abs(offset[0]) + 1e-15)
         assert abs(offset[0]) > 0.01  # an offset was learnt inside
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler ('cc') on this machine")
+@pytest.mark.parametrize("adapt", ["bias", "output"])
+def test_c_recalibration_ignores_rows_outside_by_their_rates(adapt, heating, cooling, tmp_path):
+    model = _fit("default", "blend", heating, RATE_MODELS)
+    by_rates, _ = _outside_by_rates(model, heating, cooling)
+    has = _references(len(cooling))
+    assert (has & by_rates).sum() >= 5  # references the rate term alone turns away
+    c = _run(
+        _build(model, tmp_path / "adapt", adapt=adapt, forgetting=0.995),
+        model,
+        cooling,
+        has_reference=has,
+    )
+    flag = model.outside_calibration(cooling)
+    np.testing.assert_array_equal(c["outside"], flag)
+    assert c["n_updates"] == (has & ~flag).sum()
+    drift, compensator = _stream(model, cooling, adapt, has)
+    _assert_close(c["streamed"], drift, ADAPT_RTOL)
+    assert compensator.get_state()["rls"]["n_updates"] == c["n_updates"]
 
 
 @pytest.mark.skipif(CC is None, reason="no C compiler ('cc') on this machine")

@@ -150,7 +150,10 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
     ``{prefix}_compensate`` or ``{prefix}_adapt``, ``state.last_distance`` and
     ``state.last_outside`` hold the sample's distance and flag;
     ``{prefix}_calibration_distance(features)`` is the stateless distance and
-    ``{prefix}_predict_features`` applies the policy. The domain is computed in double
+    ``{prefix}_predict_features`` applies the policy. The distance carries the domain's rate
+    term (:func:`~sklearn_ifog.domain.box_distance`: a rate beyond its calibrated range adds
+    to it), which the flag and ``"blend"`` read; ``"clip"`` projects by the box alone, as
+    :func:`~sklearn_ifog.domain.project_to_box` does. The domain is computed in double
     whatever the precision. With ``adapt``, a sample outside the domain is compensated by
     the policy and does not update the recalibration, and the ``"bias"`` offset is added
     after the policy (the rule of :class:`~sklearn_ifog.streaming.StreamingCompensator`).

@@ -45,9 +45,11 @@ from sklearn_ifog.export._templates._domain import (
     DOMAIN_PRECISION,
     DOMAIN_PROJECT,
     DOMAIN_PROTOTYPES,
+    DOMAIN_RATES,
     DOMAIN_RESET,
     POLICY_NOTE,
     POLICY_TEXT,
+    RATE_DEFINE,
     TEMPERATURE_DEFINE,
 )
 from sklearn_ifog.export._templates._source import (
@@ -204,6 +206,17 @@ def _domain_functions(writer, domain, prefix):
         writer.array(f"domain_{key}", domain[key], double=True)
     parts = [DOMAIN_BOX.substitute(names)]
     beyond_test, clip_block, blend_call = "", "", ""
+    # The full distance from the box's (``box``): with rate columns, plus their term (the
+    # arithmetic of box_distance); without them, no rate code at all.
+    distance, row_distance = "box", "box"
+    if domain.get("rate_columns"):
+        writer.array("rate_columns", domain["rate_columns"], index_type="int")
+        writer.array("rate_low", domain["rate_low"], double=True)
+        writer.array("rate_high", domain["rate_high"], double=True)
+        writer.array("rate_scale", domain["rate_scale"], double=True)
+        parts.append(DOMAIN_RATES.substitute(names))
+        distance = f"{prefix}_with_rates(features, box)"
+        row_distance = f"{prefix}_with_rates(row, box)"
     if domain["temperature_columns"]:
         writer.array("temperature_columns", domain["temperature_columns"], index_type="int")
         writer.array("temperature_low", domain["temperature_low"], double=True)
@@ -214,13 +227,19 @@ def _domain_functions(writer, domain, prefix):
         parts.append(DOMAIN_PROJECT.substitute(names))
         rounds = CLIP_ROUNDS if domain["temperature_columns"] else CLIP_ONCE
         clip_block = rounds.substitute(names)
-    parts.append(DOMAIN_FLAG.substitute(names, beyond_test=beyond_test, clip_block=clip_block))
+    parts.append(
+        DOMAIN_FLAG.substitute(
+            names, distance=distance, beyond_test=beyond_test, clip_block=clip_block
+        )
+    )
     if policy == "blend":
         expression, reads = _fallback_expression(writer, domain["fallback"])
         unused = "" if reads else "    (void)features;\n"
         parts.append(BLEND_FUNCTION.substitute(names, fallback=expression, unused=unused))
         blend_call = BLEND_CALL.substitute(names)
-    parts.append(DOMAIN_GUARDED.substitute(names, blend_call=blend_call))
+    parts.append(
+        DOMAIN_GUARDED.substitute(names, blend_call=blend_call, row_distance=row_distance)
+    )
     return "".join(parts)
 
 
@@ -245,7 +264,7 @@ def domain_parts(writer, spec, prefix, adapt):
     names = {"prefix": prefix, "PREFIX": upper, "policy": domain["outside"]}
     feature_names = spec["features"]["feature_names"]
     temperatures = domain["temperature_columns"]
-    temperature_define = temperature_note = ""
+    temperature_define = temperature_note = rate_define = rate_note = ""
     if temperatures:
         temperature_define = TEMPERATURE_DEFINE.substitute(
             names, n_temperatures=len(temperatures), rounds=domain["projection_rounds"]
@@ -254,6 +273,16 @@ def domain_parts(writer, spec, prefix, adapt):
         temperature_note = (
             f",\n * or when a temperature ({listed}) lies beyond its calibrated range (by any\n"
             " * amount)"
+        )
+    rates = domain.get("rate_columns") or []
+    if rates:
+        rate_define = RATE_DEFINE.substitute(names, n_rates=len(rates))
+        listed = c_comment(", ".join(feature_names[column] for column in rates))
+        rate_note = (
+            f";\n * a rate ({listed}) beyond its calibrated range adds to the distance: its\n"
+            " * excess over the rate's scale (its calibrated standard deviation over the rate\n"
+            " * weight) is one more term of the norm (where a heating-only calibration's\n"
+            " * cooling samples lie)"
         )
     description = POLICY_TEXT[domain["outside"]].substitute(
         PREFIX=upper, fallback=_fallback_text(domain, feature_names)
@@ -264,11 +293,13 @@ def domain_parts(writer, spec, prefix, adapt):
             margin=format_c_literal(domain["margin"]),
             blend_width=format_c_literal(domain["blend_width"]),
             temperature_define=temperature_define,
+            rate_define=rate_define,
         ),
         "domain_comment": DOMAIN_COMMENT.substitute(
             names,
             description=description,
             temperature_note=temperature_note,
+            rate_note=rate_note,
             adapt_note="" if adapt is None else f" (or {prefix}_adapt)",
         ),
         "domain_fields": DOMAIN_FIELDS.substitute(names),

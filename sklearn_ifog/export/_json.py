@@ -37,15 +37,19 @@ def to_json(pipeline, path):
     The ``"domain"`` entry holds the box in decorrelated coordinates (``center``, ``scale``,
     ``axes`` one per row, ``axis_scale``, ``lower``, ``upper``), ``margin``, ``blend_width``,
     the temperature columns and their calibrated ranges (``temperature_columns``,
-    ``temperature_low``, ``temperature_high``), ``projection_rounds``, the policy
-    ``outside`` and the ``fallback`` (``intercept``, ``slope``, ``column``, the calibrated
-    ``low`` and ``high`` with ``hold_below`` / ``hold_above``, ``rate_column``,
-    ``rate_slope``, ``rate_bound``): a row's distance
-    is ``sqrt(sum_k (e_k / axis_scale_k)^2)`` with ``e_k`` the excess of its coordinate
-    ``(axes @ ((x - center) / scale))_k`` beyond ``[lower_k, upper_k]``; it is outside above
-    ``margin`` or with a temperature beyond its range; the policies are those of
-    :meth:`~sklearn_ifog.pipeline.CompensationPipeline.predict`, written out in
-    ``sklearn_ifog/export/_spec.py``.
+    ``temperature_low``, ``temperature_high``), the rate columns with their calibrated ranges
+    and scales (``rate_columns``, ``rate_low``, ``rate_high``, ``rate_scale``; empty lists
+    for a model without them), ``projection_rounds``, the policy ``outside`` and the
+    ``fallback`` (``intercept``, ``slope``, ``column``, the calibrated ``low`` and ``high``
+    with ``hold_below`` / ``hold_above``, ``rate_column``, ``rate_slope``, ``rate_bound``):
+    a row's distance is ``sqrt(sum_k (e_k / axis_scale_k)^2 + sum_r (g_r /
+    rate_scale_r)^2)`` with ``e_k`` the excess of its coordinate
+    ``(axes @ ((x - center) / scale))_k`` beyond ``[lower_k, upper_k]`` and ``g_r`` the
+    excess of its rate ``x[rate_columns[r]]`` beyond ``[rate_low_r, rate_high_r]`` (0
+    inside); it is outside above ``margin`` or with a temperature beyond its range; the
+    policies are those of :meth:`~sklearn_ifog.pipeline.CompensationPipeline.predict`,
+    written out in ``sklearn_ifog/export/_spec.py`` (``"blend"`` weighs by this distance,
+    ``"clip"`` projects by the box's term alone).
 
     Parameters
     ----------
@@ -84,7 +88,7 @@ def to_json(pipeline, path):
     >>> with tempfile.TemporaryDirectory() as directory:
     ...     spec = json.loads(to_json(model, Path(directory) / "model.json").read_text())
     >>> spec["schema_version"], [step["op"] for step in spec["steps"]], spec["domain"]
-    (3, ['linear'], None)
+    (4, ['linear'], None)
 
     A CompensationPipeline also writes where it was calibrated:
 

@@ -8,12 +8,13 @@ streaming path reads the same description) and are re-exported here with the sch
 Every float goes through ``float(...)`` of a float64, so ``json`` (which writes ``repr``)
 and the C generator (``repr`` / ``%.9g``) keep round-trip precision.
 
-Schema (version 3; version 2 had no ``"domain"``, version 1 an EMA ``smoothing`` in samples
+Schema (version 4; version 3 had no rate term in the domain (``"rate_columns"``...),
+version 2 no ``"domain"``, version 1 an EMA ``smoothing`` in samples
 and its ``alpha``)::
 
     {
       "schema": "sklearn-ifog-pipeline",
-      "schema_version": 3,
+      "schema_version": 4,
       "generator": "sklearn-ifog <version>",
       "features": {
         "op": "thermal_features",
@@ -68,6 +69,10 @@ ThermalFeatures outputs them, before any later step)::
       "temperature_columns": [<int>, ...],   # features holding a temperature (T of each
                                              # sensor): their range admits no margin
       "temperature_low": [...], "temperature_high": [...],   # their calibrated ranges
+      "rate_columns": [<int>, ...],          # features holding a rate (dT of each sensor):
+                                             # their excess adds to the distance ([]: none)
+      "rate_low": [...], "rate_high": [...], # their calibrated ranges
+      "rate_scale": [...],                   # their standard deviation over RATE_WEIGHT
       "projection_rounds": <int>,            # rounds of "clip" with temperature columns
       "outside": "blend" | "clip" | "none",  # the policy outside the domain
       "fallback": {"intercept": [...], "slope": [...],   # n_outputs each
@@ -80,8 +85,13 @@ ThermalFeatures outputs them, before any later step)::
 
 A row ``x`` of features has the coordinates ``p = axes @ ((x - center) / scale)``; along
 axis ``k`` its excess ``e_k`` is ``lower_k - p_k`` below the range, ``p_k - upper_k``
-above it, 0 inside; its distance is ``d = sqrt(sum_k (e_k / axis_scale_k)^2)``. It is
-outside when ``d > margin`` or when a temperature column ``x[c]`` lies outside
+above it, 0 inside; its box distance is ``b = sqrt(sum_k (e_k / axis_scale_k)^2)``. Along
+rate column ``r`` (``x[rate_columns[r]]``) its excess ``g_r`` is ``rate_low_r - x[...]``
+below the range, ``x[...] - rate_high_r`` above it, 0 inside; its distance is
+``d = sqrt(b^2 + sum_r (g_r / rate_scale_r)^2)`` (``d = b`` without rate columns: a rate
+the calibration never showed, such as a cooling row of a heating-only calibration, is
+outside even where the axes spread it within the margin). It is outside when
+``d > margin`` or when a temperature column ``x[c]`` lies outside
 ``[temperature_low, temperature_high]`` (by any amount). Rows inside get the steps'
 prediction ``y``; rows outside follow ``outside``:
 
@@ -93,8 +103,10 @@ prediction ``y``; rows outside follow ``outside``:
   when no output holds on that side, the rate term when ``rate_column`` is null
   (``f = intercept`` when ``column`` is null).
 - ``"clip"``: the steps' prediction at the row projected onto the domain. One projection
-  ``P(x)``: a row with ``d <= margin`` is unchanged; else, with ``c`` its coordinates
-  clamped to ``[lower, upper]`` and ``q = c + (p - c) * (margin / d)``, it becomes
+  ``P(x)``, by the box distance ``b`` alone (the rates are not moved: a row outside by its
+  rates only is evaluated as it is): a row with ``b <= margin`` is unchanged; else, with
+  ``c`` its coordinates clamped to ``[lower, upper]`` and ``q = c + (p - c) * (margin /
+  b)``, it becomes
   ``(axes^T @ q) * scale + center``. Without temperature columns the projected row is
   ``P(x)``; with them, ``projection_rounds`` times: ``x = P(x)``, then every temperature
   column clamped to its range.

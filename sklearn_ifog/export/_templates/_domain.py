@@ -67,6 +67,41 @@ static int ${prefix}_beyond(const double features[${PREFIX}_N_FEATURES])
 )
 
 
+# With rate columns (dT of each sensor): the rate term of the distance. The decorrelated
+# axes spread a rate's excess over several of them, so a rate the calibration never showed
+# (a cooling row of a heating-only calibration) can stay within the margin of the box; its
+# excess over the rate's own range is one more term under the root. Only the flag, the
+# distance and "blend" read it: "clip" moves a row by the box alone (``${prefix}_box``),
+# as ``project_to_box`` does.
+DOMAIN_RATES = Template(
+    """
+/* The distance outside the calibration domain from the box's (box): with, under the root,
+ * the square of every rate feature's excess beyond its calibrated range over its scale
+ * (the feature's standard deviation over the rate weight). */
+static double ${prefix}_with_rates(const double features[${PREFIX}_N_FEATURES], double box)
+{
+    double total = 0.0;
+    int r;
+    for (r = 0; r < ${PREFIX}_N_RATES; ++r) {
+        const double value = features[${prefix}_rate_columns[r]];
+        double excess = 0.0;
+        if (value < ${prefix}_rate_low[r]) {
+            excess = ${prefix}_rate_low[r] - value;
+        } else if (value > ${prefix}_rate_high[r]) {
+            excess = value - ${prefix}_rate_high[r];
+        }
+        excess = excess / ${prefix}_rate_scale[r];
+        total += excess * excess;
+    }
+    if (total == 0.0) {
+        return box; /* every rate within its range: exactly the box's distance */
+    }
+    return sqrt(box * box + total);
+}
+"""
+)
+
+
 # "clip": a row farther than the margin moves from the box towards itself until its
 # distance is the margin (its coordinates on the axes given, overwritten).
 DOMAIN_PROJECT = Template(
@@ -97,12 +132,13 @@ static void ${prefix}_project(
 
 
 # ``${prefix}_domain``: the flag, the distance, and the row the network is evaluated at.
-# ``$beyond_test``: `` && !${prefix}_beyond(features)`` with temperature columns;
-# ``$clip_block``: CLIP_ONCE or CLIP_ROUNDS under "clip", else nothing.
+# ``$distance``: the full distance from the box's (``box``; ``${prefix}_with_rates(features,
+# box)`` with rate columns); ``$beyond_test``: `` && !${prefix}_beyond(features)`` with
+# temperature columns; ``$clip_block``: CLIP_ONCE or CLIP_ROUNDS under "clip", else nothing.
 DOMAIN_FLAG = Template(
     """
 /* Whether a row of features lies outside the calibration domain (returns 1; *distance: its
- * distance to the box), and the row the network is evaluated at (evaluated): the features
+ * distance outside it), and the row the network is evaluated at (evaluated): the features
  * themselves, except under "clip" for a row outside, the nearest point of the domain. */
 static int ${prefix}_domain(
     const double features[${PREFIX}_N_FEATURES],
@@ -110,8 +146,9 @@ static int ${prefix}_domain(
 {
     double coordinates[${PREFIX}_N_FEATURES];
     double inside[${PREFIX}_N_FEATURES];
+    const double box = ${prefix}_box(features, coordinates, inside);
     int j;
-    *distance = ${prefix}_box(features, coordinates, inside);
+    *distance = $distance;
     for (j = 0; j < ${PREFIX}_N_FEATURES; ++j) {
         evaluated[j] = features[j];
     }
@@ -124,9 +161,14 @@ $clip_block    return 1;
 )
 
 
+# Without temperature columns, "clip" projects once, by the box's distance alone: a row
+# outside by its rates only stays as it is (its box distance is within the margin, where
+# margin / distance would move it outward).
 CLIP_ONCE = Template(
     """\
-    ${prefix}_project(coordinates, inside, *distance, evaluated);
+    if (box > ${PREFIX}_MARGIN) {
+        ${prefix}_project(coordinates, inside, box, evaluated);
+    }
 """
 )
 
@@ -159,11 +201,12 @@ CLIP_ROUNDS = Template(
 
 
 # The drift under the policy (``$blend_call``: "blend"'s change of a row outside, else
-# nothing), and the public distance.
+# nothing), and the public distance (``$row_distance``: DOMAIN_FLAG's ``$distance`` of
+# ``row``).
 DOMAIN_GUARDED = Template(
     """
 /* The drift of one row of features under the domain's policy; returns 1 when the row lies
- * outside the domain (*distance: its distance to the box). */
+ * outside the domain (*distance: its distance outside it). */
 static int ${prefix}_guarded(
     const double features[${PREFIX}_N_FEATURES],
     ${prefix}_real drift[${PREFIX}_N_OUTPUTS], double *distance)
@@ -179,11 +222,13 @@ double ${prefix}_calibration_distance(const ${prefix}_real features[${PREFIX}_N_
     double row[${PREFIX}_N_FEATURES];
     double coordinates[${PREFIX}_N_FEATURES];
     double inside[${PREFIX}_N_FEATURES];
+    double box;
     int j;
     for (j = 0; j < ${PREFIX}_N_FEATURES; ++j) {
         row[j] = (double)features[j];
     }
-    return ${prefix}_box(row, coordinates, inside);
+    box = ${prefix}_box(row, coordinates, inside);
+    return $row_distance;
 }
 """
 )
@@ -219,7 +264,8 @@ $unused}
 
 # The calibration domain's parts of the header (with a domain; without one the header only
 # defines ``${PREFIX}_HAS_DOMAIN 0``). ``$policy``: the ``outside`` policy; ``$description``:
-# what it does (one of POLICY_TEXT); ``$margin``, ``$blend_width``: literals.
+# what it does (one of POLICY_TEXT); ``$margin``, ``$blend_width``: literals;
+# ``$temperature_define``, ``$rate_define``: TEMPERATURE_DEFINE, RATE_DEFINE or nothing.
 DOMAIN_DEFINE = Template(
     """\
 #define ${PREFIX}_HAS_DOMAIN 1
@@ -227,7 +273,7 @@ DOMAIN_DEFINE = Template(
  * the "blend" policy's transition (both in decorrelated standard deviations). */
 #define ${PREFIX}_MARGIN $margin
 #define ${PREFIX}_BLEND_WIDTH $blend_width
-$temperature_define"""
+$temperature_define$rate_define"""
 )
 
 
@@ -250,14 +296,26 @@ TEMPERATURE_DEFINE = Template(
 )
 
 
+# With rate columns (``$rate_define`` of DOMAIN_DEFINE).
+RATE_DEFINE = Template(
+    """\
+/* Rate features (dT of each sensor) whose excess beyond their calibrated range adds to the
+ * distance. */
+#define ${PREFIX}_N_RATES $n_rates
+"""
+)
+
+
+# ``$rate_note``: with rate columns, how their excess adds to the distance; ``$temperature_note``:
+# with temperature columns, the second way to be outside.
 DOMAIN_COMMENT = Template(
     """\
  *
  * Calibration domain: a sample's distance outside it is computed from its features
  * (standardised, rotated onto the calibration's principal axes; along each axis, the excess
  * beyond the calibrated range over the calibration's standard deviation along it; the
- * Euclidean norm of those excesses: 0 inside). A sample is outside when its distance
- * exceeds ${PREFIX}_MARGIN$temperature_note.
+ * Euclidean norm of those excesses: 0 inside$rate_note).
+ * A sample is outside when its distance exceeds ${PREFIX}_MARGIN$temperature_note.
  * Outside, its drift follows the policy "$policy": $description.
  * After each ${prefix}_step or ${prefix}_compensate$adapt_note, state.last_distance and
  * state.last_outside hold the sample's distance and flag (1: outside); ${prefix}_batch keeps
