@@ -666,6 +666,12 @@ def calibration_status(model, X):
           model without a T feature;
         - ``temperature_min``, ``temperature_max``: float, the calibrated temperature
           range of the row's model (NaN without a T feature);
+        - ``rate_excess``: float, how far the first sensor's rate dT lies below the slowest
+          (negative) or above the fastest (positive) calibrated rate, in dT's unit (degC per
+          minute by default), 0 inside that range; NaN for a model without a dT feature in
+          its domain;
+        - ``rate_min``, ``rate_max``: float, the calibrated rates of the row's model (NaN
+          without a dT feature);
         - ``policy``: str, the ``outside`` policy of the row's model;
         - ``fallback``: str, ``"plane"`` (a line in T and the rate dT), ``"line"`` (a line
           in T) or ``"constant"`` (the calibration's mean drift), what ``"blend"`` falls
@@ -721,6 +727,9 @@ def calibration_status(model, X):
         temperature_excess=np.full(n_samples, np.nan),
         temperature_min=np.full(n_samples, np.nan),
         temperature_max=np.full(n_samples, np.nan),
+        rate_excess=np.full(n_samples, np.nan),
+        rate_min=np.full(n_samples, np.nan),
+        rate_max=np.full(n_samples, np.nan),
         policy=np.empty(n_samples, dtype=object),
         fallback=np.empty(n_samples, dtype=object),
         adjusted=np.empty(n_samples, dtype=bool),
@@ -736,11 +745,20 @@ def calibration_status(model, X):
             warnings.simplefilter("ignore", OutsideCalibrationWarning)
             status.adjusted[rows] = _adjusted_rows(pipeline, X_part)
         column = fallback.column
+        rates = list(getattr(pipeline.domain_, "rate_columns_", []))
+        if column is None and not rates:
+            continue
+        domain = pipeline.domain_
+        features = _table.as_float_rows(pipeline.steps[0][1].transform(X_part))
+        excess = domain.excess(features)
         if column is not None:
-            features = _table.as_float_rows(pipeline.steps[0][1].transform(X_part))
-            status.temperature_excess[rows] = pipeline.domain_.excess(features)[:, column]
-            status.temperature_min[rows] = pipeline.domain_.data_min_[column]
-            status.temperature_max[rows] = pipeline.domain_.data_max_[column]
+            status.temperature_excess[rows] = excess[:, column]
+            status.temperature_min[rows] = domain.data_min_[column]
+            status.temperature_max[rows] = domain.data_max_[column]
+        if rates:
+            status.rate_excess[rows] = excess[:, rates[0]]
+            status.rate_min[rows] = domain.data_min_[rates[0]]
+            status.rate_max[rows] = domain.data_max_[rates[0]]
     return status
 
 
@@ -763,7 +781,8 @@ def per_run_calibration(status, run=None):
         largest distance, decorrelated standard deviations), ``degC_below`` and
         ``degC_above`` (how far the temperature went below the coldest and above the
         warmest calibrated temperature, 0 if it never did; NaN for a model without a T
-        feature).
+        feature), ``rate_below`` and ``rate_above`` (alike for the rate dT, in its unit,
+        from the status's ``rate_excess``; NaN without it).
 
     Examples
     --------
@@ -789,6 +808,7 @@ def per_run_calibration(status, run=None):
     outside = np.asarray(status.outside, dtype=bool)
     excess = np.asarray(status.temperature_excess, dtype=np.float64)
     n_samples = distance.shape[0]
+    rate_excess = np.asarray(status.get("rate_excess", np.full(n_samples, np.nan)), dtype=float)
     if run is not None and len(run) != n_samples:
         raise ValueError(f"run has {len(run)} labels; the status has {n_samples} rows.")
 
@@ -801,6 +821,8 @@ def per_run_calibration(status, run=None):
             # NaN (no T feature) stays NaN: max of NaN is NaN
             "degC_below": float(np.maximum(-excess[rows], 0.0).max()),
             "degC_above": float(np.maximum(excess[rows], 0.0).max()),
+            "rate_below": float(np.maximum(-rate_excess[rows], 0.0).max()),
+            "rate_above": float(np.maximum(rate_excess[rows], 0.0).max()),
         }
 
     segments = _table.run_segments(run, n_samples)
@@ -851,22 +873,45 @@ def _add_summary(report, heading, data, table, data_name, bias_window, no_time, 
 
 
 def _temperature_clause(table):
-    """How far the temperature went beyond the calibrated range (all runs), as a clause."""
+    """How far the temperature (and its rate) went beyond the calibrated ranges (all runs),
+    as a clause."""
     below, above = table.loc[ALL_RUNS, ["degC_below", "degC_above"]]
     if np.isnan(below):  # a model without a temperature feature
         return ""
+    rates = _rate_clause(table)
     beyond = []
     if below > 0:
         beyond.append(f"down to {below:.3g} °C below the coldest")
     if above > 0:
         beyond.append(f"up to {above:.3g} °C above the warmest")
     if not beyond:
+        if rates:
+            return " The temperature itself stayed within the calibrated range." + rates
         return (
             " The temperature itself stayed within the calibrated range: the rates or the "
             "thermal states (lags), or their combination with the temperature, are what the "
             "calibration never saw."
         )
-    return f" The coil temperature went {' and '.join(beyond)} calibrated temperature."
+    return f" The coil temperature went {' and '.join(beyond)} calibrated temperature." + rates
+
+
+def _rate_clause(table):
+    """How far the rate dT went beyond the calibrated rates (all runs), as a clause ("" when
+    it never did, or without a rate)."""
+    if "rate_below" not in table.columns:
+        return ""
+    below, above = table.loc[ALL_RUNS, ["rate_below", "rate_above"]]
+    beyond = []
+    if below > 0:  # NaN (no rate feature) compares False
+        beyond.append(f"{below:.3g} below the slowest")
+    if above > 0:
+        beyond.append(f"{above:.3g} above the fastest")
+    if not beyond:
+        return ""
+    return (
+        f" Its rate dT went {' and '.join(beyond)} calibrated rate (in dT's unit; a "
+        "heating-only calibration used while cooling lies here)."
+    )
 
 
 def _add_calibration(report, data, status, table):

@@ -80,11 +80,19 @@ def test_compensate_writes_the_models_flag_and_distance_row_for_row(files, tmp_p
     column = model.fallback_.column
     coldest = model.domain_.data_min_[column]
     below = coldest - frame["temperature"][rows].min()
+    # The 30 degC step down reads as a steep cooling rate at the step: beyond the rates too.
+    rate_column = list(model.feature_names_out_).index("dT")
+    rate = model[:1].transform(X)[rows, rate_column]
+    slowest = model.domain_.data_min_[rate_column]
+    fastest = model.domain_.data_max_[rate_column]
+    assert rate.max() <= fastest
     assert run_line == (
         f"  run 1: {outside[rows].sum()} of {rows.sum()} rows ({outside[rows].mean():.1%}) "
         f"outside, largest distance {_number(distance[rows].max())} sd, temperature up to "
         f"{below:.3g} degC below the coldest calibrated temperature ({coldest:.4g} to "
-        f"{model.domain_.data_max_[column]:.4g} degC)"
+        f"{model.domain_.data_max_[column]:.4g} degC), rate dT up to "
+        f"{slowest - rate.min():.3g} below the slowest calibrated rate ({slowest:.3g} to "
+        f"{fastest:.3g})"
     )
 
 

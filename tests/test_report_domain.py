@@ -7,6 +7,7 @@ import pytest
 from sklearn.linear_model import LinearRegression
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
+from sklearn.utils import Bunch
 
 from sklearn_ifog import (
     ConformalRegressor,
@@ -348,3 +349,35 @@ def test_bad_model_and_rows_are_named(linear_model, calibration, tmp_path):
     status = calibration_status(linear_model, calibration.data)
     with pytest.raises(ValueError, match=f"run has 3 labels; the status has {len(frame)} rows"):
         per_run_calibration(status, run=[0, 1, 2])
+
+
+def test_rates_beyond_the_calibrated_ones_are_reported_per_run():
+    # The paper's heating-only calibration, then runs that only cool through the same
+    # temperatures: the temperature stays inside, the rate does not.
+    unit = dict(n_units=1, n_runs=2, azimuths=[0.0, 90.0], sampling_period=120.0)
+    heating = make_thermal_campaign(
+        profile="paper", temperature_range=(10.0, 40.0), random_state=0, **unit
+    )
+    cooling = make_thermal_campaign(
+        profile="cooling", temperature_range=(10.0, 40.0), random_state=0, **unit
+    )
+    model = make_compensation_pipeline(LinearRegression()).fit(heating.data, heating.target)
+    X = cooling.data
+    status = calibration_status(model, X)
+    column = list(model.feature_names_out_).index("dT")
+    rate = model[:1].transform(X)[:, column]
+    slowest, fastest = model.domain_.data_min_[column], model.domain_.data_max_[column]
+    expected = np.minimum(rate - slowest, 0.0) + np.maximum(rate - fastest, 0.0)
+    np.testing.assert_allclose(status.rate_excess, expected, rtol=0, atol=1e-12)
+    assert np.all(status.rate_min == slowest)
+    assert np.all(status.rate_max == fastest)
+    runs = X["run"].to_numpy()
+    table = per_run_calibration(status, runs)
+    for label in np.unique(runs):
+        rows = runs == label
+        assert table.loc[label, "rate_below"] == pytest.approx(max(slowest - rate[rows].min(), 0))
+        assert table.loc[label, "rate_above"] == pytest.approx(max(rate[rows].max() - fastest, 0))
+    assert table.loc["(all runs)", "rate_below"] > 0  # cooling, after heating only
+    # A status without the rate (built by hand, or by an older version): NaN columns.
+    legacy = {key: status[key] for key in ("distance", "outside", "temperature_excess")}
+    assert np.isnan(per_run_calibration(Bunch(**legacy))["rate_below"]).all()

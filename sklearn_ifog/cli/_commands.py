@@ -180,6 +180,18 @@ def _outside_lines(status, runs, run_name, units=None, unit_name=None):
                 f", temperature up to {' and '.join(beyond)} calibrated temperature "
                 f"({coldest:.4g} to {warmest:.4g} degC)"
             )
+        rates = []
+        if run.rate_below > 0:  # NaN (no rate feature) compares False
+            rates.append(f"{run.rate_below:.3g} below the slowest")
+        if run.rate_above > 0:
+            rates.append(f"{run.rate_above:.3g} above the fastest")
+        if rates:
+            slowest = np.nanmin(status.rate_min[rows])
+            fastest = np.nanmax(status.rate_max[rows])
+            line += (
+                f", rate dT up to {' and '.join(rates)} calibrated rate "
+                f"({slowest:.3g} to {fastest:.3g})"
+            )
         lines.append(line)
     return lines
 
