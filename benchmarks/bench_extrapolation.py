@@ -717,6 +717,27 @@ def clamp_markdown(simulated, shared, real):
     return header + rows
 
 
+def sweep_failures(simulated, key):
+    """The failures of the sweep's predictions ``key`` on the simulator cases:
+    ``(outside T, cases outside T, first rule, new rates)``, by the targets' thresholds."""
+    outside = first = rates = total = 0
+    for record in simulated.values():
+        for cell in record.values():
+            for group in ("outside T", "new rates"):
+                scores, sweep = cell["scores"][group], cell["sweep"][group]
+                if not scores["rows"]:
+                    continue
+                ours = sweep[key]
+                first += ours > NEVER_WORSE * scores["uncompensated"]
+                if group == "outside T":
+                    total += 1
+                    best = min(scores["uncompensated"], scores["line in T"])
+                    outside += ours > OUTSIDE_RATIO * best
+                else:
+                    rates += ours > RATE_RATIO * scores["line in T"]
+    return outside, total, first, rates
+
+
 def rate_weight_markdown(simulated, shared):
     """Each target's failures at each weight of the rate term (``RATE_WEIGHTS``).
 
@@ -736,21 +757,7 @@ def rate_weight_markdown(simulated, shared):
     ]
     for rate_weight in RATE_WEIGHTS:
         key = f"rate weight {rate_weight:g}"
-        outside = first = rates = total = 0
-        for record in simulated.values():
-            for cell in record.values():
-                for group in ("outside T", "new rates"):
-                    scores, sweep = cell["scores"][group], cell["sweep"][group]
-                    if not scores["rows"]:
-                        continue
-                    ours = sweep[key]
-                    first += ours > NEVER_WORSE * scores["uncompensated"]
-                    if group == "outside T":
-                        total += 1
-                        best = min(scores["uncompensated"], scores["line in T"])
-                        outside += ours > OUTSIDE_RATIO * best
-                    else:
-                        rates += ours > RATE_RATIO * scores["line in T"]
+        outside, total, first, rates = sweep_failures(simulated, key)
         shares = [cell["flagged inside T by rate weight"][rate_weight] for cell in shared.values()]
         costs = [
             cell["msd/floor"][key] > UNCHANGED_RATIO * cell["msd/floor"]["default, outside='none'"]
@@ -815,21 +822,7 @@ def evidence_markdown(simulated):
     keys = [f"repeated {ratio:g}" for ratio in REPEATED_RATIOS]
     keys += [f"scale {scale:g}" for scale in CARRIED_SCALES]
     for key in keys:
-        outside = first = rates = total = 0
-        for record in simulated.values():
-            for cell in record.values():
-                for group in ("outside T", "new rates"):
-                    scores, sweep = cell["scores"][group], cell["sweep"][group]
-                    if not scores["rows"]:
-                        continue
-                    ours = sweep[key]
-                    first += ours > NEVER_WORSE * scores["uncompensated"]
-                    if group == "outside T":
-                        total += 1
-                        best = min(scores["uncompensated"], scores["line in T"])
-                        outside += ours > OUTSIDE_RATIO * best
-                    else:
-                        rates += ours > RATE_RATIO * scores["line in T"]
+        outside, total, first, rates = sweep_failures(simulated, key)
         label = key.replace("repeated", "ratio <=").replace("scale", "scale >=")
         out.append(f"| {label} | {outside} of {total} | {first} | {rates} |")
     return out

@@ -164,41 +164,18 @@ def make_compensation_pipeline(
     )
 
 
-def _temperature_columns(features):
-    """Columns of every sensor's T among a fitted ThermalFeatures' outputs (first sensor
-    first); empty for another first step or without a ``"T"`` term."""
-    if not isinstance(features, ThermalFeatures) or "T" not in features.terms_:
+def _sensor_columns(features, term):
+    """Columns of every sensor's ``term`` among a fitted ThermalFeatures' outputs (first
+    sensor first); empty for another first step or without that term."""
+    if not isinstance(features, ThermalFeatures) or term not in features.terms_:
         return []
     terms = list(features.terms_)
-    first_sensor_terms = [term for term in terms if get_term(term).first_sensor]
+    first_sensor_terms = [name for name in terms if get_term(name).first_sensor]
     n_sensors = len(sensor_keys(features.temperature))
-    later = len(first_sensor_terms) + terms.index("T")
-    return [first_sensor_terms.index("T")] + [
+    later = len(first_sensor_terms) + terms.index(term)
+    return [first_sensor_terms.index(term)] + [
         later + sensor * len(terms) for sensor in range(n_sensors - 1)
     ]
-
-
-def _rate_columns(features):
-    """Columns of every sensor's rate dT among a fitted ThermalFeatures' outputs (first
-    sensor first); empty for another first step or without a ``"dT"`` term."""
-    if not isinstance(features, ThermalFeatures) or "dT" not in features.terms_:
-        return []
-    terms = list(features.terms_)
-    first_sensor_terms = [term for term in terms if get_term(term).first_sensor]
-    n_sensors = len(sensor_keys(features.temperature))
-    later = len(first_sensor_terms) + terms.index("dT")
-    return [first_sensor_terms.index("dT")] + [
-        later + sensor * len(terms) for sensor in range(n_sensors - 1)
-    ]
-
-
-def _rate_column(features):
-    """Column of the first sensor's rate dT among a fitted ThermalFeatures' outputs; None
-    for another first step or without a ``"dT"`` term."""
-    if not isinstance(features, ThermalFeatures) or "dT" not in features.terms_:
-        return None
-    first_sensor_terms = [term for term in features.terms_ if get_term(term).first_sensor]
-    return first_sensor_terms.index("dT")
 
 
 def _run_labels(features, X):
@@ -384,13 +361,14 @@ class CompensationPipeline(Pipeline):
                 f"calibration domain, got n_samples={raw.shape[0]}."
             )
         check_varies(raw, names)
-        columns = _temperature_columns(features)
+        columns = _sensor_columns(features, "T")
+        rates = _sensor_columns(features, "dT")
         self.feature_names_out_ = names
-        self.domain_ = CalibrationDomain(
-            margin=self.margin, temperature=columns, rate=_rate_columns(features)
-        ).fit(raw)
+        self.domain_ = CalibrationDomain(margin=self.margin, temperature=columns, rate=rates).fit(
+            raw
+        )
         column = columns[0] if columns else None
-        rate_column = _rate_column(features)
+        rate_column = rates[0] if rates else None
         Y = np.asarray(y, dtype=np.float64).reshape(raw.shape[0], -1)
         self.fallback_ = fit_fallback(
             None if column is None else raw[:, column],
