@@ -60,3 +60,27 @@ def policy_actions(status):
 def number_text(value):
     """Three significant digits, without an exponent below 100 000."""
     return f"{value:.3g}" if abs(value) < 1000 else f"{value:.0f}"
+
+
+def beyond_text(below, above, low, high, unit=""):
+    """How far a reading went past a calibrated range, in words.
+
+    ``"<below><unit> below the <low>"`` and/or ``"<above><unit> above the <high>"`` joined
+    by "and"; "" when neither is positive (NaN, a model without the feature, compares
+    False).
+
+    Examples
+    --------
+    >>> beyond_text(2.5, 0.0, "coldest", "warmest", " degC")
+    '2.5 degC below the coldest'
+    >>> beyond_text(0.12, 0.3, "slowest", "fastest")
+    '0.12 below the slowest and 0.3 above the fastest'
+    >>> beyond_text(float("nan"), 0.0, "slowest", "fastest")
+    ''
+    """
+    parts = []
+    if below > 0:
+        parts.append(f"{below:.3g}{unit} below the {low}")
+    if above > 0:
+        parts.append(f"{above:.3g}{unit} above the {high}")
+    return " and ".join(parts)

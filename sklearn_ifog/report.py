@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from sklearn_ifog import _table
-from sklearn_ifog._domain_words import number_text, policy_actions
+from sklearn_ifog._domain_words import beyond_text, number_text, policy_actions
 from sklearn_ifog._io import atomic_path
 from sklearn_ifog._per_run import ALL_RUNS, compensation_arrays, sample_period
 
@@ -898,19 +898,13 @@ def _temperature_clause(table):
 def _rate_clause(table):
     """How far the rate dT went beyond the calibrated rates (all runs), as a clause ("" when
     it never did, or without a rate)."""
-    if "rate_below" not in table.columns:
-        return ""
     below, above = table.loc[ALL_RUNS, ["rate_below", "rate_above"]]
-    beyond = []
-    if below > 0:  # NaN (no rate feature) compares False
-        beyond.append(f"{below:.3g} below the slowest")
-    if above > 0:
-        beyond.append(f"{above:.3g} above the fastest")
+    beyond = beyond_text(below, above, "slowest", "fastest")
     if not beyond:
         return ""
     return (
-        f" Its rate dT went {' and '.join(beyond)} calibrated rate (in dT's unit; a "
-        "heating-only calibration used while cooling lies here)."
+        f" Its rate dT went {beyond} calibrated rate (in dT's unit; a heating-only "
+        "calibration used while cooling lies here)."
     )
 
 

@@ -351,7 +351,7 @@ def test_bad_model_and_rows_are_named(linear_model, calibration, tmp_path):
         per_run_calibration(status, run=[0, 1, 2])
 
 
-def test_rates_beyond_the_calibrated_ones_are_reported_per_run():
+def test_rates_beyond_the_calibrated_ones_are_reported_per_run(tmp_path):
     # The paper's heating-only calibration, then runs that only cool through the same
     # temperatures: the temperature stays inside, the rate does not.
     unit = dict(n_units=1, n_runs=2, azimuths=[0.0, 90.0], sampling_period=120.0)
@@ -381,3 +381,8 @@ def test_rates_beyond_the_calibrated_ones_are_reported_per_run():
     # A status without the rate (built by hand, or by an older version): NaN columns.
     legacy = {key: status[key] for key in ("distance", "outside", "temperature_excess")}
     assert np.isnan(per_run_calibration(Bunch(**legacy))["rate_below"]).all()
+    # The report says it in words, with the calibrated temperatures kept.
+    result, _ = _report(tmp_path, model, cooling.frame)
+    text = " ".join(_section(result.paths["markdown"].read_text()))
+    worst = table.loc["(all runs)", "rate_below"]
+    assert f"Its rate dT went {worst:.3g} below the slowest calibrated rate" in text

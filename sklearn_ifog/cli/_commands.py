@@ -143,7 +143,7 @@ def _calibration_status(model, X, path):
 def _outside_lines(status, runs, run_name, units=None, unit_name=None):
     """One line per run with rows outside the calibration domain, after a heading (a run
     of a lot named with its unit)."""
-    from sklearn_ifog._domain_words import number_text, policy_actions
+    from sklearn_ifog._domain_words import beyond_text, number_text, policy_actions
     from sklearn_ifog._table import run_segments
     from sklearn_ifog.report import per_run_calibration
 
@@ -168,30 +168,19 @@ def _outside_lines(status, runs, run_name, units=None, unit_name=None):
             f"  {what}: {run.rows_outside} of {run.samples} rows ({run.outside_share:.1%}) "
             f"outside, largest distance {number_text(run.max_distance)} sd"
         )
-        beyond = []
-        if run.degC_below > 0:
-            beyond.append(f"{run.degC_below:.3g} degC below the coldest")
-        if run.degC_above > 0:
-            beyond.append(f"{run.degC_above:.3g} degC above the warmest")
+        beyond = beyond_text(run.degC_below, run.degC_above, "coldest", "warmest", " degC")
         if beyond:
             coldest = np.nanmin(status.temperature_min[rows])
             warmest = np.nanmax(status.temperature_max[rows])
             line += (
-                f", temperature up to {' and '.join(beyond)} calibrated temperature "
+                f", temperature up to {beyond} calibrated temperature "
                 f"({coldest:.4g} to {warmest:.4g} degC)"
             )
-        rates = []
-        if run.rate_below > 0:  # NaN (no rate feature) compares False
-            rates.append(f"{run.rate_below:.3g} below the slowest")
-        if run.rate_above > 0:
-            rates.append(f"{run.rate_above:.3g} above the fastest")
+        rates = beyond_text(run.rate_below, run.rate_above, "slowest", "fastest")
         if rates:
             slowest = np.nanmin(status.rate_min[rows])
             fastest = np.nanmax(status.rate_max[rows])
-            line += (
-                f", rate dT up to {' and '.join(rates)} calibrated rate "
-                f"({slowest:.3g} to {fastest:.3g})"
-            )
+            line += f", rate dT up to {rates} calibrated rate ({slowest:.3g} to {fastest:.3g})"
         lines.append(line)
     return lines
 
