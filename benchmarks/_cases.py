@@ -60,7 +60,7 @@ SEEDS = {
     "bench_streaming": {
         "tuning": (),
         "judged": (0, 1, 2, 3, 4),
-        "chose": "nothing: no choice is recorded as made on these seeds (--quick runs 0-2; "
+        "chose": "nothing: no choice is recorded as made on these seeds (--quick runs 0; "
         "the latency and C studies use seed 0)",
     },
     "bench_rbf": {
@@ -314,7 +314,7 @@ def extrapolation_mixed_profiles(physics, seed, sampling_period, n_runs):
 #: bench_rbf's training sizes per regression data set (full run and ``--quick``), and the
 #: test rows of each (``rbf_regression_data``).
 RBF_PLAN = {"smooth": (1_000, 10_000, 100_000, 1_000_000), "friedman1": (1_000, 10_000, 100_000)}
-RBF_QUICK_PLAN = {"smooth": (1_000,), "friedman1": (1_000,)}
+RBF_QUICK_PLAN = {"smooth": (300,), "friedman1": (300,)}
 RBF_TEST_ROWS = 10_000
 
 
@@ -358,12 +358,12 @@ def rbf_thermal_campaign(seed, quick=False):
 
     ``make_thermal_campaign`` with its default profile, azimuths (four) and "layered"
     physics, one sample a minute: three units with three runs per azimuth, or with
-    ``quick`` one unit with two. bench_rbf holds out one azimuth at a time within each unit
+    ``quick`` one unit with one. bench_rbf holds out one azimuth at a time within each unit
     and scores the network against its peers on the compensated rate's MSD.
     """
     return make_thermal_campaign(
         n_units=1 if quick else 3,
-        n_runs=2 if quick else 3,
+        n_runs=1 if quick else 3,
         sampling_period=60.0,
         random_state=seed,
     )
@@ -466,8 +466,8 @@ def streaming_c_samples():
 
 # -- bench_thermal_accuracy --
 
-#: bench_thermal_accuracy's ``--quick`` campaign: one unit, two runs per azimuth.
-THERMAL_ACCURACY_QUICK = {"n_units": 1, "n_runs": 2}
+#: bench_thermal_accuracy's ``--quick`` campaign: one unit, one run per azimuth.
+THERMAL_ACCURACY_QUICK = {"n_units": 1, "n_runs": 1}
 
 
 def thermal_accuracy_campaign(seed, quick=False):

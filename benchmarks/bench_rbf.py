@@ -43,8 +43,8 @@ function):
   Gaussian units the default network keeps: with none, the network is its linear tail, i.e.
   the ``LinearRegression`` peer.
 
-``--quick``: smooth and friedman1 at N = 1e3 only, without the Gaussian process; thermal on
-one unit of seed 8 with 2 runs per azimuth (4 folds).
+``--quick``: smooth and friedman1 at N = 300 only, without the Gaussian process; thermal on
+one unit of seed 8 with one run per azimuth (4 folds).
 
 Models: ``RBFNetRegressor`` with each ``refine`` mode (None, "varpro", "lm", "gd"; all other
 parameters at their defaults except ``learning_rate=GD_LEARNING_RATE`` for "gd") and the peers,

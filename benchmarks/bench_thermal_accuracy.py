@@ -36,7 +36,7 @@ mode: mean MSD WIN/TIE/LOSS and the extra fit time)::
 
     .venv/bin/python benchmarks/bench_thermal_accuracy.py --refine-modes
 
-``--quick`` (CI): one unit with two runs per azimuth, the reference and the baselines only
+``--quick`` (CI): one unit with one run per azimuth, the reference and the baselines only
 (``_quick`` in the file names). ``--out DIR`` writes the results elsewhere.
 """
 

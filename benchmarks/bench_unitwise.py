@@ -5,7 +5,7 @@ processes, on a shared two-core machine)::
 
     nice -n 10 .venv/bin/python benchmarks/bench_unitwise.py --jobs 2
 
-``--quick``: one seed, the lumped physics, the linear model only (a minute). Writes
+``--quick``: one seed, the lumped physics, the similar lot, the linear model only. Writes
 ``benchmarks/results/unitwise.md`` and ``unitwise.json`` (``unitwise_quick.*`` with
 ``--quick``; ``--out DIR`` elsewhere). The lots are built in ``_cases.py`` (its
 ``bench_unitwise`` section).
@@ -465,7 +465,9 @@ def markdown(summary, checks, command, seeds, elapsed):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="one seed, lumped, linear model")
+    parser.add_argument(
+        "--quick", action="store_true", help="one seed, lumped, similar lot, linear model"
+    )
     parser.add_argument(
         "--seeds", type=int, default=N_SEEDS, help=f"number of seeds (default {N_SEEDS})"
     )
@@ -486,9 +488,10 @@ def main(argv=None):
     else:
         seeds = list(range(args.first_seed, args.first_seed + args.seeds))
     physics_presets = UNITWISE_QUICK_PHYSICS if args.quick else UNITWISE_PHYSICS
+    lots = ("similar",) if args.quick else tuple(LOTS)
     command = command_line(__file__, argv)
     start = time.perf_counter()
-    cases = [(physics, lot, seed) for physics in physics_presets for lot in LOTS for seed in seeds]
+    cases = [(physics, lot, seed) for physics in physics_presets for lot in lots for seed in seeds]
 
     def case(physics, lot, seed):
         found = run_case(physics, lot, seed, args.quick)

@@ -20,8 +20,9 @@ least-squares line through their logs.
 
 Writes ``benchmarks/results/rbf_scale.md`` and ``rbf_scale.json`` (the one result format of
 ``benchmarks/_results.py``). ``--quick`` (CI): every
-size divided by 100 (1e3 and 1e4 rows, a 1e4-row batch), the same targets (which need not
-hold at those sizes), ``rbf_scale_quick.*``; ``--out DIR`` writes elsewhere.
+size divided by 100 (1e3 and 1e4 rows, a 1e4-row batch) and 200 calls per round of the
+one-row timing, the same targets (which need not hold at those sizes),
+``rbf_scale_quick.*``; ``--out DIR`` writes elsewhere.
 """
 
 import argparse
@@ -60,6 +61,7 @@ TARGETS = (
 # Rounds of the one-row timing (each times RBF then LinearRegression), and calls per round.
 SINGLE_ROW_ROUNDS = 5
 SINGLE_ROW_CALLS = 2000
+QUICK_SINGLE_ROW_CALLS = 200  # --quick
 
 
 def make_model(name):
@@ -92,7 +94,7 @@ def fit_once(name, n_samples):
     return {"model": name, "n": n_samples, "fit_s": fit_s, "peak_MB": peak_mb, "mse": mse}
 
 
-def predict_timings(batch_rows=1_000_000):
+def predict_timings(batch_rows=1_000_000, calls=SINGLE_ROW_CALLS):
     """Single-row latency against LinearRegression, batch throughput against the floor."""
     from sklearn.linear_model import LinearRegression
 
@@ -111,8 +113,8 @@ def predict_timings(batch_rows=1_000_000):
     # median round's ratio.
     rbf_rows, linear_rows = [], []
     for _ in range(SINGLE_ROW_ROUNDS):
-        rbf_rows.append(timeit.timeit(lambda: rbf.predict(row), number=SINGLE_ROW_CALLS))
-        linear_rows.append(timeit.timeit(lambda: linear.predict(row), number=SINGLE_ROW_CALLS))
+        rbf_rows.append(timeit.timeit(lambda: rbf.predict(row), number=calls))
+        linear_rows.append(timeit.timeit(lambda: linear.predict(row), number=calls))
     rbf_rows, linear_rows = np.array(rbf_rows), np.array(linear_rows)
     batch = rbf_scale_batch(batch_rows)
     Z = (batch - rbf.x_mean_) / rbf.x_scale_
@@ -133,8 +135,8 @@ def predict_timings(batch_rows=1_000_000):
 
     return {
         "n_centers": int(centers.shape[0]),
-        "single_row_us": float(np.median(rbf_rows)) / SINGLE_ROW_CALLS * 1e6,
-        "linear_single_row_us": float(np.median(linear_rows)) / SINGLE_ROW_CALLS * 1e6,
+        "single_row_us": float(np.median(rbf_rows)) / calls * 1e6,
+        "linear_single_row_us": float(np.median(linear_rows)) / calls * 1e6,
         "single_row_ratio": float(np.median(rbf_rows / linear_rows)),
         "batch_1e6_s": best(lambda: rbf.predict(batch), 1),
         "floor_1e6_s": best(floor, 1),
@@ -177,7 +179,8 @@ def main(argv=None):
         )
         fits.append(json.loads(out.stdout.splitlines()[-1]))
         print(fits[-1], flush=True)
-    timings = predict_timings(int(large))
+    calls = QUICK_SINGLE_ROW_CALLS if args.quick else SINGLE_ROW_CALLS
+    timings = predict_timings(int(large), calls)
     by = {(f["model"], f["n"]): f for f in fits}
     middle, large = int(middle), int(large)
     rbf5, rbf6 = by["RBFNet (default)", middle], by["RBFNet (default)", large]

@@ -44,7 +44,7 @@ only on average over all rows. Three things differ from row-wise conformal predi
    ``benchmarks/results/conformal_quick.md``) covers 0.938-0.995 of the rows outside the
    domain on its four splits, calibrate-warm / predict-cold included (0.956, at 2.45 times
    the width inside; 0.674 without the slope term), where the constant band
-   (``adaptive=False``, without them) and MAPIE's cover 0.405-0.940 of the same rows.
+   (``adaptive=False``, without them) and MAPIE's cover 0.405-0.947 of the same rows.
 
 Why this difficulty. On the nine campaigns of ``benchmarks/bench_conformal.py`` it was
 chosen on (three physics presets x seeds 0-2, 36 held-out folds; that benchmark also runs

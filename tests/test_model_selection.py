@@ -381,13 +381,26 @@ def test_grid_search_over_features_and_network_with_the_package_scorer():
         model = clone(pipe).set_params(**params).fit(X.iloc[train], y.iloc[train])
         msd = mean_squared_deviation(y.iloc[test], model.predict(X.iloc[test]))
         assert search.cv_results_["split0_test_score"][index] == pytest.approx(-msd, rel=1e-12)
-    # The package's splitter reads the run column itself: same search, same scores.
-    by_column = GridSearchCV(
-        pipe, grid, cv=LeaveOneRunOut(), scoring=neg_mean_squared_deviation_scorer
-    ).fit(X, y)
-    np.testing.assert_array_equal(
-        by_column.cv_results_["mean_test_score"], search.cv_results_["mean_test_score"]
+    # The package's splitter reads the run column itself: same search, same scores, fold by
+    # fold (on the best and the first candidate: each score is one fold's fit, so the other
+    # candidates would only repeat the check).
+    folds = zip(
+        LeaveOneRunOut().split(X), LeaveOneGroupOut().split(X, y, groups=X["run"]), strict=True
     )
+    for (train_run, test_run), (train_group, test_group) in folds:
+        np.testing.assert_array_equal(train_run, train_group)
+        np.testing.assert_array_equal(test_run, test_group)
+    indices = [search.best_index_, 0]
+    candidates = [search.cv_results_["params"][index] for index in indices]
+    by_column = GridSearchCV(
+        pipe,
+        [{name: [value] for name, value in params.items()} for params in candidates],
+        cv=LeaveOneRunOut(),
+        scoring=neg_mean_squared_deviation_scorer,
+    ).fit(X, y)
+    assert by_column.cv_results_["params"] == candidates
+    for key in ("split0_test_score", "split1_test_score", "split2_test_score"):
+        np.testing.assert_array_equal(by_column.cv_results_[key], search.cv_results_[key][indices])
 
 
 def test_run_spanning_two_units_is_refused_within_unit_run_splits():
