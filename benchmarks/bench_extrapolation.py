@@ -321,6 +321,11 @@ def peers(X_cal, y_cal, X_op):
     return predictions, sweep, default, features
 
 
+def beyond_calibrated_temperatures(temperature, calibrated):
+    """Whether each of ``temperature`` lies outside the range of the ``calibrated`` ones."""
+    return (temperature < calibrated.min()) | (temperature > calibrated.max())
+
+
 def _msd(y, prediction, mask):
     return float(np.mean(np.square(y[mask] - prediction[mask]))) if mask.any() else None
 
@@ -352,9 +357,9 @@ def simulator_case(physics, seed, sampling_period, n_runs):
                     model, X_cal, y_cal, features, predictions["default, outside='none'"]
                 )
             )
-        temperature = X_op["temperature"].to_numpy()
-        low, high = X_cal["temperature"].min(), X_cal["temperature"].max()
-        outside_t = (temperature < low) | (temperature > high)
+        outside_t = beyond_calibrated_temperatures(
+            X_op["temperature"].to_numpy(), X_cal["temperature"].to_numpy()
+        )
         rate_column = list(model.feature_names_out_).index("dT")
         rate = features[:, rate_column]
         rate_low = model.domain_.data_min_[rate_column]
@@ -393,13 +398,12 @@ def shared_profile_case(physics, seed, sampling_period, n_runs):
     flagged, flagged_inside_t, rows, rows_inside_t = 0, 0, 0, 0
     contained_rows, contained_flagged = 0, 0
     by_margin, by_rate = {}, {}
+    temperature = X["temperature"].to_numpy()
     for azimuth in np.unique(X["azimuth"]):
         held = (X["azimuth"] == azimuth).to_numpy()
         model = make_compensation_pipeline(LinearRegression()).fit(X[~held], y[~held])
         outside = model.outside_calibration(X[held])
-        temperature = X["temperature"].to_numpy()
-        low, high = temperature[~held].min(), temperature[~held].max()
-        inside_t = (temperature[held] >= low) & (temperature[held] <= high)
+        inside_t = ~beyond_calibrated_temperatures(temperature[held], temperature[~held])
         flagged += int(outside.sum())
         flagged_inside_t += int(outside[inside_t].sum())
         # Runs that never leave the calibrated temperatures: the strict reading of "shared
@@ -448,8 +452,7 @@ def shared_profile_case(physics, seed, sampling_period, n_runs):
         floor += noise_floor(mixed.frame, np.flatnonzero(held)) * held.sum()
         outside = model.outside_calibration(X[held])
         outside_rows += int(outside.sum())
-        low, high = temperature[~held].min(), temperature[~held].max()
-        outside_t = (temperature[held] < low) | (temperature[held] > high)
+        outside_t = beyond_calibrated_temperatures(temperature[held], temperature[~held])
         gain = np.square(y[held] - policy) - np.square(y[held] - free)
         excess["outside T"] += float(gain[outside_t].sum())
         excess["flagged inside T"] += float(gain[outside & ~outside_t].sum())

@@ -399,7 +399,9 @@ def test_grid_search_over_features_and_network_with_the_package_scorer():
         scoring=neg_mean_squared_deviation_scorer,
     ).fit(X, y)
     assert by_column.cv_results_["params"] == candidates
-    for key in ("split0_test_score", "split1_test_score", "split2_test_score"):
+    assert by_column.n_splits_ == search.n_splits_
+    for split in range(search.n_splits_):
+        key = f"split{split}_test_score"
         np.testing.assert_array_equal(by_column.cv_results_[key], search.cv_results_[key][indices])
 
 
