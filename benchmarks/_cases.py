@@ -212,7 +212,7 @@ def export_run(n_samples):
 #: cycle down below it and runs that only cool.
 EXTRAPOLATION_PROFILES = ("cycle", "cooling")
 #: bench_extrapolation's presets with ``--quick`` (the full run takes every ``PHYSICS``).
-EXTRAPOLATION_QUICK_PHYSICS = ("lumped", "layered_glass")
+EXTRAPOLATION_QUICK_PHYSICS = ("layered_glass",)
 #: degC/min: the one ramp rate of every run of bench_extrapolation's shared-profile case.
 EXTRAPOLATION_SHARED_RAMP_RATE = 1.0
 #: The recording's axes bench_extrapolation compensates (``--quick``: x and z).
@@ -230,10 +230,10 @@ EXTRAPOLATION_REAL_SPLITS = {
 def extrapolation_sizes(quick):
     """bench_extrapolation's ``(sampling_period, n_runs)`` of every simulated campaign.
 
-    One sample a minute and three runs per azimuth, or with ``quick`` (CI) one every two
+    One sample a minute and three runs per azimuth, or with ``quick`` (CI) one every four
     minutes and two runs; ``bench_extrapolation.py`` passes them to the campaigns below.
     """
-    return (120.0, 2) if quick else (60.0, 3)
+    return (240.0, 2) if quick else (60.0, 3)
 
 
 def _extrapolation_unit(physics, seed, sampling_period, n_runs):
@@ -379,9 +379,9 @@ def scale_sizes(quick, runs):
     """bench_scale's ``(units, n_runs, sampling_period)``: the three lot sizes it times.
 
     10, 30 and 100 units of ``runs`` runs (``--runs``, 20 by default) at one sample a
-    minute, or with ``quick`` (CI) 3, 4 and 6 units of 3 runs at one every 300 s.
+    minute, or with ``quick`` (CI) 2, 3 and 4 units of 2 runs at one every 600 s.
     """
-    return ((3, 4, 6), 3, 300.0) if quick else ((10, 30, 100), runs, 60.0)
+    return ((2, 3, 4), 2, 600.0) if quick else ((10, 30, 100), runs, 60.0)
 
 
 def scale_lot(n_units, n_runs, sampling_period):
@@ -466,8 +466,14 @@ def streaming_c_samples():
 
 # -- bench_thermal_accuracy --
 
-#: bench_thermal_accuracy's ``--quick`` campaign: one unit, one run per azimuth.
-THERMAL_ACCURACY_QUICK = {"n_units": 1, "n_runs": 1}
+#: bench_thermal_accuracy's ``--quick`` campaign: one unit, one run at each of three
+#: azimuths (the default: four), one sample every 240 s (the default: 60 s).
+THERMAL_ACCURACY_QUICK = {
+    "n_units": 1,
+    "n_runs": 1,
+    "azimuths": (0.0, 45.0, 90.0),
+    "sampling_period": 240.0,
+}
 
 
 def thermal_accuracy_campaign(seed, quick=False):
@@ -547,8 +553,9 @@ def unitwise_lot(physics, lot, seed):
 
 # -- paper_claim_check --
 
-#: paper_claim_check's ``--quick`` sizes: two runs per (unit, azimuth) instead of five.
-PAPER_CLAIM_QUICK = {"n_runs": 2}
+#: paper_claim_check's ``--quick`` sizes: one run per (unit, azimuth) instead of five, one
+#: sample every 120 s instead of 60 s.
+PAPER_CLAIM_QUICK = {"n_runs": 1, "sampling_period": 120.0}
 
 
 def paper_claim_campaign(seed, *, noise=True, quick=False, physics=None):
@@ -556,10 +563,10 @@ def paper_claim_campaign(seed, *, noise=True, quick=False, physics=None):
 
     ``make_thermal_campaign(noise=noise, random_state=seed)``: the simulator's default
     campaign (three units, five runs at each of 0, 45, 90 and 135 deg, the default physics
-    unless ``physics`` names a preset), with two runs per (unit, azimuth) for ``--quick``
-    (``PAPER_CLAIM_QUICK``). ``noise=False`` gives the noise-free drift. paper_claim_check
-    runs ``run_paper_experiments`` on it (trained at 0 deg, tested at 90, 45 and 135 deg)
-    and fits its "why" table's linear models on the noise-free one.
+    unless ``physics`` names a preset), with one run per (unit, azimuth) every 120 s for
+    ``--quick`` (``PAPER_CLAIM_QUICK``). ``noise=False`` gives the noise-free drift.
+    paper_claim_check runs ``run_paper_experiments`` on it (trained at 0 deg, tested at 90,
+    45 and 135 deg) and fits its "why" table's linear models on the noise-free one.
     """
     sizes = dict(PAPER_CLAIM_QUICK if quick else {})
     if physics:
@@ -612,11 +619,11 @@ def rbf_refine_split(physics, seed):
 # -- rbf_scale_check --
 
 #: rbf_scale_check's middle and large training sizes (the ratios are named after the full
-#: run's 1e5 and 1e6; ``--quick`` divides both by 100), and its test rows.
+#: run's 1e5 and 1e6; ``--quick`` takes 3e2 and 3e3, a decade apart too), and its test rows.
 RBF_SCALE_SIZES = (1e5, 1e6)
-RBF_SCALE_QUICK_SIZES = (1e3, 1e4)
+RBF_SCALE_QUICK_SIZES = (3e2, 3e3)
 #: The smallest size of rbf_scale_check's fit time against rows (with the two above: the
-#: fitted exponent over 1e4 ... 1e6 rows; ``--quick`` 1e2 ... 1e4).
+#: fitted exponent over 1e4 ... 1e6 rows; ``--quick`` 1e2 ... 3e3).
 RBF_SCALE_SMALL_SIZE = 1e4
 RBF_SCALE_QUICK_SMALL_SIZE = 1e2
 RBF_SCALE_TEST_ROWS = 20000

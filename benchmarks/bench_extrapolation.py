@@ -4,8 +4,8 @@ Run (about 5 min on two cores)::
 
     python benchmarks/bench_extrapolation.py --n-jobs 2
 
-``--quick`` (CI): one seed, two presets, 120 s samples, the real recording's warm->cold split;
-``--tune``: the sweeps on the tuning seeds. Writes
+``--quick`` (CI): one seed, one preset (layered_glass), 240 s samples, the real recording's
+warm->cold split (axes x and z); ``--tune``: the sweeps on the tuning seeds. Writes
 ``benchmarks/results/extrapolation[_quick|_tune].md`` and ``.json`` (``--out DIR``
 elsewhere). The cases are built in ``_cases.py`` (its ``bench_extrapolation`` section).
 

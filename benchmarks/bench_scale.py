@@ -4,7 +4,7 @@ Run (about 7 minutes on two cores)::
 
     .venv/bin/python benchmarks/bench_scale.py
 
-``--quick`` (CI): 3, 4 and 6 units of 3 runs at 300 s sampling, the same targets (which need
+``--quick`` (CI): 2, 3 and 4 units of 2 runs at 600 s sampling, the same targets (which need
 not hold at that size). Writes ``benchmarks/results/scale[_quick].md`` and ``.json``
 (``--out DIR`` elsewhere). The lots are built in ``_cases.py`` (its ``bench_scale`` section).
 

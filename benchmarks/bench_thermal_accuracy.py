@@ -36,8 +36,9 @@ mode: mean MSD WIN/TIE/LOSS and the extra fit time)::
 
     .venv/bin/python benchmarks/bench_thermal_accuracy.py --refine-modes
 
-``--quick`` (CI): one unit with one run per azimuth, the reference and the baselines only
-(``_quick`` in the file names). ``--out DIR`` writes the results elsewhere.
+``--quick`` (CI): one unit with one run at each of 0, 45 and 90 deg sampled every 240 s,
+the reference and the baselines only (``_quick`` in the file names). ``--out DIR`` writes
+the results elsewhere.
 """
 
 import argparse

@@ -53,10 +53,11 @@ From the repository root (``.venv/bin/python`` or any Python with the dependenci
     python benchmarks/check_unchanged.py --compare before.npz after.npz
     python benchmarks/check_unchanged.py --quick --out /tmp/check.md   # CI smoke run
 
-``--quick`` (CI, seconds): the features part only (no models, streaming, C or demo), the
-working tree against ``HEAD`` (unless ``--baseline`` is given): it checks that the machinery
-(``git archive``, the two snapshot processes, the comparison, the exit code) still works, and
-that the features are reproducible.
+``--quick`` (CI, seconds): the features part only (no models, streaming, C or demo), on the
+simulator's default campaign with one run per (unit, azimuth) instead of five
+(``QUICK_CAMPAIGN``), the working tree against ``HEAD`` (unless ``--baseline`` is given): it
+checks that the machinery (``git archive``, the two snapshot processes, the comparison, the
+exit code) still works, and that the features are reproducible.
 
 ``--baseline REV`` extracts REV with ``git archive`` into a temporary directory (no worktree
 state), runs this script there in ``--snapshot`` mode with ``PYTHONPATH`` set to it (the
@@ -104,6 +105,7 @@ DEFAULT_BASELINE = "844783f"
 REPOSITORY = Path(__file__).resolve().parents[1]
 RELATIVE_TOLERANCE = 1e-15
 SEED = 0
+QUICK_CAMPAIGN = {"n_runs": 1}  # --quick: the simulated campaign's runs per (unit, azimuth)
 TERMS = ("T", "dT", "TdT", "T2", "gradient")  # every term of the baseline's ThermalFeatures
 REFINE_MODES = ("varpro", "lm", "gd", None)
 TIMING_COLUMNS = ("fit_time", "score_time")
@@ -325,10 +327,10 @@ def _markdown(prefix, text):
     return out
 
 
-def _simulated():
+def _simulated(quick=False):
     from sklearn_ifog.datasets import make_thermal_campaign
 
-    frame = make_thermal_campaign(random_state=SEED).frame
+    frame = make_thermal_campaign(random_state=SEED, **(QUICK_CAMPAIGN if quick else {})).frame
     train = (frame["unit"] < 2).to_numpy()
     target = (frame["rate"] - frame["reference"]).to_numpy()
     return frame, train, target
@@ -644,10 +646,11 @@ def _snapshot_demo():
     return out
 
 
-def snapshot(path, expect_root=None, parts=None):
+def snapshot(path, expect_root=None, parts=None, quick=False):
     """Run the workload with the ``sklearn_ifog`` that Python imports; save every result.
 
-    ``parts``: None for the whole workload, ``("features",)`` for the features only.
+    ``parts``: None for the whole workload, ``("features",)`` for the features only;
+    ``quick``: the smaller simulated campaign (``QUICK_CAMPAIGN``).
     """
     import sklearn_ifog
 
@@ -664,7 +667,7 @@ def snapshot(path, expect_root=None, parts=None):
     def done(part):
         print(f"  {part}: {time.perf_counter() - started:.0f} s", file=sys.stderr)
 
-    sim, real = _simulated(), _real()
+    sim, real = _simulated(quick), _real()
     arrays = {}
     arrays.update(_snapshot_features(sim[0], real[0]))
     done("features")
@@ -783,7 +786,7 @@ def compare(baseline_path, current_path, *, labels=("baseline", "current")):
 # ---------------------------------------------------------------------------------------------
 
 
-def _start_snapshot(package_root, output, parts=None):
+def _start_snapshot(package_root, output, parts=None, quick=False):
     """Start ``--snapshot output`` in a subprocess that imports the package under
     ``package_root``; its stderr goes to ``output.log``."""
     environment = {**os.environ, "PYTHONPATH": str(package_root)}
@@ -798,6 +801,8 @@ def _start_snapshot(package_root, output, parts=None):
     ]
     if parts:
         command += ["--parts", *parts]
+    if quick:
+        command.append("--quick")
     process = subprocess.Popen(
         command, env=environment, cwd=output.parent, stdout=log, stderr=subprocess.STDOUT
     )
@@ -821,7 +826,7 @@ def _git(*args):
     ).stdout.strip()
 
 
-def against_baseline(revision, parts=None):
+def against_baseline(revision, parts=None, quick=False):
     with tempfile.TemporaryDirectory(prefix="check-unchanged-") as directory:
         directory = Path(directory)
         tree = directory / "baseline"
@@ -838,7 +843,7 @@ def against_baseline(revision, parts=None):
         before, after = directory / "baseline.npz", directory / "current.npz"
         # Both at once: each is mostly single-threaded.
         running = [
-            (*_start_snapshot(root, path, parts), root)
+            (*_start_snapshot(root, path, parts, quick), root)
             for root, path in [(tree, before), (REPOSITORY, after)]
         ]
         for process, log, root in running:
@@ -874,14 +879,19 @@ def main(argv=None):
     args = parser.parse_args(argv)
 
     if args.snapshot:
-        snapshot(Path(args.snapshot).resolve(), expect_root=args.expect_root, parts=args.parts)
+        snapshot(
+            Path(args.snapshot).resolve(),
+            expect_root=args.expect_root,
+            parts=args.parts,
+            quick=args.quick,
+        )
         return 0
     if args.compare:
         text, ok = compare(*args.compare, labels=tuple(args.compare))
     else:
         default = "HEAD" if args.quick else DEFAULT_BASELINE
         parts = ("features",) if args.quick else None
-        text, ok = against_baseline(args.baseline or default, parts)
+        text, ok = against_baseline(args.baseline or default, parts, args.quick)
     print(text, end="")
     print(target_line(ok, f"every quantity identical or within {RELATIVE_TOLERANCE:g}"))
     if args.out:

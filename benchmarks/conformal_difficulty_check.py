@@ -54,6 +54,11 @@ target:
   quantile over the calibration runs') and what a method can see at prediction time (the fold
   models' spread, the distance ratio, the mean \\|dT\\|).
 
+``--quick`` (CI): lumped, seed 0, one held-out heading (``QUICK_FOLDS``), every second
+sample of the campaign (``QUICK_ROW_STEP``: 600 s samples) and ``GroupKFold(3)`` instead of
+``GroupKFold(5)`` for the calibration folds (``QUICK_INNER_FOLDS``; the estimator checked
+against the ``distance`` variant takes the same).
+
 Writes ``benchmarks/results/conformal_difficulty[_quick].md`` and ``.json`` (``--out DIR``
 elsewhere).
 """
@@ -107,13 +112,16 @@ VARIANTS = (
 )
 KNN_RESIDUAL_NEIGHBORS = 25  # crepes' DifficultyEstimator default
 QUICK_FOLDS = 1  # --quick holds out one of the four headings (CI time)
+QUICK_ROW_STEP = 2  # --quick keeps every second sample of the campaign
+QUICK_INNER_FOLDS = 3  # --quick calibrates on GroupKFold(3) (the full run: GroupKFold(5))
 
 
-def split_predictions(X, y, runs, train, test, base):
-    """Everything a calibration needs from one split: fold and full-model predictions."""
+def split_predictions(X, y, runs, train, test, base, n_inner=5):
+    """Everything a calibration needs from one split: fold and full-model predictions;
+    ``n_inner``: the calibration folds (``GroupKFold``; ``--quick`` fewer)."""
     X_train, y_train, groups = X.iloc[train], y[train], runs[train]
     X_test = X.iloc[test]
-    splits = list(GroupKFold(5).split(X_train, y_train, groups))
+    splits = list(GroupKFold(n_inner).split(X_train, y_train, groups))
     oof = np.empty(len(train))
     fold_of = np.empty(len(train), dtype=int)
     test_predictions, train_predictions = [], []
@@ -294,12 +302,12 @@ def coverage_and_ratio(split, band):
     return float(inside.mean()), float(np.mean(band[:, 1] - band[:, 0]) / oracle)
 
 
-def check_equal_to_estimator(X, y, runs, train, test, split):
+def check_equal_to_estimator(X, y, runs, train, test, split, n_inner=5):
     """The ``distance`` variant is ConformalRegressor's band (same split, same folds) on
     the test rows inside the full model's calibration domain: the variants here leave out
     the band's terms outside it (the fallback's error, the slope beyond the calibrated
     temperatures, the stretch onto the regressor's own extrapolation)."""
-    model = ConformalRegressor(pipeline(), coverage=NOMINAL, cv=GroupKFold(5))
+    model = ConformalRegressor(pipeline(), coverage=NOMINAL, cv=GroupKFold(n_inner))
     model.fit(X.iloc[train], y[train], groups=runs[train])
     expected = model.predict_interval(X.iloc[test])
     inside = ~model.estimator_.outside_calibration(X.iloc[test])
@@ -309,17 +317,22 @@ def check_equal_to_estimator(X, y, runs, train, test, split):
     )
 
 
-def run_campaign(physics, seed, check, n_folds=None):
-    """One campaign; ``n_folds``: hold out only the first headings (``--quick``)."""
+def run_campaign(physics, seed, check, n_folds=None, n_inner=5, step=1):
+    """One campaign; ``n_folds``: hold out only the first headings, ``n_inner``: the
+    calibration folds, ``step``: every step-th sample only (``--quick``)."""
     X, y = conformal_campaign(physics, seed)
+    if step > 1:
+        X, y = X.iloc[::step], y[::step]
     runs = X["run"].to_numpy()
     base = pipeline()
     folds = list(LeaveOneAzimuthOut().split(X))[:n_folds]
     coldest = X.groupby("run")["temperature"].min()
     cold_runs = coldest.index[coldest < coldest.median()].to_numpy()
     cold = np.isin(runs, cold_runs)
-    splits = [split_predictions(X, y, runs, tr, te, base) for tr, te in folds]
-    cold_split = split_predictions(X, y, runs, np.flatnonzero(~cold), np.flatnonzero(cold), base)
+    splits = [split_predictions(X, y, runs, tr, te, base, n_inner) for tr, te in folds]
+    cold_split = split_predictions(
+        X, y, runs, np.flatnonzero(~cold), np.flatnonzero(cold), base, n_inner
+    )
     temperature = X["temperature"].to_numpy()
     cold_error = np.abs(cold_split["y_test"] - cold_split["full_test"])
     result = {
@@ -384,7 +397,7 @@ def run_campaign(physics, seed, check, n_folds=None):
     if check:
         tr, te = folds[0]
         result["distance_equals_estimator"] = check_equal_to_estimator(
-            X, y, runs, tr, te, splits[0]
+            X, y, runs, tr, te, splits[0], n_inner
         )
     return result
 
@@ -527,13 +540,14 @@ def main(argv=None):
     warnings.filterwarnings("ignore", message=".*quadratic tail.*")
     presets = PHYSICS[:1] if args.quick else PHYSICS
     seeds = DEV_SEEDS[:1] if args.quick else DEV_SEEDS + EXTRA_SEEDS
+    sizes = {"n_folds": QUICK_FOLDS, "n_inner": QUICK_INNER_FOLDS, "step": QUICK_ROW_STEP}
     start = time.perf_counter()
     results = {}
     for physics in presets:
         for seed in seeds:
             key = f"{physics} seed {seed}"
             results[key] = run_campaign(
-                physics, seed, check=not results, n_folds=QUICK_FOLDS if args.quick else None
+                physics, seed, check=not results, **(sizes if args.quick else {})
             )
             print(f"{key} ({time.perf_counter() - start:.0f} s)", flush=True)
     elapsed = time.perf_counter() - start

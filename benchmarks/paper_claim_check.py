@@ -53,9 +53,9 @@ The recipe part adds one for every model of it on (T, ΔT, T·ΔT) against the s
 (T, ΔT), for each smoothing.
 
 The full run writes ``benchmarks/results/paper_claim.md`` and ``paper_claim.json``.
-``--quick`` (CI): campaign seed 0 only, two runs per (unit, azimuth) instead of five, the
-default network and the linear model, with gyro noise, and the recipe part on unit 0 with
-smoothing 0 only; writes ``paper_claim_quick.*``.
+``--quick`` (CI): campaign seed 0 only, one run per (unit, azimuth) instead of five, sampled
+every 120 s instead of 60 s, the default network and the linear model, with gyro noise, and
+the recipe part on unit 0 with smoothing 0 only; writes ``paper_claim_quick.*``.
 ``--out DIR`` writes elsewhere. ``--physics NAME`` simulates that preset instead of the
 simulator's default (``"layered"``); ``tests/test_paper_experiments.py`` cites
 ``--physics lumped --tag lumped``.
