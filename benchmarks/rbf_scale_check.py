@@ -19,12 +19,14 @@ network and of the polynomial Ridge against rows (1e4, 1e5 and 1e6), with the ex
 least-squares line through their logs.
 
 Writes ``benchmarks/results/rbf_scale.md`` and ``rbf_scale.json`` (the one result format of
-``benchmarks/_results.py``). ``--quick`` (CI): 1e2, 3e2 and 3e3 rows (a decade between
-the last two, as between 1e5 and 1e6), a 3e3-row batch, the network timed for predict fitted
-on 2000 rows instead of 20000, 200 calls per round of the one-row timing; the middle size's
+``benchmarks/_results.py``); ``--out DIR`` writes elsewhere.
+
+``--quick`` (CI): ``1e2``, ``3e2`` and ``3e3`` rows (a decade between the last two, as
+between 1e5 and 1e6), a batch of ``3e3`` rows, the network timed for predict fitted on
+2000 rows instead of 20000, 200 calls per round of the one-row timing; the middle size's
 fits run in this process (no peak memory: a child process would cost more than they do),
 the large size's each in its own process as in the full run; the same targets (which need
-not hold at those sizes), ``rbf_scale_quick.*``; ``--out DIR`` writes elsewhere.
+not hold at those sizes), written to the ``_quick`` files.
 """
 
 import argparse
