@@ -134,6 +134,17 @@ def real_recording():
     return load_psim_tvc(drop_spikes=True)
 
 
+#: ``--quick`` of bench_thermal_state and rbf_run_folds_check: every fourth sample of the
+#: recording (CI time).
+REAL_QUICK_STEP = 4
+
+
+def real_recording_xy(step=1):
+    """The recording's inputs and targets (``real_recording``), every ``step``-th sample."""
+    recording = real_recording()
+    return recording.data.iloc[::step], recording.target.iloc[::step]
+
+
 def real_per_second(axes=("gyro_x", "gyro_y", "gyro_z")):
     """The shipped recording averaged to one row per second: one run, a time column."""
     frame = real_recording().frame

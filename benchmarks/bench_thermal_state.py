@@ -65,7 +65,7 @@ same run on its ``judged`` seeds, on which no default was chosen, writes
 The campaigns are ``_cases.thermal_state_campaign``. ``--quick`` (CI, well under a minute
 of CPU): one seed, 120 s samples, four models, one run per (unit, azimuth), only the first
 azimuth of each campaign held out (``QUICK_FOLDS``), and on the real recording gyro x on
-every fourth sample (``QUICK_REAL_STEP``) with the even bursts training only. Writes
+every fourth sample (``_cases.REAL_QUICK_STEP``) with the even bursts training only. Writes
 ``benchmarks/results/thermal_state[_quick].md`` and ``.json`` (``--out DIR`` elsewhere).
 """
 
@@ -224,7 +224,6 @@ def _evaluate_fold(seed, physics, period, sizes, fold, models, sets_spec):
 
 
 REAL_AXES = ("gyro_x", "gyro_y")  # the axes with a thermal drift (gyro z has none to model)
-QUICK_REAL_STEP = 4  # --quick: every fourth sample of the real recording (CI time)
 
 
 def real_recording(models, seed=0, axes=REAL_AXES, parities=(0, 1), step=1):
@@ -239,10 +238,7 @@ def real_recording(models, seed=0, axes=REAL_AXES, parities=(0, 1), step=1):
     squared burst-mean residuals, per axis of ``axes`` (``REAL_AXES``; ``--quick``: gyro x,
     and every ``step``-th sample only).
     """
-    recording = _cases.real_recording()
-    X, Y = recording.data, recording.target
-    if step > 1:  # --quick: every step-th sample
-        X, Y = X.iloc[::step], Y.iloc[::step]
+    X, Y = _cases.real_recording_xy(step)
     burst = X["burst"].to_numpy()
     candidates = {**regressors(seed), "linear in T": LinearRegression}
     scores = {}
@@ -610,7 +606,7 @@ def main(argv=None):
         models,
         axes=REAL_AXES[:1] if quick else REAL_AXES,
         parities=(0,) if quick else (0, 1),
-        step=QUICK_REAL_STEP if quick else 1,
+        step=_cases.REAL_QUICK_STEP if quick else 1,
     )
     checks += real_checks(real)
     elapsed = time.perf_counter() - started

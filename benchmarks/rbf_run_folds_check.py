@@ -58,7 +58,8 @@ from _cases import (  # isort: skip
     PHYSICS,
     RBF_REFINE_CASES,
     SEEDS,
-    real_recording,
+    REAL_QUICK_STEP,
+    real_recording_xy,
     thermal_state_campaign,
 )
 
@@ -69,7 +70,6 @@ from _results import add_out_argument, command_line, write_results  # isort: ski
 MODELS = ("RBFNet", "RBFNet (run groups)", "Ridge")
 REFINE_MODES = ("varpro", "lm", "gd")
 REAL_AXES = ("gyro_x", "gyro_y")
-QUICK_REAL_STEP = 4  # --quick: every fourth sample of the real recording (CI time)
 
 
 def _quiet_fit(model, X, y, **params):
@@ -124,10 +124,7 @@ def refine_case(physics, seed):
 
 
 def real_scores(axes, parities=(0, 1), step=1):
-    recording = real_recording()
-    X, Y = recording.data, recording.target
-    if step > 1:  # --quick: every step-th sample
-        X, Y = X.iloc[::step], Y.iloc[::step]
+    X, Y = real_recording_xy(step)
     burst = X["burst"].to_numpy()
     scores = {}
     for parity in parities:
@@ -277,7 +274,7 @@ def main(argv=None):
     seeds = SEEDS["rbf_run_folds_check"]["tuning"]
     if args.quick:
         seeds, periods, physics, n_folds = seeds[:1], (300.0,), ("lumped", "layered_glass"), 1
-        cases, axes, parities, step = RBF_REFINE_CASES[:1], REAL_AXES[:1], (0,), QUICK_REAL_STEP
+        cases, axes, parities, step = RBF_REFINE_CASES[:1], REAL_AXES[:1], (0,), REAL_QUICK_STEP
     else:
         periods, physics, n_folds = (10.0, 60.0), PHYSICS, 4
         cases, axes, parities, step = RBF_REFINE_CASES, REAL_AXES, (0, 1), 1
