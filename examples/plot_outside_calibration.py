@@ -68,7 +68,7 @@ distance = model.calibration_distance(X_new)
 outside = model.outside_calibration(X_new)
 print(f"new run: {X_new['temperature'].min():.2f} to {X_new['temperature'].max():.2f} degC")
 print(f"rows outside the calibration domain: {outside.sum()} of {outside.size}")
-print(f"largest distance: {distance.max():.3g} (margin {model.margin:g})")
+print(f"largest distance: {distance.max():.3g} (threshold {model.domain_.threshold_:.3g})")
 
 # %%
 # Predicting there gives one :class:`~sklearn_ifog.OutsideCalibrationWarning` per call. It
@@ -141,7 +141,7 @@ for policy, prediction in predictions.items():
 ax_drift.set_ylabel("drift (deg/h)")
 ax_drift.legend(fontsize="small", ncol=4, loc="upper left")
 ax_d.semilogy(hours, np.maximum(distance, 1e-3), color="k")
-ax_d.axhline(model.margin, color="tab:red", ls="--", label="margin")
+ax_d.axhline(model.domain_.threshold_, color="tab:red", ls="--", label="threshold")
 ax_d.set_ylabel("calibration distance")
 ax_d.set_xlabel("time (h)")
 ax_d.legend(fontsize="small")

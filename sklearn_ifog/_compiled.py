@@ -26,6 +26,8 @@ import numpy as np
 from sklearn_ifog._description import describe_pipeline
 from sklearn_ifog._output_layer import layer_kind, read_layer
 from sklearn_ifog.domain import (
+    NOVELTY_RAMP,
+    RATE_WEIGHT,
     apply_policy,
     box_distance,
     outside_domain,
@@ -390,7 +392,7 @@ class CompiledDomain:
     domain : CalibrationDomain
         Fitted.
     margin : float
-        Distance that still counts as inside (the pipeline's ``margin``).
+        Distance that still counts as inside (the domain's calibrated ``threshold_``).
     outside : {"blend", "clip", "none"}
         The policy for the rows outside.
     fallback : Fallback
@@ -446,6 +448,9 @@ class CompiledDomain:
                 box.rate_columns, box.rate_low, box.rate_high, box.rate_scale, strict=True
             )
         ]
+        self._boost = float(box.boost)
+        self._feature_scale = box.scale.tolist()
+        self._rate_ramp = RATE_WEIGHT * NOVELTY_RAMP
 
     def where(self, features):
         """Distance of every feature row outside the box, and whether it is outside.
@@ -480,13 +485,25 @@ class CompiledDomain:
         for excess in (self._excess_matrix @ np.array([*row, 1.0])).tolist():
             if excess > 0.0:
                 squares += excess * excess
+        rate_squares = 0.0
         for column, low, high, scale in self._rate_bounds:
             value = row[column]
             if value < low:
-                squares += ((low - value) / scale) ** 2
+                rate_squares += ((low - value) / scale) ** 2
             elif value > high:
-                squares += ((value - high) / scale) ** 2
-        distance = math.sqrt(squares)
+                rate_squares += ((value - high) / scale) ** 2
+        distance = math.sqrt(squares + rate_squares)
+        if self._boost:
+            novelty = rate_squares / self._rate_ramp**2
+            for column, low, high in self._temperature_bounds:
+                value = row[column]
+                ramp = self._feature_scale[column] * NOVELTY_RAMP
+                if value < low:
+                    novelty += ((low - value) / ramp) ** 2
+                elif value > high:
+                    novelty += ((value - high) / ramp) ** 2
+            if novelty > 0.0:
+                distance += self._boost * min(math.sqrt(novelty), 1.0)
         # outside_domain: beyond the margin, or any temperature beyond its range.
         outside = distance > self.margin
         for column, low, high in self._temperature_bounds:
@@ -559,7 +576,7 @@ def compile_domain(pipeline):
     ... )
     >>> model = make_compensation_pipeline(LinearRegression()).fit(X, y)
     >>> domain = compile_domain(model)
-    >>> domain.policy, domain.margin == model.margin, domain.temperature_columns
+    >>> domain.policy, domain.margin == model.domain_.threshold_, domain.temperature_columns
     ('blend', True, [0])
     >>> compile_domain(model[:]) is None  # a plain Pipeline of the same steps
     True
@@ -569,4 +586,4 @@ def compile_domain(pipeline):
     if not isinstance(pipeline, CompensationPipeline):
         return None
     domain = pipeline.domain_
-    return CompiledDomain(domain, domain.margin, pipeline.outside, pipeline.fallback_)
+    return CompiledDomain(domain, domain.threshold_, pipeline.outside, pipeline.fallback_)

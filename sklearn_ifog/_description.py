@@ -30,7 +30,7 @@ from sklearn_ifog._output_layer import layer_kind, read_layer, supported_names
 from sklearn_ifog.features import ThermalFeatures
 
 SCHEMA_NAME = "sklearn-ifog-pipeline"
-SCHEMA_VERSION = 4
+SCHEMA_VERSION = 5
 
 
 def _floats(values):
@@ -317,8 +317,9 @@ def describe_domain(pipeline, n_features, n_outputs):
     Raises
     ------
     ValueError
-        If the pipeline's ``outside`` or ``margin`` is not one it could predict with, or the
-        domain's shapes do not match the features (both name the parameter).
+        If the pipeline's ``outside`` or its domain's ``threshold_`` is not one it could
+        predict with, or the domain's shapes do not match the features (both name the
+        parameter).
 
     Examples
     --------
@@ -342,7 +343,7 @@ def describe_domain(pipeline, n_features, n_outputs):
     if not isinstance(pipeline, CompensationPipeline):
         return None
     check_is_fitted(pipeline, "domain_")
-    outside, margin = pipeline.outside, pipeline.domain_.margin
+    outside, margin = pipeline.outside, pipeline.domain_.threshold_
     if outside not in OUTSIDE_POLICIES:
         raise ValueError(
             f"Cannot export the calibration domain: outside must be one of "
@@ -355,7 +356,8 @@ def describe_domain(pipeline, n_features, n_outputs):
         or margin < 0
     ):
         raise ValueError(
-            f"Cannot export the calibration domain: margin must be a finite number >= 0, "
+            f"Cannot export the calibration domain: its threshold (domain_.threshold_, the "
+            f"exported margin) must be a finite number >= 0, "
             f"got {margin!r}."
         )
     box, fallback = pipeline.domain_.box_, pipeline.fallback_
@@ -384,6 +386,11 @@ def describe_domain(pipeline, n_features, n_outputs):
         "rate_low": _floats(box.rate_low),
         "rate_high": _floats(box.rate_high),
         "rate_scale": _floats(box.rate_scale),
+        "boost": float(box.boost),
+        # Standard deviations (over RATE_WEIGHT, as rate_scale is) of a rate, and of a
+        # temperature, beyond its range at which the boost is added in full.
+        "boost_rate_ramp": float(_domain.RATE_WEIGHT * _domain.NOVELTY_RAMP),
+        "boost_temperature_ramp": float(_domain.NOVELTY_RAMP),
         "projection_rounds": int(_domain.PROJECTION_ROUNDS),
         "outside": outside,
         "fallback": _describe_fallback(fallback, n_outputs),

@@ -896,7 +896,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             return None, None
         domain = self.estimator_.domain_
         rows = self._thermal_rows(X)
-        share = fallback_weight(box_distance(domain.box_, rows), domain.margin)
+        share = fallback_weight(box_distance(domain.box_, rows), domain.threshold_)
         beyond = temperature_excess(
             rows, domain.temperature_columns_, domain.data_min_, domain.data_max_
         )

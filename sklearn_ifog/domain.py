@@ -24,6 +24,7 @@ apply its ``outside`` policy, and the streaming path and the C export compute th
 formulas.
 """
 
+import warnings
 from numbers import Integral, Real
 from typing import ClassVar, NamedTuple
 
@@ -38,20 +39,25 @@ from sklearn_ifog.rbf._ols import within_one_standard_error
 __all__ = [
     "BLEND_WIDTH",
     "CARRIED_SCALE",
+    "NOVELTY_RAMP",
     "PROJECTION_ROUNDS",
     "RATE_WEIGHT",
     "REPEATED_RATIO",
     "CalibrationDomain",
     "Fallback",
     "OutsideCalibrationWarning",
+    "SmallCalibrationWarning",
     "apply_policy",
     "box_distance",
+    "calibrated_threshold",
     "check_varies",
     "extremes_held_out",
     "fallback_name",
     "fallback_weight",
     "fit_box",
     "fit_fallback",
+    "held_out_distances",
+    "held_out_folds",
     "held_out_runs",
     "outside_domain",
     "project_to_box",
@@ -106,6 +112,11 @@ REPEATED_RATIO = 0.75
 #: extrapolates worse than a constant. Chosen on the tuning seeds 0-7 of
 #: ``benchmarks/bench_extrapolation.py --tune`` (its sweep), judged on seeds 8-12.
 CARRIED_SCALE = 0.9
+#: The boost (``Box.boost``) is added in full from a novelty of this many standard
+#: deviations of the rate or the temperature beyond its calibrated range: a short ramp,
+#: only so that the distance stays continuous where a row leaves them (the exports repeat
+#: it).
+NOVELTY_RAMP = 0.01
 
 
 class OutsideCalibrationWarning(UserWarning):
@@ -127,6 +138,28 @@ class OutsideCalibrationWarning(UserWarning):
     ...     warnings.warn("outside", OutsideCalibrationWarning)
     >>> issubclass(OutsideCalibrationWarning, UserWarning)
     True
+    """
+
+
+class SmallCalibrationWarning(UserWarning):
+    """A calibration too small to hold part of it out: the domain keeps its ``margin``.
+
+    :class:`CalibrationDomain` calibrates its threshold on held-out parts of the calibration
+    (:func:`held_out_distances`); when the calibration has too few rows (or too few that vary)
+    to hold any out, the threshold is the ``margin`` itself and this warning says so, once
+    per fit.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> import numpy as np
+    >>> from sklearn_ifog.domain import CalibrationDomain, SmallCalibrationWarning
+    >>> t = np.linspace(10.0, 40.0, 12)[:, None]
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     domain = CalibrationDomain(temperature=0).fit(t)
+    >>> caught[0].category is SmallCalibrationWarning, domain.threshold_ == domain.margin
+    (True, True)
     """
 
 
@@ -154,6 +187,16 @@ class Box(NamedTuple):
     rate_scale : ndarray of shape (n_rates,), default=empty
         The rate feature's standard deviation over ``RATE_WEIGHT``: its excess is divided
         by it.
+    boost : float, default=0.0
+        Added to the distance of a row beyond the calibrated rates or temperatures, in
+        proportion to its novelty up to 1 (:func:`box_distance`; only with
+        ``rate_columns``): a calibrated threshold above the margin then holds such a row
+        to the margin (the held-out runs that set the threshold say nothing of rates or
+        temperatures the calibration never showed).
+    temperature_columns : tuple of int, default=()
+        Temperature features whose excess is part of the novelty that ``boost`` weighs.
+    temperature_low, temperature_high : ndarray of shape (n_temperatures,), default=empty
+        Their calibrated ranges.
     """
 
     center: np.ndarray
@@ -166,6 +209,10 @@ class Box(NamedTuple):
     rate_low: np.ndarray = np.empty(0)
     rate_high: np.ndarray = np.empty(0)
     rate_scale: np.ndarray = np.empty(0)
+    boost: float = 0.0
+    temperature_columns: tuple = ()
+    temperature_low: np.ndarray = np.empty(0)
+    temperature_high: np.ndarray = np.empty(0)
 
 
 def fit_box(X, rate_columns=()):
@@ -261,10 +308,15 @@ def _coordinates(box, X):
 def box_distance(box, X):
     """Distance of every row of ``X`` outside ``box``, in decorrelated standard deviations.
 
-    ``sqrt(sum_k (excess_k / axis_scale_k)² + sum_r (rate_excess_r / rate_scale_r)²)``
-    with ``excess_k`` the row's coordinate beyond ``[lower_k, upper_k]`` along axis ``k``
-    and ``rate_excess_r`` its rate feature ``r`` beyond ``[rate_low_r, rate_high_r]`` (0
-    inside the ranges; no rate term for a box without ``rate_columns``).
+    ``sqrt(sum_k (excess_k / axis_scale_k)² + g²) + boost · min(n, 1)`` with
+    ``g² = sum_r (rate_excess_r / rate_scale_r)²``, ``excess_k`` the row's coordinate
+    beyond ``[lower_k, upper_k]`` along axis ``k`` and ``rate_excess_r`` its rate feature
+    ``r`` beyond ``[rate_low_r, rate_high_r]`` (0 inside the ranges; no rate term for a box
+    without ``rate_columns``), and the novelty ``n² = (g / (RATE_WEIGHT ρ))² + sum_t
+    (t_excess_t / (ρ scale_t))²`` over the ``temperature_columns`` (their excess beyond the
+    calibrated range over the feature's standard deviation), ``ρ = 0.01``: the boost is
+    added in full a hundredth of a standard deviation beyond the calibrated rates or
+    temperatures. The distance is continuous in the row.
 
     Parameters
     ----------
@@ -289,11 +341,26 @@ def box_distance(box, X):
     P = _coordinates(box, X)
     excess = np.maximum(box.lower - P, 0.0) + np.maximum(P - box.upper, 0.0)
     squares = np.square(excess / box.axis_scale).sum(axis=1)
-    if box.rate_columns:
-        rates = X[:, list(box.rate_columns)]
-        beyond = np.maximum(box.rate_low - rates, 0.0) + np.maximum(rates - box.rate_high, 0.0)
-        squares = squares + np.square(beyond / box.rate_scale).sum(axis=1)
-    return np.sqrt(squares)
+    if not box.rate_columns:
+        return np.sqrt(squares)
+    rates = X[:, list(box.rate_columns)]
+    beyond = np.maximum(box.rate_low - rates, 0.0) + np.maximum(rates - box.rate_high, 0.0)
+    rate_squares = np.square(beyond / box.rate_scale).sum(axis=1)
+    distance = np.sqrt(squares + rate_squares)
+    if box.boost:
+        # In standard deviations of each feature over the ramp (rate_scale is the rate's
+        # standard deviation over RATE_WEIGHT).
+        novelty = rate_squares / (RATE_WEIGHT * NOVELTY_RAMP) ** 2
+        if box.temperature_columns:
+            columns = list(box.temperature_columns)
+            values = X[:, columns]
+            excess = np.maximum(box.temperature_low - values, 0.0) + np.maximum(
+                values - box.temperature_high, 0.0
+            )
+            scaled = excess / (box.scale[columns] * NOVELTY_RAMP)
+            novelty = novelty + np.square(scaled).sum(axis=1)
+        distance += box.boost * np.minimum(np.sqrt(novelty), 1.0)
+    return distance
 
 
 def project_to_box(box, X, margin):
@@ -393,6 +460,165 @@ def outside_domain(distance, temperature_beyond, margin):
     [False, True, True]
     """
     return (np.asarray(distance) > margin) | (np.asarray(temperature_beyond) > 0)
+
+
+# The threshold's held-out folds: whole runs with at least this many of them (at most
+# _MAX_THRESHOLD_FOLDS folds, the runs dealt out in turn), else _THRESHOLD_BLOCKS
+# contiguous blocks of every run; and the fewest held-out rows a quantile is taken of.
+_MIN_THRESHOLD_RUNS = 3
+_MAX_THRESHOLD_FOLDS = 10
+_THRESHOLD_BLOCKS = 5
+_MIN_HELD_OUT_ROWS = 20
+
+
+def held_out_folds(n_samples, groups=None):
+    """The held-out fold of every calibration row, for the threshold's distances.
+
+    With at least 3 runs in ``groups``, whole runs: run ``k`` (in sorted order) belongs to
+    fold ``k mod 10``, so a lot of hundreds of runs costs at most ten held-out boxes. With
+    fewer runs (or none), contiguous blocks: fold ``k`` holds the ``k``-th fifth of every
+    run's rows, in their order (time order).
+
+    Parameters
+    ----------
+    n_samples : int
+        Number of calibration rows.
+    groups : array-like of shape (n_samples,), default=None
+        The recording run of every row (None: one run).
+
+    Returns
+    -------
+    folds : ndarray of shape (n_samples,), dtype=int
+
+    Examples
+    --------
+    >>> held_out_folds(10).tolist()  # one run: five contiguous blocks
+    [0, 0, 1, 1, 2, 2, 3, 3, 4, 4]
+    >>> held_out_folds(6, ["b", "b", "a", "a", "c", "c"]).tolist()  # three runs
+    [1, 1, 0, 0, 2, 2]
+    """
+    if groups is None:
+        labels = np.zeros(n_samples, dtype=np.intp)
+    else:
+        groups = np.asarray(groups)
+        if groups.shape != (n_samples,):
+            raise ValueError(
+                f"groups must hold one run label per calibration row, shape ({n_samples},); "
+                f"got shape {groups.shape}."
+            )
+        labels = np.unique(groups, return_inverse=True)[1].ravel()
+    n_runs = int(labels.max(initial=-1)) + 1
+    if n_runs >= _MIN_THRESHOLD_RUNS:
+        return labels % _MAX_THRESHOLD_FOLDS
+    # The rank of every row within its run, from a stable sort by run.
+    order = np.argsort(labels, kind="stable")
+    counts = np.bincount(labels, minlength=n_runs)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    rank = np.empty(n_samples, dtype=np.intp)
+    rank[order] = np.arange(n_samples) - starts[labels[order]]
+    return (rank * _THRESHOLD_BLOCKS) // counts[labels]
+
+
+def held_out_distances(X, folds, rate_columns=(), temperature_columns=()):
+    """Distances of held-out calibration rows to the box of the other rows.
+
+    For every fold, the box (:func:`fit_box`) of the rows of the other folds, and the
+    :func:`box_distance` to it of the fold's rows that lie within the other folds'
+    temperatures and rates: the threshold is for new combinations (thermal states) of
+    calibrated temperatures and rates, while a row beyond them is of another kind of
+    novelty, held to the margin (``Box.boost``). A fold whose other rows leave a feature
+    constant is skipped.
+
+    Parameters
+    ----------
+    X : ndarray of shape (n_samples, n_features)
+        Calibration rows.
+    folds : ndarray of shape (n_samples,)
+        Their held-out fold (:func:`held_out_folds`).
+    rate_columns : sequence of int, default=()
+        As for :func:`fit_box`.
+    temperature_columns : sequence of int, default=()
+        The temperature columns.
+
+    Returns
+    -------
+    distances : ndarray of shape (n_held,)
+        One per held-out row within the other folds' temperatures, fold by fold.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.linspace(10.0, 40.0, 100)
+    >>> X = np.column_stack([t, np.sin(t)])
+    >>> d = held_out_distances(X, held_out_folds(100), temperature_columns=[0])
+    >>> d.size  # the coldest and the warmest fifth lie beyond the others' temperatures
+    60
+    """
+    X = np.asarray(X, dtype=np.float64)
+    temperature_columns = list(temperature_columns)
+    distances = []
+    for fold in np.unique(folds):
+        held = folds == fold
+        kept = X[~held]
+        if kept.shape[0] < 2 or np.any(np.ptp(kept, axis=0) == 0):
+            continue
+        rows = X[held]
+        ranged = temperature_columns + [int(column) for column in rate_columns]
+        if ranged:
+            low, high = kept[:, ranged].min(axis=0), kept[:, ranged].max(axis=0)
+            values = rows[:, ranged]
+            rows = rows[np.all((values >= low) & (values <= high), axis=1)]
+        distances.append(box_distance(fit_box(kept, rate_columns), rows))
+    return np.concatenate(distances) if distances else np.empty(0)
+
+
+def calibrated_threshold(distances, alpha, floor):
+    """The distance that flags a share ``alpha`` of held-out calibration rows.
+
+    The ``1 - alpha`` quantile of the held-out distances (:func:`held_out_distances`),
+    never below ``floor``: a new run of a calibrated profile then has about ``alpha`` of its
+    rows beyond it (inductive conformal novelty detection: the held-out rows stand for the
+    runs to come).
+
+    Parameters
+    ----------
+    distances : array-like of shape (n_held,)
+        Held-out distances.
+    alpha : float
+        Share of held-out rows flagged, in (0, 0.5].
+    floor : float
+        Smallest threshold (the domain's ``margin``).
+
+    Returns
+    -------
+    threshold : float or None
+        None with fewer than 20 held-out distances (too few for a quantile).
+
+    Raises
+    ------
+    ValueError
+        If a distance is not finite.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> calibrated_threshold(np.linspace(0.0, 10.0, 101), alpha=0.02, floor=1.5)
+    9.8
+    >>> calibrated_threshold(np.zeros(100), alpha=0.02, floor=1.5)
+    1.5
+    >>> calibrated_threshold(np.zeros(5), alpha=0.02, floor=1.5) is None
+    True
+    """
+    distances = np.asarray(distances, dtype=np.float64)
+    if not np.all(np.isfinite(distances)):
+        raise ValueError(
+            "Cannot calibrate the domain's threshold (alpha): "
+            f"{int(np.sum(~np.isfinite(distances)))} held-out distances are NaN or infinite; "
+            "the calibration rows must be finite and every feature must vary."
+        )
+    if distances.size < _MIN_HELD_OUT_ROWS:
+        return None
+    return max(float(floor), float(np.quantile(distances, 1.0 - alpha)))
 
 
 class Fallback(NamedTuple):
@@ -883,7 +1109,7 @@ def apply_policy(policy, prediction, features, distance, outside, *, domain, fal
     distance, outside : ndarray of shape (n_samples,)
         Their distance to the box and their outside flags.
     domain : CalibrationDomain
-        The fitted domain (its ``margin`` and :meth:`~CalibrationDomain.project`).
+        The fitted domain (its ``threshold_`` and :meth:`~CalibrationDomain.project`).
     fallback : Fallback
         The conservative model of ``"blend"``.
     evaluate : callable
@@ -922,7 +1148,7 @@ def apply_policy(policy, prediction, features, distance, outside, *, domain, fal
     if policy == "clip":
         prediction[outside] = evaluate(domain.project(features[outside]))
     else:
-        weight = fallback_weight(distance[outside], domain.margin)[:, None]
+        weight = fallback_weight(distance[outside], domain.threshold_)[:, None]
         blended = fallback.predict(features[outside])
         prediction[outside] = (1.0 - weight) * prediction[outside] + weight * blended
     return prediction
@@ -947,17 +1173,32 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
     row's distance outside that box, in units of each axis's standard deviation (0 inside),
     so it measures *combinations* that the calibration never showed (a lag at zero while T
     is cold) as well as values beyond each feature's range, which a per-feature range check
-    misses. A row is outside (:meth:`predict` gives −1) when it lies farther than ``margin``
-    from the box, or when a ``temperature`` column lies beyond its calibrated range by any
-    amount (the firmware convention of a calibrated [TMIN, TMAX]).
+    misses. A row is outside (:meth:`predict` gives −1) when it lies farther than
+    ``threshold_`` from the box, or when a ``temperature`` column lies beyond its calibrated
+    range by any amount (the firmware convention of a calibrated [TMIN, TMAX]).
+
+    The threshold has a stated false-alarm rate (inductive conformal novelty detection):
+    at :meth:`fit`, every run of the calibration (``groups``; with fewer than 3 runs, every
+    fifth of each run) is held out in turn, its rows' distances to the box of the others
+    are measured (those within the others' temperatures), and ``threshold_`` is the
+    ``1 - alpha`` quantile of them, never below ``margin``. A new run of a calibrated
+    profile then has about ``alpha`` of its rows flagged, while a row at temperatures,
+    rates or thermal states the calibration never showed lies beyond it. A row beyond the
+    calibrated rates or temperatures is held to ``margin`` (``boost_``): the held-out
+    runs say nothing of rates or temperatures the calibration never showed. Without
+    ``temperature`` columns the threshold is ``margin``: a held-out run's distance would
+    then mix temperatures beyond the others' (extrapolation) with the noise the threshold
+    is for.
 
     Parameters
     ----------
     margin : float, default=1.5
-        Distance, in decorrelated standard deviations, that still counts as inside: the
-        noise by which a new run of a calibrated profile steps past the calibration's
-        extremes along the decorrelated axes (see :ref:`outside_calibration` for how it was
-        chosen and measured).
+        Smallest threshold, in decorrelated standard deviations: the distance that counts
+        as inside whatever the held-out runs say (see :ref:`outside_calibration` for how it
+        was chosen and measured).
+    alpha : float, default=0.02
+        Share of the held-out calibration rows beyond the threshold: the false-alarm rate
+        promised for a new run of a calibrated profile. In (0, 0.5].
     temperature : int, list of int or None, default=None
         Column(s) holding a temperature, whose calibrated range admits no margin. None: the
         distance alone decides.
@@ -988,8 +1229,19 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
     rate_scale_ : ndarray of shape (n_rates,)
         Standard deviation of each rate column over :data:`RATE_WEIGHT`: the unit of its
         excess in the distance.
+    threshold_ : float
+        Distance beyond which a row is outside: the ``1 - alpha`` quantile of the held-out
+        distances, at least ``margin`` (``margin`` itself when the calibration is too
+        small to hold rows out, with a :class:`SmallCalibrationWarning`).
+    n_held_out_ : int
+        Number of held-out distances the threshold was calibrated on.
+    boost_ : float
+        ``threshold_ - margin`` with ``rate`` columns, else 0: added to the distance of a
+        row beyond the calibrated rates or temperatures in proportion to its novelty up to
+        1 (:func:`box_distance`), so that such a row is held to ``margin``, not to the
+        threshold that held-out rows within both calibrated.
     offset_ : float
-        ``-margin``: :meth:`decision_function` is ``score_samples - offset_``.
+        ``-threshold_``: :meth:`decision_function` is ``score_samples - offset_``.
     n_features_in_ : int
         Number of features seen during fit.
     feature_names_in_ : ndarray of shape (n_features_in_,)
@@ -1019,25 +1271,31 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
 
     _parameter_constraints: ClassVar[dict] = {
         "margin": [Interval(Real, 0, None, closed="left")],
+        "alpha": [Interval(Real, 0, 0.5, closed="right")],
         "temperature": [Interval(Integral, 0, None, closed="left"), list, None],
         "rate": [Interval(Integral, 0, None, closed="left"), list, None],
     }
 
-    def __init__(self, *, margin=1.5, temperature=None, rate=None):
+    def __init__(self, *, margin=1.5, alpha=0.02, temperature=None, rate=None):
         self.margin = margin
+        self.alpha = alpha
         self.temperature = temperature
         self.rate = rate
 
     @_fit_context(prefer_skip_nested_validation=True)
-    def fit(self, X, y=None):
-        """Learn the calibration domain of the rows ``X``.
+    def fit(self, X, y=None, groups=None):
+        """Learn the calibration domain of the rows ``X`` and calibrate its threshold.
 
         Parameters
         ----------
         X : array-like of shape (n_samples, n_features)
-            Calibration rows (usually the thermal features of the calibration runs).
+            Calibration rows (usually the thermal features of the calibration runs), each
+            run's rows in time order.
         y : None
             Ignored.
+        groups : array-like of shape (n_samples,), default=None
+            The recording run of every row: the threshold holds out whole runs (with at
+            least 3; else contiguous fifths of every run). None: one run.
 
         Returns
         -------
@@ -1048,7 +1306,14 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         ------
         ValueError
             If a feature is constant over the calibration (one temperature only: the
-            calibration cannot say where else it holds), or X holds NaN or inf.
+            calibration cannot say where else it holds), X holds NaN or inf, or
+            ``groups`` does not hold one label per row.
+
+        Warns
+        -----
+        SmallCalibrationWarning
+            When the calibration is too small to hold rows out (``threshold_`` is then
+            ``margin``).
         """
         X = validate_data(self, X, dtype=np.float64, ensure_min_samples=2)
         check_varies(X, getattr(self, "feature_names_in_", None))
@@ -1059,7 +1324,32 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         self.axis_scale_, self.lower_, self.upper_ = box.axis_scale, box.lower, box.upper
         self.rate_scale_ = box.rate_scale
         self.data_min_, self.data_max_ = X.min(axis=0), X.max(axis=0)
-        self.offset_ = -float(self.margin)
+        folds = held_out_folds(X.shape[0], groups)
+        if not self.temperature_columns_:
+            # Without a temperature rule a held-out run's distance mixes temperatures beyond
+            # the others' with new combinations: it would calibrate extrapolation as noise.
+            self.threshold_ = float(self.margin)
+            self.boost_, self.n_held_out_ = 0.0, 0
+            self.offset_ = -self.threshold_
+            return self
+        distances = held_out_distances(X, folds, self.rate_columns_, self.temperature_columns_)
+        threshold = calibrated_threshold(distances, self.alpha, self.margin)
+        if threshold is None:
+            warnings.warn(
+                f"The calibration ({X.shape[0]} rows) is too small to hold rows out and "
+                f"calibrate the domain's threshold at alpha={self.alpha!r} ({distances.size} "
+                f"held-out distances, at least {_MIN_HELD_OUT_ROWS} needed); the threshold "
+                f"is the margin, {float(self.margin)!r}.",
+                SmallCalibrationWarning,
+                stacklevel=3,
+            )
+            threshold = float(self.margin)
+        self.threshold_ = threshold
+        # A row beyond the calibrated rates or temperatures is held to the margin: the
+        # held-out rows that raised the threshold lay within both.
+        self.boost_ = threshold - float(self.margin) if self.rate_columns_ else 0.0
+        self.n_held_out_ = int(distances.size)
+        self.offset_ = -threshold
         return self
 
     @property
@@ -1079,6 +1369,10 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
             self.data_min_[rates],
             self.data_max_[rates],
             getattr(self, "rate_scale_", np.empty(0)),
+            getattr(self, "boost_", 0.0),
+            tuple(self.temperature_columns_),
+            self.data_min_[self.temperature_columns_],
+            self.data_max_[self.temperature_columns_],
         )
 
     def _validated(self, X):
@@ -1124,7 +1418,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         """Minus how far a row lies outside: higher is more typical.
 
         ``-distance`` while every temperature is inside its calibrated range; beyond it,
-        ``-max(distance, margin + excess / scale)`` (excess in degrees over that column's
+        ``-max(distance, threshold_ + excess / scale)`` (excess in degrees over that column's
         standard deviation), so that the row scores below every row inside.
 
         Parameters
@@ -1143,10 +1437,10 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
             return -distance
         beyond = temperature_excess(X, columns, self.data_min_, self.data_max_)
         scaled = beyond / self.scale_[columns].min()
-        return -np.where(beyond > 0, np.maximum(distance, self.margin + scaled), distance)
+        return -np.where(beyond > 0, np.maximum(distance, self.threshold_ + scaled), distance)
 
     def decision_function(self, X):
-        """``score_samples + margin``: negative outside the domain.
+        """``score_samples + threshold_``: negative outside the domain.
 
         Parameters
         ----------
@@ -1162,8 +1456,8 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
     def predict(self, X):
         """+1 for rows inside the domain, −1 outside.
 
-        Outside: farther than ``margin`` from the box, or a temperature beyond its calibrated
-        range (:func:`outside_domain`).
+        Outside: farther than ``threshold_`` from the box, or a temperature beyond its
+        calibrated range (:func:`outside_domain`).
 
         Parameters
         ----------
@@ -1178,7 +1472,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         outside = outside_domain(
             box_distance(self.box_, X),
             temperature_excess(X, self.temperature_columns_, self.data_min_, self.data_max_),
-            self.margin,
+            self.threshold_,
         )
         return np.where(outside, -1, 1)
 
@@ -1204,7 +1498,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
     def project(self, X):
         """The nearest point of the domain to every row (the ``"clip"`` policy).
 
-        Onto the box widened by ``margin`` (:func:`project_to_box`) and every temperature
+        Onto the box widened by ``threshold_`` (:func:`project_to_box`) and every temperature
         clamped to its calibrated range, alternately (eight rounds, ending on the clamp), so
         that the result lies in both up to a small fraction of ``margin``.
 
@@ -1221,14 +1515,14 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         X = self._validated(X)
         columns = self.temperature_columns_
         if not columns:
-            return project_to_box(self.box_, X, self.margin)
+            return project_to_box(self.box_, X, self.threshold_)
         low, high = self.data_min_[columns], self.data_max_[columns]
         # Alternating projections onto the widened box and the temperature ranges: both are
         # convex, so the rows converge into their intersection; ending on the clamp keeps
         # every temperature exactly inside its range.
         projected = X.copy()
         for _ in range(PROJECTION_ROUNDS):
-            projected = project_to_box(self.box_, projected, self.margin)
+            projected = project_to_box(self.box_, projected, self.threshold_)
             projected[:, columns] = np.clip(projected[:, columns], low, high)
         return projected
 

@@ -59,6 +59,7 @@ def make_compensation_pipeline(
     terms=None,
     outside="blend",
     margin=1.5,
+    alpha=0.02,
     **feature_params,
 ):
     """Build the drift model ``ThermalFeatures → StandardScaler → regressor``.
@@ -94,8 +95,12 @@ def make_compensation_pipeline(
         constant) as the row lies farther out; ``"clip"`` predicts at the domain's edge;
         ``"none"`` leaves the regressor's extrapolation alone.
     margin : float, default=1.5
-        Distance outside the calibrated box, in decorrelated standard deviations, that
-        still counts as inside (:class:`~sklearn_ifog.domain.CalibrationDomain`).
+        Smallest distance outside the calibrated box, in decorrelated standard deviations,
+        that still counts as inside (:class:`~sklearn_ifog.domain.CalibrationDomain`).
+    alpha : float, default=0.02
+        Share of the rows of a new run of a calibrated profile that the domain flags: its
+        threshold is calibrated at fit on runs of the calibration held out in turn
+        (:class:`~sklearn_ifog.domain.CalibrationDomain`).
     **feature_params
         Further parameters of :class:`~sklearn_ifog.ThermalFeatures` (``smoothing``,
         ``rate_unit``).
@@ -161,6 +166,7 @@ def make_compensation_pipeline(
         [("features", features), ("scale", scale), ("regressor", regressor)],
         outside=outside,
         margin=margin,
+        alpha=alpha,
     )
 
 
@@ -204,7 +210,7 @@ class CompensationPipeline(Pipeline):
     covered) and a conservative fallback (a line in the first sensor's T where its slope
     extrapolates, else the calibration's mean drift: :func:`~sklearn_ifog.domain.fit_fallback`).
     At :meth:`predict`, rows inside the domain get the regressor's prediction unchanged;
-    rows outside (farther than ``margin`` from the domain's decorrelated box, or with a
+    rows outside (farther than its threshold from the domain's decorrelated box, or with a
     temperature beyond its calibrated range) follow ``outside``, and an
     :class:`~sklearn_ifog.domain.OutsideCalibrationWarning` says how many there were and how
     far out. :func:`make_compensation_pipeline` builds one.
@@ -216,18 +222,23 @@ class CompensationPipeline(Pipeline):
         (usually :class:`~sklearn_ifog.ThermalFeatures`), the last a regressor.
     outside : {"blend", "clip", "none"}, default="blend"
         Prediction outside the domain. ``"blend"``: ``(1 - w) * model + w * fallback`` with
-        ``w`` rising smoothly from 0 at ``margin`` to 1 at ``margin + BLEND_WIDTH``
+        ``w`` rising smoothly from 0 at the threshold to 1 at the threshold plus ``BLEND_WIDTH``
         (:func:`~sklearn_ifog.domain.fallback_weight`), so far outside the model gives way
         to the line (no step anywhere). ``"clip"``: the model at the nearest point of the
-        domain (the box widened by ``margin``, every temperature clamped to its calibrated
+        domain (the box widened by the threshold, every temperature clamped to its calibrated
         range: the firmware convention of clamping T to [TMIN, TMAX]). ``"none"``: the
         regressor's own extrapolation (the behaviour before the domain existed). The
         default is the policy that ``benchmarks/bench_extrapolation.py`` measures as never
         worse than uncompensated.
     margin : float, default=1.5
-        Distance outside the calibrated box, in decorrelated standard deviations, that still
-        counts as inside (the domain's ``margin``). Learnt into ``domain_`` at :meth:`fit`:
-        changing it takes a refit (``outside`` takes effect at once).
+        Smallest distance outside the calibrated box, in decorrelated standard deviations,
+        that still counts as inside (the domain's ``margin``).
+    alpha : float, default=0.02
+        The domain's false-alarm rate: its threshold (``domain_.threshold_``, at least
+        ``margin``) flags this share of the rows of calibration runs held out in turn, so a
+        new run of a calibrated profile has about ``alpha`` of its rows flagged. ``margin``
+        and ``alpha`` are learnt into ``domain_`` at :meth:`fit`: changing them takes a
+        refit (``outside`` takes effect at once).
     transform_input, memory, verbose
         As for :class:`~sklearn.pipeline.Pipeline`.
 
@@ -278,6 +289,7 @@ class CompensationPipeline(Pipeline):
         **Pipeline._parameter_constraints,
         "outside": [StrOptions(set(OUTSIDE_POLICIES))],
         "margin": [Interval(Real, 0, None, closed="left")],
+        "alpha": [Interval(Real, 0, 0.5, closed="right")],
     }
 
     def __init__(
@@ -286,6 +298,7 @@ class CompensationPipeline(Pipeline):
         *,
         outside="blend",
         margin=1.5,
+        alpha=0.02,
         transform_input=None,
         memory=None,
         verbose=False,
@@ -293,6 +306,7 @@ class CompensationPipeline(Pipeline):
         super().__init__(steps, transform_input=transform_input, memory=memory, verbose=verbose)
         self.outside = outside
         self.margin = margin
+        self.alpha = alpha
 
     @_fit_context(
         # Pipeline's steps are validated when each is fitted.
@@ -364,9 +378,10 @@ class CompensationPipeline(Pipeline):
         columns = _sensor_columns(features, "T")
         rates = _sensor_columns(features, "dT")
         self.feature_names_out_ = names
-        self.domain_ = CalibrationDomain(margin=self.margin, temperature=columns, rate=rates).fit(
-            raw
-        )
+        runs = _run_labels(features, X)
+        self.domain_ = CalibrationDomain(
+            margin=self.margin, alpha=self.alpha, temperature=columns, rate=rates
+        ).fit(raw, groups=runs)
         column = columns[0] if columns else None
         rate_column = rates[0] if rates else None
         Y = np.asarray(y, dtype=np.float64).reshape(raw.shape[0], -1)
@@ -376,7 +391,7 @@ class CompensationPipeline(Pipeline):
             column,
             rate=None if rate_column is None else raw[:, rate_column],
             rate_column=rate_column,
-            runs=_run_labels(features, X),
+            runs=runs,
         )
         return self
 
@@ -387,7 +402,7 @@ class CompensationPipeline(Pipeline):
         beyond = temperature_excess(
             rows, domain.temperature_columns_, domain.data_min_, domain.data_max_
         )
-        return distance, beyond, outside_domain(distance, beyond, domain.margin)
+        return distance, beyond, outside_domain(distance, beyond, domain.threshold_)
 
     def _transform_features(self, X):
         check_is_fitted(self, "domain_")
@@ -406,7 +421,7 @@ class CompensationPipeline(Pipeline):
 
         In decorrelated standard deviations
         (:meth:`~sklearn_ifog.domain.CalibrationDomain.distance`); a row is outside when
-        this exceeds ``margin`` or when a temperature lies beyond its calibrated range
+        this exceeds ``domain_.threshold_`` or when a temperature lies beyond its calibrated range
         (:meth:`outside_calibration`).
 
         Parameters
@@ -423,8 +438,8 @@ class CompensationPipeline(Pipeline):
     def outside_calibration(self, X):
         """Whether every row lies outside the calibration domain.
 
-        Outside: farther than ``margin`` from the decorrelated box, or a temperature beyond
-        its calibrated range (:func:`~sklearn_ifog.domain.outside_domain`).
+        Outside: farther than ``domain_.threshold_`` from the decorrelated box, or a
+        temperature beyond its calibrated range (:func:`~sklearn_ifog.domain.outside_domain`).
 
         Parameters
         ----------

@@ -145,12 +145,16 @@ def test_rate_excess_is_one_more_term_of_the_distance():
     assert rated.rate_columns_ == [1]
     assert rated.rate_scale_[0] == pytest.approx(X[:, 1].std() / RATE_WEIGHT)
     np.testing.assert_array_equal(rated.distance(X), 0.0)
-    # The box of the other axes and the rate term add in quadrature.
+    # The box of the other axes and the rate term add in quadrature; beyond the calibrated
+    # rates the boost (threshold - margin) is added in full once the rate term reaches 1.
     row = np.array([[25.0, -0.75 * X[:, 1].std(), -25.0 * 0.75 * X[:, 1].std()]])
     box_part = plain.distance(row)[0]
     rate_part = 0.75 * RATE_WEIGHT  # 0.75 standard deviations below the smallest rate (0)
-    assert rated.distance(row)[0] == pytest.approx(np.hypot(box_part, rate_part))
-    assert rated.score_samples(row)[0] == pytest.approx(-np.hypot(box_part, rate_part))
+    boost = rated.threshold_ - rated.margin
+    assert boost == rated.boost_ >= 0
+    expected = np.hypot(box_part, rate_part) + boost
+    assert rated.distance(row)[0] == pytest.approx(expected)
+    assert rated.score_samples(row)[0] == pytest.approx(-expected)
 
 
 def test_a_cooling_row_inside_the_box_is_outside_by_its_rate():
@@ -439,7 +443,7 @@ def test_inside_rows_are_unchanged_and_policies_apply_outside(
         np.testing.assert_array_equal(predictions[policy][~outside], predictions["none"][~outside])
     features = model.steps[0][1].transform(X_op)
     distance = model.calibration_distance(X_op)
-    weight = fallback_weight(distance, model.margin)
+    weight = fallback_weight(distance, model.domain_.threshold_)
     expected = (1 - weight) * predictions["none"] + weight * model.fallback_.predict(features)[
         :, 0
     ]

@@ -306,13 +306,13 @@ def _assert_close(actual, expected, rtol=RTOL):
 def test_schema_carries_the_exact_domain(calibration, tmp_path):
     model = _fit("two-sensors-two-outputs", "clip", calibration)
     document = json.loads(to_json(model, tmp_path / "model.json").read_text())
-    assert document["schema_version"] == SCHEMA_VERSION == 4
+    assert document["schema_version"] == SCHEMA_VERSION == 5
     domain = document["domain"]
     box = model.domain_.box_
     for key in ("center", "scale", "axes", "axis_scale", "lower", "upper"):
         np.testing.assert_array_equal(domain[key], getattr(box, key))
     assert np.shape(domain["axes"]) == (7, 7)  # one axis per row, as Box.axes
-    assert domain["margin"] == model.margin
+    assert domain["margin"] == model.domain_.threshold_
     assert domain["blend_width"] == domain_module.BLEND_WIDTH
     assert domain["outside"] == "clip"
     assert domain["temperature_columns"] == model.domain_.temperature_columns_ == [0, 3]
@@ -373,12 +373,18 @@ def test_export_reads_the_settings_at_export_time(calibration, tmp_path, monkeyp
     monkeypatch.setattr(domain_module, "BLEND_WIDTH", 2.5)
     _, target = MODELS["ridge"]
     y = calibration[target].to_numpy() if len(target) > 1 else calibration[target[0]]
-    model.set_params(margin=0.25, outside="none").fit(calibration, y)  # margin: at fit
+    model.set_params(margin=0.25, alpha=0.5, outside="none").fit(calibration, y)  # at fit
+    threshold = model.domain_.threshold_
+    assert threshold >= 0.25
     domain = describe_pipeline(model)["domain"]
-    assert (domain["blend_width"], domain["margin"], domain["outside"]) == (2.5, 0.25, "none")
+    assert (domain["blend_width"], domain["margin"], domain["outside"]) == (
+        2.5,
+        threshold,
+        "none",
+    )
     header = to_c(model, tmp_path)[0].read_text()
     assert "#define IFOG_BLEND_WIDTH 2.5\n" in header
-    assert "#define IFOG_MARGIN 0.25\n" in header
+    assert f"#define IFOG_MARGIN {threshold!r}\n" in header
     assert 'the policy "none"' in header
 
 
@@ -387,8 +393,8 @@ def test_bad_policy_is_named(calibration, tmp_path):
     model.outside = "extrapolate"  # set behind set_params' validation
     with pytest.raises(ValueError, match=r"outside must be one of .*'extrapolate'"):
         to_c(model, tmp_path)
-    model.outside, model.domain_.margin = "clip", float("nan")
-    with pytest.raises(ValueError, match=r"margin must be a finite number >= 0, got nan"):
+    model.outside, model.domain_.threshold_ = "clip", float("nan")
+    with pytest.raises(ValueError, match=r"threshold_, the exported margin\) must be a finite"):
         to_json(model, tmp_path / "model.json")
     assert not list(tmp_path.iterdir()), "a refused export writes nothing"
 
@@ -430,7 +436,13 @@ def _evaluate_domain(domain, features, network, evaluate):
     rates = features[:, domain["rate_columns"]]
     rate_low, rate_high = np.array(domain["rate_low"]), np.array(domain["rate_high"])
     beyond = np.maximum(rate_low - rates, 0.0) + np.maximum(rates - rate_high, 0.0)
-    d = np.sqrt(d**2 + ((beyond / np.array(domain["rate_scale"])) ** 2).sum(axis=1))
+    rate_squares = ((beyond / np.array(domain["rate_scale"])) ** 2).sum(axis=1)
+    # Beyond the calibrated rates or temperatures: held to the margin by the boost.
+    t = features[:, columns]
+    t_excess = (np.maximum(low - t, 0.0) + np.maximum(t - high, 0.0)) / scale[columns]
+    t_excess = t_excess / domain["boost_temperature_ramp"]
+    novelty = np.sqrt(rate_squares / domain["boost_rate_ramp"] ** 2 + (t_excess**2).sum(axis=1))
+    d = np.sqrt(d**2 + rate_squares) + domain["boost"] * np.minimum(novelty, 1.0)
     outside = (d > margin) | np.any(
         (features[:, columns] < low) | (features[:, columns] > high), 1
     )
@@ -519,7 +531,7 @@ def test_c_float_follows_the_domain(outside, calibration, excursion, tmp_path):
     _assert_close(c["streamed"], expected, 1e-4)
     header = (tmp_path / "ifog.h").read_text()
     assert "typedef float ifog_real;" in header
-    assert f"#define IFOG_MARGIN {model.margin!r}\n" in header  # a double literal
+    assert f"#define IFOG_MARGIN {model.domain_.threshold_!r}\n" in header  # a double literal
 
 
 # --- the rate term: a heating-only calibration operated on cooling runs --------------------
@@ -545,7 +557,13 @@ RATE_MODELS = {
         lambda outside: make_compensation_pipeline(Ridge(1e-3), outside=outside),
         ["drift"],
     ),
-    "two-sensors-two-outputs": (_two_sensors, ["drift", "drift_2"]),
+    # alpha=0.5: the threshold at the median held-out distance (the margin here), so that
+    # the cooling runs have rows the box alone puts outside (at the default alpha the three
+    # heating runs spread along the sensors' gradient axis well beyond them).
+    "two-sensors-two-outputs": (
+        lambda outside: _two_sensors(outside, alpha=0.5),
+        ["drift", "drift_2"],
+    ),
     "no-temperature": (_no_temperature, ["drift"]),
 }
 
@@ -561,7 +579,7 @@ def _outside_by_rates(model, calibration, frame):
     sensors = describe_pipeline(model)["features"]["temperature"]
     low, high = calibration[sensors].min(), calibration[sensors].max()
     within = ((frame[sensors] >= low) & (frame[sensors] <= high)).all(axis=1).to_numpy()
-    by_rates = model.outside_calibration(frame) & within & (pure <= model.margin)
+    by_rates = model.outside_calibration(frame) & within & (pure <= model.domain_.threshold_)
     return by_rates, pure
 
 
@@ -604,7 +622,7 @@ def test_c_follows_the_rate_term(name, outside, heating, cooling, tmp_path):
     # Rows outside by their rates alone, rows the box puts outside, and rows inside: no path
     # of the C can pass vacuously.
     assert by_rates.sum() >= 10
-    assert (flag & (pure > model.margin)).sum() >= 10
+    assert (flag & (pure > model.domain_.threshold_)).sum() >= 10
     assert (~flag).sum() >= 10
     c = _run(_build(model, tmp_path), model, cooling)
     header = (tmp_path / "ifog.h").read_text()
@@ -627,7 +645,7 @@ def test_c_follows_the_rate_term(name, outside, heating, cooling, tmp_path):
         # are (a shrink of margin / distance would have moved them), the others move
         _assert_close(c["streamed"][by_rates], network[by_rates])
         assert not moved[by_rates].any()
-        assert moved[flag & (pure > model.margin)].mean() > 0.5
+        assert moved[flag & (pure > model.domain_.threshold_)].mean() > 0.5
     else:
         assert not moved.any()
 

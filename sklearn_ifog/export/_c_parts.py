@@ -51,6 +51,7 @@ from sklearn_ifog.export._templates._domain import (
     POLICY_TEXT,
     RATE_DEFINE,
     TEMPERATURE_DEFINE,
+    TEMPERATURE_NOVELTY,
 )
 from sklearn_ifog.export._templates._source import (
     LAG_COEFFICIENTS,
@@ -209,20 +210,23 @@ def _domain_functions(writer, domain, prefix):
     # The full distance from the box's (``box``): with rate columns, plus their term (the
     # arithmetic of box_distance); without them, no rate code at all.
     distance, row_distance = "box", "box"
-    if domain.get("rate_columns"):
-        writer.array("rate_columns", domain["rate_columns"], index_type="int")
-        writer.array("rate_low", domain["rate_low"], double=True)
-        writer.array("rate_high", domain["rate_high"], double=True)
-        writer.array("rate_scale", domain["rate_scale"], double=True)
-        parts.append(DOMAIN_RATES.substitute(names))
-        distance = f"{prefix}_with_rates(features, box)"
-        row_distance = f"{prefix}_with_rates(row, box)"
     if domain["temperature_columns"]:
         writer.array("temperature_columns", domain["temperature_columns"], index_type="int")
         writer.array("temperature_low", domain["temperature_low"], double=True)
         writer.array("temperature_high", domain["temperature_high"], double=True)
         parts.append(DOMAIN_BEYOND.substitute(names))
         beyond_test = f" && !{prefix}_beyond(features)"
+    if domain.get("rate_columns"):
+        writer.array("rate_columns", domain["rate_columns"], index_type="int")
+        writer.array("rate_low", domain["rate_low"], double=True)
+        writer.array("rate_high", domain["rate_high"], double=True)
+        writer.array("rate_scale", domain["rate_scale"], double=True)
+        novelty = ""
+        if domain["temperature_columns"] and domain.get("boost", 0.0):
+            novelty = TEMPERATURE_NOVELTY.substitute(names)
+        parts.append(DOMAIN_RATES.substitute(names, temperature_novelty=novelty))
+        distance = f"{prefix}_with_rates(features, box)"
+        row_distance = f"{prefix}_with_rates(row, box)"
     if policy == "clip":
         parts.append(DOMAIN_PROJECT.substitute(names))
         rounds = CLIP_ROUNDS if domain["temperature_columns"] else CLIP_ONCE
@@ -276,7 +280,13 @@ def domain_parts(writer, spec, prefix, adapt):
         )
     rates = domain.get("rate_columns") or []
     if rates:
-        rate_define = RATE_DEFINE.substitute(names, n_rates=len(rates))
+        rate_define = RATE_DEFINE.substitute(
+            names,
+            n_rates=len(rates),
+            boost=format_c_literal(domain.get("boost", 0.0)),
+            boost_rate_ramp=format_c_literal(domain.get("boost_rate_ramp", 1.0)),
+            boost_temperature_ramp=format_c_literal(domain.get("boost_temperature_ramp", 1.0)),
+        )
         listed = c_comment(", ".join(feature_names[column] for column in rates))
         rate_note = (
             f";\n * a rate ({listed}) beyond its calibrated range adds to the distance: its\n"

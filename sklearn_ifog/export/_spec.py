@@ -14,7 +14,7 @@ and its ``alpha``)::
 
     {
       "schema": "sklearn-ifog-pipeline",
-      "schema_version": 4,
+      "schema_version": 5,
       "generator": "sklearn-ifog <version>",
       "features": {
         "op": "thermal_features",
@@ -64,7 +64,8 @@ ThermalFeatures outputs them, before any later step)::
       "axes": [[...], ...],                  # principal axes, one per row (row-major)
       "axis_scale": [...],                   # the calibration's standard deviation per axis
       "lower": [...], "upper": [...],        # the calibration's range along each axis
-      "margin": <float>,                     # distance that still counts as inside
+      "margin": <float>,                     # the calibrated threshold (domain_.threshold_):
+                                             # the distance that still counts as inside
       "blend_width": <float>,                # width of the "blend" policy's smoothstep
       "temperature_columns": [<int>, ...],   # features holding a temperature (T of each
                                              # sensor): their range admits no margin
@@ -73,6 +74,10 @@ ThermalFeatures outputs them, before any later step)::
                                              # their excess adds to the distance ([]: none)
       "rate_low": [...], "rate_high": [...], # their calibrated ranges
       "rate_scale": [...],                   # their standard deviation over RATE_WEIGHT
+      "boost": <float>,                      # threshold - margin: beyond the calibrated
+                                             # rates or temperatures, held to the margin
+      "boost_rate_ramp": <float>,            # the novelty's scales (rho_r, rho_t): the
+      "boost_temperature_ramp": <float>,     # boost in full at a novelty of 1
       "projection_rounds": <int>,            # rounds of "clip" with temperature columns
       "outside": "blend" | "clip" | "none",  # the policy outside the domain
       "fallback": {"intercept": [...], "slope": [...],   # n_outputs each
@@ -88,7 +93,11 @@ axis ``k`` its excess ``e_k`` is ``lower_k - p_k`` below the range, ``p_k - uppe
 above it, 0 inside; its box distance is ``b = sqrt(sum_k (e_k / axis_scale_k)^2)``. Along
 rate column ``r`` (``x[rate_columns[r]]``) its excess ``g_r`` is ``rate_low_r - x[...]``
 below the range, ``x[...] - rate_high_r`` above it, 0 inside; its distance is
-``d = sqrt(b^2 + sum_r (g_r / rate_scale_r)^2)`` (``d = b`` without rate columns: a rate
+``d = sqrt(b^2 + G^2) + boost * min(N, 1)`` with ``G^2 = sum_r (g_r / rate_scale_r)^2``
+and the novelty ``N^2 = (G / rho_r)^2 + sum_t (h_t / (rho_t scale[c_t]))^2``
+(``rho_r = boost_rate_ramp``, ``rho_t = boost_temperature_ramp``), ``h_t`` the excess of
+temperature column ``c_t`` beyond ``[temperature_low_t, temperature_high_t]`` (``d = b``
+without rate columns or with every rate and temperature in its range: a rate
 the calibration never showed, such as a cooling row of a heating-only calibration, is
 outside even where the axes spread it within the margin). It is outside when
 ``d > margin`` or when a temperature column ``x[c]`` lies outside

@@ -77,10 +77,14 @@ DOMAIN_RATES = Template(
     """
 /* The distance outside the calibration domain from the box's (box): with, under the root,
  * the square of every rate feature's excess beyond its calibrated range over its scale
- * (the feature's standard deviation over the rate weight). */
+ * (the feature's standard deviation over the rate weight); plus BOOST times the novelty
+ * (the norm of the rate terms and of every temperature's excess over its standard
+ * deviation) up to 1, so that a sample beyond the calibrated rates or temperatures is held
+ * to the margin rather than to the threshold calibrated on held-out runs within both. */
 static double ${prefix}_with_rates(const double features[${PREFIX}_N_FEATURES], double box)
 {
     double total = 0.0;
+    double novelty;
     int r;
     for (r = 0; r < ${PREFIX}_N_RATES; ++r) {
         const double value = features[${prefix}_rate_columns[r]];
@@ -93,12 +97,36 @@ static double ${prefix}_with_rates(const double features[${PREFIX}_N_FEATURES], 
         excess = excess / ${prefix}_rate_scale[r];
         total += excess * excess;
     }
-    if (total == 0.0) {
-        return box; /* every rate within its range: exactly the box's distance */
+    novelty = total / ${PREFIX}_BOOST_RATE_RAMP / ${PREFIX}_BOOST_RATE_RAMP;$temperature_novelty
+    if (novelty == 0.0) {
+        return box; /* every rate and temperature within its range: the box's distance */
     }
-    return sqrt(box * box + total);
+    novelty = sqrt(novelty);
+    return sqrt(box * box + total) + ${PREFIX}_BOOST * (novelty < 1.0 ? novelty : 1.0);
 }
 """
+)
+
+
+# ``$temperature_novelty`` of DOMAIN_RATES, with temperature columns: their excess beyond the
+# calibrated range over the feature's standard deviation, squared into the novelty.
+TEMPERATURE_NOVELTY = Template(
+    """
+    {
+        int t;
+        for (t = 0; t < ${PREFIX}_N_TEMPERATURES; ++t) {
+            const int column = ${prefix}_temperature_columns[t];
+            const double value = features[column];
+            double excess = 0.0;
+            if (value < ${prefix}_temperature_low[t]) {
+                excess = ${prefix}_temperature_low[t] - value;
+            } else if (value > ${prefix}_temperature_high[t]) {
+                excess = value - ${prefix}_temperature_high[t];
+            }
+            excess = excess / ${prefix}_domain_scale[column] / ${PREFIX}_BOOST_TEMPERATURE_RAMP;
+            novelty += excess * excess;
+        }
+    }"""
 )
 
 
@@ -302,6 +330,13 @@ RATE_DEFINE = Template(
 /* Rate features (dT of each sensor) whose excess beyond their calibrated range adds to the
  * distance. */
 #define ${PREFIX}_N_RATES $n_rates
+/* Added to the distance of a sample beyond the calibrated rates, times its rate term up to
+ * 1 (the calibrated threshold less the margin). */
+#define ${PREFIX}_BOOST $boost
+/* The novelty's scales: the boost is added in full at a rate term of BOOST_RATE_RAMP, or a
+ * temperature BOOST_TEMPERATURE_RAMP of its standard deviations beyond its range. */
+#define ${PREFIX}_BOOST_RATE_RAMP $boost_rate_ramp
+#define ${PREFIX}_BOOST_TEMPERATURE_RAMP $boost_temperature_ramp
 """
 )
 
