@@ -18,8 +18,10 @@ the calibration domain:
 - ``uncompensated``: the calibration's mean drift removed (bias calibration only, no
   thermal model; with the simulator's per-run turn-on biases this is stricter than the raw
   output);
-- ``line in T``: ``LinearRegression`` on the temperature, the firmware peer;
-- ``poly3 in T``: a cubic in the temperature;
+- ``line in T``: ``LinearRegression`` on the temperature;
+- ``held line in T``: the same line evaluated at the temperature clamped to the calibrated
+  [TMIN, TMAX], the firmware practice (PX4, ArduPilot);
+- ``poly3 in T`` and ``held poly3 in T``: a cubic in the temperature, free and held;
 - ``linear (features)``: ``LinearRegression`` on the default features, with the default
   outside policy (the linear model on the same features);
 - ``default``: ``make_compensation_pipeline(RBFNetRegressor(random_state=0))`` (policy
@@ -45,18 +47,23 @@ Cases:
 
 Targets (exit 1 when one fails):
 
-- outside T (case 1): the default's MSD <= 1.5 x the better of uncompensated and the line
-  in T, and <= uncompensated wherever the line is;
+- outside T (case 1): the default's MSD <= 1.5 x the best of uncompensated, the line in T
+  and the held line on every case, and the median of that ratio over the cases <= 1;
+  <= uncompensated wherever the line is;
 - new rates (case 1): the default's MSD <= 1.2 x the line in T;
 - flags: >= 95 % of the outside-T rows flagged (case 1); in case 2, <= 2 % of the rows
   inside the calibrated temperatures flagged;
 - what the policy costs where calibration and use share profiles (case 2, on the campaign of
-  ``bench_thermal_state.py``): the default's pooled MSD <= 1.02 x ``outside="none"``'s;
+  ``bench_thermal_state.py``): the default's pooled MSD <= 1.02 x ``outside="none"``'s, and
+  the share of those held-out rows flagged <= 2 % on average over the campaigns, <= 5 % on
+  each;
 - the first rule, on every group of case 1 outside the calibration (outside T, new rates):
   the default's MSD <= 1.05 x uncompensated;
-- real recording: warm->cold and cold->warm on x and y, the default <= uncompensated and
-  <= 1.5 x the line in T; on z (no thermal drift to speak of) <= uncompensated;
-  alternate bursts no worse than ``outside="none"`` (within 5 %).
+- real recording: warm->cold and cold->warm, >= 95 % of the rows flagged; on x and y the
+  default <= uncompensated and <= 1.5 x the line in T; on z (no thermal drift to speak of)
+  <= uncompensated; alternate bursts (even->odd, odd->even) on x and y the default <= 1 x
+  the line and the network alone (``outside="none"``) <= 2 x the line, on z the default
+  <= uncompensated.
 
 Tuning and judging are kept apart: the blend width (``sklearn_ifog.domain.BLEND_WIDTH``,
 1) and the margin (1.5) were chosen on seeds 0-7 (``--tune`` prints the blend width and
