@@ -154,10 +154,11 @@ class SmallCalibrationWarning(UserWarning):
     >>> import warnings
     >>> import numpy as np
     >>> from sklearn_ifog.domain import CalibrationDomain, SmallCalibrationWarning
-    >>> t = np.linspace(10.0, 40.0, 12)[:, None]
+    >>> t = np.linspace(10.0, 40.0, 12)
+    >>> X = np.column_stack([t, np.sin(t)])  # a temperature and its rate
     >>> with warnings.catch_warnings(record=True) as caught:
     ...     warnings.simplefilter("always")
-    ...     domain = CalibrationDomain(temperature=0).fit(t)
+    ...     domain = CalibrationDomain(temperature=0, rate=1).fit(X)
     >>> caught[0].category is SmallCalibrationWarning, domain.threshold_ == domain.margin
     (True, True)
     """
@@ -1186,9 +1187,9 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
     rates or thermal states the calibration never showed lies beyond it. A row beyond the
     calibrated rates or temperatures is held to ``margin`` (``boost_``): the held-out
     runs say nothing of rates or temperatures the calibration never showed. Without
-    ``temperature`` columns the threshold is ``margin``: a held-out run's distance would
-    then mix temperatures beyond the others' (extrapolation) with the noise the threshold
-    is for.
+    ``temperature`` or ``rate`` columns the threshold is ``margin``: a held-out run's
+    distance would then mix temperatures beyond the others' (extrapolation) with the noise
+    the threshold is for, or a new rate could not be held to the margin.
 
     Parameters
     ----------
@@ -1236,7 +1237,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
     n_held_out_ : int
         Number of held-out distances the threshold was calibrated on.
     boost_ : float
-        ``threshold_ - margin`` with ``rate`` columns, else 0: added to the distance of a
+        ``threshold_ - margin`` (0 where the threshold is the margin): added to the distance of a
         row beyond the calibrated rates or temperatures in proportion to its novelty up to
         1 (:func:`box_distance`), so that such a row is held to ``margin``, not to the
         threshold that held-out rows within both calibrated.
@@ -1325,31 +1326,30 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         self.rate_scale_ = box.rate_scale
         self.data_min_, self.data_max_ = X.min(axis=0), X.max(axis=0)
         folds = held_out_folds(X.shape[0], groups)
-        if not self.temperature_columns_:
-            # Without a temperature rule a held-out run's distance mixes temperatures beyond
-            # the others' with new combinations: it would calibrate extrapolation as noise.
-            self.threshold_ = float(self.margin)
-            self.boost_, self.n_held_out_ = 0.0, 0
-            self.offset_ = -self.threshold_
-            return self
-        distances = held_out_distances(X, folds, self.rate_columns_, self.temperature_columns_)
-        threshold = calibrated_threshold(distances, self.alpha, self.margin)
-        if threshold is None:
-            warnings.warn(
-                f"The calibration ({X.shape[0]} rows) is too small to hold rows out and "
-                f"calibrate the domain's threshold at alpha={self.alpha!r} ({distances.size} "
-                f"held-out distances, at least {_MIN_HELD_OUT_ROWS} needed); the threshold "
-                f"is the margin, {float(self.margin)!r}.",
-                SmallCalibrationWarning,
-                stacklevel=3,
+        self.threshold_, self.boost_, self.n_held_out_ = float(self.margin), 0.0, 0
+        # Only a domain that holds the rows beyond its calibrated temperatures and rates to
+        # the margin (Box.boost rides on the rate term) calibrates its threshold: without
+        # a temperature column a held-out run's distance would mix temperatures beyond the
+        # others' with new combinations, and calibrate extrapolation as noise.
+        if self.temperature_columns_ and self.rate_columns_:
+            distances = held_out_distances(
+                X, folds, self.rate_columns_, self.temperature_columns_
             )
-            threshold = float(self.margin)
-        self.threshold_ = threshold
-        # A row beyond the calibrated rates or temperatures is held to the margin: the
-        # held-out rows that raised the threshold lay within both.
-        self.boost_ = threshold - float(self.margin) if self.rate_columns_ else 0.0
-        self.n_held_out_ = int(distances.size)
-        self.offset_ = -threshold
+            self.n_held_out_ = int(distances.size)
+            threshold = calibrated_threshold(distances, self.alpha, self.margin)
+            if threshold is None:
+                warnings.warn(
+                    f"The calibration ({X.shape[0]} rows) is too small to hold rows out and "
+                    f"calibrate the domain's threshold at alpha={self.alpha!r} "
+                    f"({distances.size} held-out distances, at least {_MIN_HELD_OUT_ROWS} "
+                    f"needed); the threshold is the margin, {float(self.margin)!r}.",
+                    SmallCalibrationWarning,
+                    stacklevel=3,
+                )
+            else:
+                self.threshold_ = threshold
+                self.boost_ = threshold - float(self.margin)
+        self.offset_ = -self.threshold_
         return self
 
     @property

@@ -12,7 +12,9 @@ from sklearn_ifog import make_compensation_pipeline
 from sklearn_ifog.domain import (
     CalibrationDomain,
     SmallCalibrationWarning,
+    box_distance,
     calibrated_threshold,
+    fit_box,
     held_out_distances,
     held_out_folds,
 )
@@ -55,8 +57,16 @@ def test_held_out_rows_beyond_the_others_temperatures_or_rates_are_left_out():
     by_both = held_out_distances(X, folds, rate_columns=[1], temperature_columns=[0])
     assert every.size == X.shape[0]
     assert by_both.size < by_temperature.size < every.size
-    # Rows within every range of the others: the kept rows are a subset of the same rows.
-    assert np.all(np.isfinite(by_both))
+    # Run by run, by hand: the box of the other runs, and the held-out run's rows within
+    # the other runs' temperatures and rates.
+    expected = []
+    for run in range(3):
+        kept, held = X[runs != run], X[runs == run]
+        within = np.all(
+            (held[:, :2] >= kept[:, :2].min(0)) & (held[:, :2] <= kept[:, :2].max(0)), 1
+        )
+        expected.append(box_distance(fit_box(kept, [1]), held[within]))
+    np.testing.assert_allclose(by_both, np.concatenate(expected), rtol=1e-12, atol=1e-12)
 
 
 def test_threshold_is_a_quantile_never_below_the_margin():
@@ -69,28 +79,28 @@ def test_threshold_is_a_quantile_never_below_the_margin():
 
 @pytest.mark.parametrize("alpha", [0.0, -0.1, 0.6, "0.02"])
 def test_alpha_outside_its_range_is_refused_by_name(alpha):
-    X, _ = _runs(0, n_runs=3)
-    with pytest.raises((ValueError, TypeError), match=r"'alpha' parameter"):
-        CalibrationDomain(alpha=alpha, temperature=0).fit(X)
-    with pytest.raises((ValueError, TypeError), match=r"'alpha' parameter"):
-        make_compensation_pipeline(LinearRegression(), alpha=alpha).fit(
-            _campaign_frame(), np.zeros(_campaign_frame().shape[0])
-        )
-
-
-def _campaign_frame():
     from sklearn_ifog.datasets import make_thermal_campaign
 
-    return make_thermal_campaign(
-        n_units=1, n_runs=1, azimuths=[0.0], sampling_period=300.0, random_state=0
-    ).data
+    X, _ = _runs(0, n_runs=3)
+    with pytest.raises((ValueError, TypeError), match=r"'alpha' parameter"):
+        CalibrationDomain(alpha=alpha, temperature=0, rate=1).fit(X)
+    X, y = make_thermal_campaign(
+        n_units=1,
+        n_runs=1,
+        azimuths=[0.0],
+        sampling_period=300.0,
+        random_state=0,
+        return_X_y=True,
+    )
+    with pytest.raises((ValueError, TypeError), match=r"'alpha' parameter"):
+        make_compensation_pipeline(LinearRegression(), alpha=alpha).fit(X, y)
 
 
 def test_a_calibration_too_small_keeps_the_margin_and_says_so():
     X, runs = _runs(0, n_runs=1, n_rows=12)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        domain = CalibrationDomain(margin=1.5, temperature=0).fit(X, groups=runs)
+        domain = CalibrationDomain(margin=1.5, temperature=0, rate=1).fit(X, groups=runs)
     small = [w for w in caught if w.category is SmallCalibrationWarning]
     assert len(small) == 1  # once per fit
     assert "alpha=0.02" in str(small[0].message)
@@ -99,10 +109,15 @@ def test_a_calibration_too_small_keeps_the_margin_and_says_so():
     assert domain.boost_ == 0.0
 
 
-def test_no_temperature_column_keeps_the_margin():
-    X, runs = _runs(0, n_runs=4, tilt=0.5)
-    domain = CalibrationDomain(margin=1.5).fit(X, groups=runs)
-    assert (domain.threshold_, domain.n_held_out_) == (1.5, 0)
+@pytest.mark.parametrize(("temperature", "rate"), [(None, 1), (0, None), (None, None)])
+def test_without_a_temperature_and_a_rate_column_the_margin_stays(temperature, rate):
+    """The same runs that raise the threshold with both columns (checked first)."""
+    X, runs = _runs(0, n_runs=3, tilt=0.5)
+    both = CalibrationDomain(margin=1.5, temperature=0, rate=1).fit(X, groups=runs)
+    assert both.threshold_ > 1.5
+    domain = CalibrationDomain(margin=1.5, temperature=temperature, rate=rate)
+    domain.fit(X, groups=runs)
+    assert (domain.threshold_, domain.boost_, domain.n_held_out_) == (1.5, 0.0, 0)
 
 
 def test_new_runs_of_a_calibrated_profile_are_flagged_at_about_alpha():
