@@ -456,6 +456,7 @@ def shared_profile_case(physics, seed, sampling_period, n_runs):
     # summed over the rows outside the calibrated temperatures and over the flagged rows
     # inside them.
     excess = {"outside T": 0.0, "flagged inside T": 0.0}
+    by_kind = {}
     temperature = X["temperature"].to_numpy()
     for azimuth in np.unique(X["azimuth"]):
         held = (X["azimuth"] == azimuth).to_numpy()
@@ -479,6 +480,14 @@ def shared_profile_case(physics, seed, sampling_period, n_runs):
         gain = np.square(y[held] - policy) - np.square(y[held] - free)
         excess["outside T"] += float(gain[outside_t].sum())
         excess["flagged inside T"] += float(gain[outside & ~outside_t].sum())
+        # Which kind of novelty each flagged row shows, and how the network alone and the
+        # fallback do on it (the evidence a handover per kind would need).
+        fallback = model.fallback_.predict(features_held)[:, 0]
+        for kind, mask in flagged_kinds(model, features_held, outside, outside_t).items():
+            cell = by_kind.setdefault(kind, {"rows": 0, "network": 0.0, "fallback": 0.0})
+            cell["rows"] += int(mask.sum())
+            cell["network"] += float(np.sum((y[held] - free)[mask] ** 2))
+            cell["fallback"] += float(np.sum((y[held] - fallback)[mask] ** 2))
     return {
         "flagged": flagged / rows,
         "flagged inside T": flagged_inside_t / rows_inside_t,
@@ -492,9 +501,33 @@ def shared_profile_case(physics, seed, sampling_period, n_runs):
         "flagged inside T by rate weight": {k: n / rows_inside_t for k, n in by_rate.items()},
         "msd/floor": {name: value / floor for name, value in squared.items()},
         "mixed rows outside": outside_rows / X.shape[0],
+        "mixed flagged by kind": {
+            kind: {
+                "share": cell["rows"] / X.shape[0],
+                "network / fallback": cell["network"] / cell["fallback"]
+                if cell["fallback"] > 0
+                else None,
+            }
+            for kind, cell in by_kind.items()
+        },
         "mixed cost by group": {
             group: value / squared["default, outside='none'"] for group, value in excess.items()
         },
+    }
+
+
+def flagged_kinds(model, features, outside, outside_t):
+    """The flagged rows by the kind of novelty they show: beyond the calibrated
+    temperatures; within them but beyond the calibrated rates; within both (a thermal state,
+    a combination the calibration did not show)."""
+    domain = model.domain_
+    rates = features[:, domain.rate_columns_]
+    low, high = domain.data_min_[domain.rate_columns_], domain.data_max_[domain.rate_columns_]
+    beyond_rates = np.any((rates < low) | (rates > high), axis=1)
+    return {
+        "outside T": outside & outside_t,
+        "new rates": outside & ~outside_t & beyond_rates,
+        "thermal state": outside & ~outside_t & ~beyond_rates,
     }
 
 
@@ -514,6 +547,7 @@ def real_case(split, axis):
     return {
         "scores": _score(held, predictions, {"all": everything})["all"],
         "flagged": float(np.mean(flags)),
+        "threshold": float(model.domain_.threshold_),
     }
 
 
@@ -718,15 +752,15 @@ def markdown(simulated, shared, real, sweep_only, lines, command, seconds):
             )
         out += ["", "## Real recording (load_psim_tvc, 1 row per second)", ""]
         out += [
-            "| split, axis | rows | " + " | ".join(MODEL_ORDER) + " | flagged |",
-            "|---|---|" + "---|" * len(MODEL_ORDER) + "---|",
+            "| split, axis | rows | " + " | ".join(MODEL_ORDER) + " | flagged | threshold |",
+            "|---|---|" + "---|" * len(MODEL_ORDER) + "---|---|",
         ]
         for (split, axis), cell in real.items():
             scores = cell["scores"]
             out.append(
                 f"| {split}, {axis} | {scores['rows']} | "
                 + " | ".join(_cell(scores[name]) for name in MODEL_ORDER)
-                + f" | {cell['flagged']:.3f} |"
+                + f" | {cell['flagged']:.3f} | {cell['threshold']:.3f} |"
             )
     out += [
         "",
@@ -767,6 +801,7 @@ def markdown(simulated, shared, real, sweep_only, lines, command, seconds):
                 + " | ".join(f"{shares[m]:.4f}" for m in SWEEP_MARGINS)
                 + " |"
             )
+    out += kinds_markdown(shared)
     out += rate_weight_markdown(simulated, shared)
     out += evidence_markdown(simulated)
     out += clamp_markdown(simulated, shared, real)
@@ -840,6 +875,34 @@ def clamp_markdown(simulated, shared, real):
         cells = [f"{failed} of {total}" if total else "-" for failed, total in counts.values()]
         rows.append(f"| {policy} | " + " | ".join(cells) + " |")
     return header + rows
+
+
+def kinds_markdown(shared):
+    """Where the 'mix' campaigns' flags arise, by kind of novelty (:func:`flagged_kinds`):
+    the share of the held-out rows of each kind, and the network alone's squared error
+    there over the fallback's (below 1: the network was the better of the two)."""
+    kinds = ("outside T", "new rates", "thermal state")
+    out = [
+        "",
+        "## The 'mix' campaigns' flags by kind of novelty (leave one azimuth out)",
+        "",
+        "Share of the held-out rows flagged, by kind; in brackets the network alone's MSD "
+        "over the fallback's on them (below 1: the network was better there).",
+        "",
+        "| case | " + " | ".join(kinds) + " |",
+        "|---|" + "---|" * len(kinds),
+    ]
+    for (physics, seed), cell in shared.items():
+        cells = []
+        for kind in kinds:
+            entry = cell["mixed flagged by kind"].get(kind)
+            if entry is None:
+                cells.append("-")
+                continue
+            ratio = entry["network / fallback"]
+            cells.append(f"{entry['share']:.4f} ({_cell(ratio)})")
+        out.append(f"| {physics} s{seed} | " + " | ".join(cells) + " |")
+    return out
 
 
 def sweep_failures(simulated, key):

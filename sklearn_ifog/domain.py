@@ -1332,9 +1332,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         # a temperature column a held-out run's distance would mix temperatures beyond the
         # others' with new combinations, and calibrate extrapolation as noise.
         if self.temperature_columns_ and self.rate_columns_:
-            distances = held_out_distances(
-                X, folds, self.rate_columns_, self.temperature_columns_
-            )
+            distances = held_out_distances(X, folds, self.rate_columns_, self.temperature_columns_)
             self.n_held_out_ = int(distances.size)
             threshold = calibrated_threshold(distances, self.alpha, self.margin)
             if threshold is None:

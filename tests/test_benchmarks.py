@@ -104,6 +104,11 @@ QUICK_RUNS = {
         ["rbf_variance_quick.md", "rbf_variance_quick.json"],
         False,
     ),
+    "tail_penalty_check": (
+        ["--quick", "--out", "{out}"],
+        ["tail_penalty_quick.md", "tail_penalty_quick.json"],
+        False,
+    ),
     "unitwise_selection": (
         ["--quick", "--out", "{out}"],
         ["unitwise_selection_quick.md", "unitwise_selection_quick.json"],
