@@ -450,6 +450,12 @@ class CompiledDomain:
         ]
         self._boost = float(box.boost)
         self._feature_scale = box.scale.tolist()
+        self._boost_bounds = [
+            (int(column), float(low), float(high))
+            for column, low, high in zip(
+                box.temperature_columns, box.temperature_low, box.temperature_high, strict=True
+            )
+        ]
         self._rate_ramp = RATE_WEIGHT * NOVELTY_RAMP
 
     def where(self, features):
@@ -495,7 +501,7 @@ class CompiledDomain:
         distance = math.sqrt(squares + rate_squares)
         if self._boost:
             novelty = rate_squares / self._rate_ramp**2
-            for column, low, high in self._temperature_bounds:
+            for column, low, high in self._boost_bounds:
                 value = row[column]
                 ramp = self._feature_scale[column] * NOVELTY_RAMP
                 if value < low:

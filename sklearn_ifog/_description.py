@@ -387,6 +387,10 @@ def describe_domain(pipeline, n_features, n_outputs):
         "rate_high": _floats(box.rate_high),
         "rate_scale": _floats(box.rate_scale),
         "boost": float(box.boost),
+        # Where the boost's temperature novelty starts (the calibrated temperatures, widened
+        # where held-out runs showed the model extrapolating well).
+        "boost_temperature_low": _floats(box.temperature_low),
+        "boost_temperature_high": _floats(box.temperature_high),
         # Standard deviations (over RATE_WEIGHT, as rate_scale is) of a rate, and of a
         # temperature, beyond its range at which the boost is added in full.
         "boost_rate_ramp": float(_domain.RATE_WEIGHT * _domain.NOVELTY_RAMP),

@@ -197,7 +197,10 @@ class Box(NamedTuple):
     temperature_columns : tuple of int, default=()
         Temperature features whose excess is part of the novelty that ``boost`` weighs.
     temperature_low, temperature_high : ndarray of shape (n_temperatures,), default=empty
-        Their calibrated ranges.
+        The ranges their excess is measured from: the calibrated ranges, widened where
+        held-out evidence says the model extrapolates well (``boost_low_``,
+        ``boost_high_`` of :class:`CalibrationDomain`; the firmware rule that flags every
+        temperature beyond the calibrated range is not widened).
     """
 
     center: np.ndarray
@@ -1227,6 +1230,12 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         The temperature columns (from ``temperature``).
     rate_columns_ : list of int
         The rate columns (from ``rate``).
+    boost_low_, boost_high_ : ndarray of shape (n_temperatures,)
+        The temperatures beyond which a row is held to ``margin`` by ``boost_``: the
+        calibrated ranges, widened by :meth:`extend` where held-out evidence says so.
+    rate_low_, rate_high_ : ndarray of shape (n_rates,)
+        The calibrated range of each rate column (as ``data_min_`` and ``data_max_``
+        give it, widened by :meth:`extend` where held-out evidence says so).
     rate_scale_ : ndarray of shape (n_rates,)
         Standard deviation of each rate column over :data:`RATE_WEIGHT`: the unit of its
         excess in the distance.
@@ -1325,6 +1334,10 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         self.axis_scale_, self.lower_, self.upper_ = box.axis_scale, box.lower, box.upper
         self.rate_scale_ = box.rate_scale
         self.data_min_, self.data_max_ = X.min(axis=0), X.max(axis=0)
+        self.rate_low_ = self.data_min_[self.rate_columns_]
+        self.rate_high_ = self.data_max_[self.rate_columns_]
+        self.boost_low_ = self.data_min_[self.temperature_columns_]
+        self.boost_high_ = self.data_max_[self.temperature_columns_]
         folds = held_out_folds(X.shape[0], groups)
         self.threshold_, self.boost_, self.n_held_out_ = float(self.margin), 0.0, 0
         # Only a domain that holds the rows beyond its calibrated temperatures and rates to
@@ -1364,14 +1377,81 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
             self.lower_,
             self.upper_,
             tuple(rates),
-            self.data_min_[rates],
-            self.data_max_[rates],
+            getattr(self, "rate_low_", self.data_min_[rates]),
+            getattr(self, "rate_high_", self.data_max_[rates]),
             getattr(self, "rate_scale_", np.empty(0)),
             getattr(self, "boost_", 0.0),
             tuple(self.temperature_columns_),
-            self.data_min_[self.temperature_columns_],
-            self.data_max_[self.temperature_columns_],
+            getattr(self, "boost_low_", self.data_min_[self.temperature_columns_]),
+            getattr(self, "boost_high_", self.data_max_[self.temperature_columns_]),
         )
+
+    def extend(
+        self,
+        *,
+        threshold=None,
+        rate_low=None,
+        rate_high=None,
+        temperature_low=None,
+        temperature_high=None,
+    ):
+        """Widen the domain where held-out evidence says the model predicts well.
+
+        A compensation pipeline calls it after fit with what its held-out runs showed
+        (:mod:`sklearn_ifog._handover`): the model beat its fallback on rows that far
+        beyond the other runs' domain. The threshold and the rate ranges only grow; the
+        boost that holds rows beyond the calibrated rates and temperatures to ``margin``
+        grows with the threshold. Without temperature and rate columns (no boost, no rate
+        range) it changes nothing.
+
+        Parameters
+        ----------
+        threshold : float, default=None
+            A distance the threshold rises to (if larger).
+        rate_low, rate_high : array-like of shape (n_rates,), default=None
+            Rates the calibrated rate ranges widen to (if beyond them).
+        temperature_low, temperature_high : array-like of shape (n_temperatures,), default=None
+            Temperatures from which a row is held to ``margin`` (``boost_low_``,
+            ``boost_high_``; if beyond them). A row beyond the calibrated temperatures is
+            still outside (the firmware rule): this only lets the model keep more of its
+            weight there, as far as the evidence reached.
+
+        Returns
+        -------
+        self : CalibrationDomain
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> rng = np.random.default_rng(0)
+        >>> t, rate = rng.uniform(10.0, 40.0, 150), rng.uniform(0.1, 0.3, 150)
+        >>> domain = CalibrationDomain(temperature=0, rate=1).fit(
+        ...     np.column_stack([t, rate]), groups=np.repeat([0, 1, 2], 50)
+        ... )
+        >>> bool(domain.predict([[25.0, 0.4]])[0] == -1)
+        True
+        >>> domain = domain.extend(threshold=3.0, rate_high=[0.45])
+        >>> domain.threshold_, domain.boost_, domain.predict([[25.0, 0.4]]).tolist()
+        (3.0, 1.5, [1])
+        """
+        check_is_fitted(self)
+        if not (self.temperature_columns_ and self.rate_columns_):
+            return self
+        if threshold is not None and threshold > self.threshold_:
+            self.threshold_ = float(threshold)
+            self.boost_ = self.threshold_ - float(self.margin)
+            self.offset_ = -self.threshold_
+        if rate_low is not None:
+            self.rate_low_ = np.minimum(self.rate_low_, np.asarray(rate_low, dtype=np.float64))
+        if rate_high is not None:
+            self.rate_high_ = np.maximum(self.rate_high_, np.asarray(rate_high, dtype=np.float64))
+        if temperature_low is not None:
+            low = np.asarray(temperature_low, dtype=np.float64)
+            self.boost_low_ = np.minimum(self.boost_low_, low)
+        if temperature_high is not None:
+            high = np.asarray(temperature_high, dtype=np.float64)
+            self.boost_high_ = np.maximum(self.boost_high_, high)
+        return self
 
     def _validated(self, X):
         check_is_fitted(self)

@@ -12,13 +12,20 @@ from numbers import Real
 from typing import ClassVar
 
 import numpy as np
-from sklearn.base import is_regressor
+from sklearn.base import clone, is_regressor
 from sklearn.metrics import r2_score
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils.validation import check_is_fitted
 
-from sklearn_ifog._compat import Interval, StrOptions, _fit_context, _routing_enabled
+from sklearn_ifog import _handover
+from sklearn_ifog._compat import (
+    Interval,
+    StrOptions,
+    _fit_context,
+    _routing_enabled,
+    _safe_indexing,
+)
 from sklearn_ifog._contract import get_term, sensor_keys
 from sklearn_ifog._table import as_float_rows, label_column
 from sklearn_ifog.domain import (
@@ -38,6 +45,9 @@ __all__ = ["OUTSIDE_POLICIES", "CompensationPipeline", "make_compensation_pipeli
 
 #: The ``outside`` policies of :class:`CompensationPipeline`.
 OUTSIDE_POLICIES = ("blend", "clip", "none")
+# Folds of whole runs (the runs dealt out in turn) of the held-out evidence per kind of
+# novelty: each fold costs one more fit of the steps.
+HANDOVER_FOLDS = 3
 
 
 def _is_regressor(estimator):
@@ -60,6 +70,7 @@ def make_compensation_pipeline(
     outside="blend",
     margin=1.5,
     alpha=0.02,
+    handover=False,
     **feature_params,
 ):
     """Build the drift model ``ThermalFeatures → StandardScaler → regressor``.
@@ -101,6 +112,9 @@ def make_compensation_pipeline(
         Share of the rows of a new run of a calibrated profile that the domain flags: its
         threshold is calibrated at fit on runs of the calibration held out in turn
         (:class:`~sklearn_ifog.domain.CalibrationDomain`).
+    handover : bool, default=False
+        Whether the domain also widens where held-out runs show the model beating its
+        fallback, per kind of novelty (:class:`CompensationPipeline`).
     **feature_params
         Further parameters of :class:`~sklearn_ifog.ThermalFeatures` (``smoothing``,
         ``rate_unit``).
@@ -167,6 +181,7 @@ def make_compensation_pipeline(
         outside=outside,
         margin=margin,
         alpha=alpha,
+        handover=handover,
     )
 
 
@@ -239,6 +254,19 @@ class CompensationPipeline(Pipeline):
         new run of a calibrated profile has about ``alpha`` of its rows flagged. ``margin``
         and ``alpha`` are learnt into ``domain_`` at :meth:`fit`: changing them takes a
         refit (``outside`` takes effect at once).
+    handover : bool, default=False
+        Whether the model keeps the kinds of novel rows on which held-out runs show it
+        beating its fallback. With at least 3 runs, :meth:`fit` refits the steps on two
+        thirds of the runs three times (2.8 to 3.3 times the fit time of the default network
+        on the 9-run campaigns of ``python benchmarks/bench_extrapolation.py --tune --n-jobs
+        2``, whose "With handover=True" table measures what it buys), predicts the held-out
+        runs, and judges their rows
+        beyond that fit's domain per kind (temperatures below or above, rates below or
+        above, thermal state): where the model beat the fallback by more than one standard
+        error, ``domain_`` widens as far as the evidence reached
+        (:meth:`~sklearn_ifog.domain.CalibrationDomain.extend`). Where the held-out runs show
+        no such rows, nothing changes. Off by default: its fit cost is not yet paid back on
+        the benchmark's tuning campaigns.
     transform_input, memory, verbose
         As for :class:`~sklearn.pipeline.Pipeline`.
 
@@ -251,6 +279,11 @@ class CompensationPipeline(Pipeline):
         slope did not extrapolate better than a constant) and ``column`` (of T).
     feature_names_out_ : ndarray of str
         Names of the first step's output columns (the domain's features).
+    handover_ : dict or None
+        With ``handover``: per kind of novelty, the held-out ``rows``, the ``model``'s and
+        the ``fallback``'s mean squared errors on them, whether the model ``keeps`` the kind
+        and the ``extent`` the evidence reached (None without ``handover``, with fewer than
+        3 runs, or without temperature and rate features).
 
     See Also
     --------
@@ -290,6 +323,7 @@ class CompensationPipeline(Pipeline):
         "outside": [StrOptions(set(OUTSIDE_POLICIES))],
         "margin": [Interval(Real, 0, None, closed="left")],
         "alpha": [Interval(Real, 0, 0.5, closed="right")],
+        "handover": ["boolean"],
     }
 
     def __init__(
@@ -299,6 +333,7 @@ class CompensationPipeline(Pipeline):
         outside="blend",
         margin=1.5,
         alpha=0.02,
+        handover=False,
         transform_input=None,
         memory=None,
         verbose=False,
@@ -307,6 +342,7 @@ class CompensationPipeline(Pipeline):
         self.outside = outside
         self.margin = margin
         self.alpha = alpha
+        self.handover = handover
 
     @_fit_context(
         # Pipeline's steps are validated when each is fitted.
@@ -340,7 +376,66 @@ class CompensationPipeline(Pipeline):
                 "CompensationPipeline.fit needs the drift target y (rate - reference); got None."
             )
         super().fit(X, y, **params)
-        return self.fit_domain(X, y)
+        self.fit_domain(X, y)
+        self.handover_ = self._weigh_handover(X, y, params) if self.handover else None
+        return self
+
+    def _weigh_handover(self, X, y, params):
+        """Held-out evidence per kind of novelty (:mod:`sklearn_ifog._handover`): the
+        pipeline refitted on two thirds of the runs predicts the others, the rows beyond
+        that fit's domain are judged per kind, and the domain widens where the model beat
+        its fallback there. None (nothing changes) with fewer than 3 runs or without
+        temperature and rate columns."""
+        runs = _run_labels(self.steps[0][1], X)
+        domain = self.domain_
+        if runs is None or not (domain.temperature_columns_ and domain.rate_columns_):
+            return None
+        labels = np.unique(runs, return_inverse=True)[1].ravel()
+        if labels.max() + 1 < HANDOVER_FOLDS:
+            return None
+        folds = labels % HANDOVER_FOLDS
+        Y = np.asarray(y, dtype=np.float64).reshape(labels.size, -1)
+        evidence = {kind: [] for kind in _handover.KINDS}
+        for fold in range(HANDOVER_FOLDS):
+            kept, held = np.flatnonzero(folds != fold), np.flatnonzero(folds == fold)
+            model = clone(self)
+            rows = {
+                name: _safe_indexing(value, kept)
+                if hasattr(value, "__len__") and len(value) == labels.size
+                else value
+                for name, value in params.items()
+            }
+            X_kept, X_held = _safe_indexing(X, kept), _safe_indexing(X, held)
+            with warnings.catch_warnings():
+                # The main fit has already said what its steps warn of.
+                warnings.simplefilter("ignore")
+                Pipeline.fit(model, X_kept, _safe_indexing(y, kept), **rows)
+                model.fit_domain(X_kept, _safe_indexing(y, kept))
+            features = model.steps[0][1].transform(X_held)
+            raw = as_float_rows(features)
+            network = model._predict_features(features).reshape(held.size, -1)
+            found = _handover.collect(
+                raw, Y[held], network, model.fallback_.predict(raw), model.domain_
+            )
+            for kind, part in found.items():
+                evidence[kind].append(part)
+        decision = _handover.decide(evidence)
+
+        def reach(kind):
+            return decision[kind]["extent"] if decision[kind]["keeps"] else None
+
+        def widened(bound, kind, sign):
+            extent = reach(kind)
+            return None if extent is None else bound + sign * extent
+
+        domain.extend(
+            threshold=reach("thermal state"),
+            rate_low=widened(domain.rate_low_, "rates below", -1.0),
+            rate_high=widened(domain.rate_high_, "rates above", 1.0),
+            temperature_low=widened(domain.boost_low_, "temperatures below", -1.0),
+            temperature_high=widened(domain.boost_high_, "temperatures above", 1.0),
+        )
+        return decision
 
     def fit_domain(self, X, y):
         """(Re)learn the calibration domain and the fallback from the rows ``X``, ``y``.

@@ -201,3 +201,79 @@ def test_the_pipeline_calibrates_on_its_runs_and_searches_alpha():
     raw = np.asarray(model[0].transform(X), dtype=np.float64)
     distances = held_out_distances(raw, folds, domain.rate_columns_, domain.temperature_columns_)
     assert domain.threshold_ == pytest.approx(max(model.margin, np.quantile(distances, 0.9)))
+
+
+@pytest.fixture(scope="module")
+def six_runs():
+    """One gyro's six runs whose temperature ranges differ: a held-out run reaches
+    temperatures the other runs did not."""
+    from sklearn_ifog.datasets import make_thermal_campaign
+
+    X, _ = make_thermal_campaign(
+        n_units=1,
+        n_runs=6,
+        azimuths=[0.0],
+        sampling_period=120.0,
+        random_state=0,
+        return_X_y=True,
+    )
+    features = make_compensation_pipeline(LinearRegression())[0].fit(X)
+    raw = np.asarray(features.transform(X), dtype=np.float64)
+    return X, raw, list(features.get_feature_names_out())
+
+
+def test_handover_is_off_by_default_and_changes_nothing_then(six_runs):
+    X, raw, names = six_runs
+    y = 0.05 * raw[:, names.index("T_lag3600s")]
+    plain = make_compensation_pipeline(LinearRegression()).fit(X, y)
+    assert plain.handover_ is None
+    domain = plain.domain_
+    np.testing.assert_array_equal(domain.boost_low_, domain.data_min_[[0]])
+    np.testing.assert_array_equal(domain.rate_low_, domain.data_min_[domain.rate_columns_])
+
+
+def test_handover_widens_only_where_the_model_beat_its_fallback(six_runs):
+    """A drift that follows a lag: the linear model on the features is exact, the fallback
+    (a line or plane in T and dT) is not, so on the held-out runs' rows beyond the others'
+    temperatures the model wins and the domain lets it keep them that far. A model that
+    predicts a constant loses to the fallback on an exact line in T: nothing widens."""
+    from sklearn.dummy import DummyRegressor
+
+    X, raw, names = six_runs
+    lag = 0.05 * raw[:, names.index("T_lag3600s")]
+    winner = make_compensation_pipeline(LinearRegression(), handover=True).fit(X, lag)
+    plain = make_compensation_pipeline(LinearRegression()).fit(X, lag)
+    colder = winner.handover_["temperatures below"]
+    assert colder["keeps"]
+    assert colder["rows"] >= 20
+    assert colder["model"] < colder["fallback"]
+    expected = plain.domain_.boost_low_ - colder["extent"]
+    np.testing.assert_allclose(winner.domain_.boost_low_, expected)
+    # The firmware rule is not widened: a row colder than the calibration is still outside.
+    np.testing.assert_array_equal(winner.domain_.data_min_, plain.domain_.data_min_)
+    cold = X[X["run"] == X["run"].iloc[0]].assign(temperature=lambda t: t["temperature"] - 40)
+    assert winner.outside_calibration(cold).all()
+    # Kinds the model did not win keep the calibrated domain.
+    for kind, entry in winner.handover_.items():
+        if not entry["keeps"] and kind.startswith("rates"):
+            side = 0 if kind.endswith("below") else 1
+            ranges = (winner.domain_.rate_low_, winner.domain_.rate_high_)[side]
+            calibrated = (plain.domain_.rate_low_, plain.domain_.rate_high_)[side]
+            np.testing.assert_array_equal(ranges, calibrated)
+    line = 0.3 * raw[:, names.index("T")]
+    loser = make_compensation_pipeline(DummyRegressor(), handover=True).fit(X, line)
+    assert not any(entry["keeps"] for entry in loser.handover_.values())
+    alone = make_compensation_pipeline(DummyRegressor()).fit(X, line)
+    assert loser.domain_.threshold_ == alone.domain_.threshold_
+    np.testing.assert_array_equal(loser.domain_.boost_low_, alone.domain_.boost_low_)
+    np.testing.assert_array_equal(loser.domain_.boost_high_, alone.domain_.boost_high_)
+
+
+def test_handover_needs_three_runs(six_runs):
+    X, raw, names = six_runs
+    two = X[X["run"].isin(np.unique(X["run"])[:2])]
+    y = 0.05 * raw[two.index, names.index("T_lag3600s")]
+    model = make_compensation_pipeline(LinearRegression(), handover=True).fit(two, y)
+    assert model.handover_ is None
+    with pytest.raises((ValueError, TypeError), match=r"'handover' parameter"):
+        make_compensation_pipeline(LinearRegression(), handover="yes").fit(two, y)

@@ -439,7 +439,9 @@ def _evaluate_domain(domain, features, network, evaluate):
     rate_squares = ((beyond / np.array(domain["rate_scale"])) ** 2).sum(axis=1)
     # Beyond the calibrated rates or temperatures: held to the margin by the boost.
     t = features[:, columns]
-    t_excess = (np.maximum(low - t, 0.0) + np.maximum(t - high, 0.0)) / scale[columns]
+    b_low = np.array(domain["boost_temperature_low"])
+    b_high = np.array(domain["boost_temperature_high"])
+    t_excess = (np.maximum(b_low - t, 0.0) + np.maximum(t - b_high, 0.0)) / scale[columns]
     t_excess = t_excess / domain["boost_temperature_ramp"]
     novelty = np.sqrt(rate_squares / domain["boost_rate_ramp"] ** 2 + (t_excess**2).sum(axis=1))
     d = np.sqrt(d**2 + rate_squares) + domain["boost"] * np.minimum(novelty, 1.0)
@@ -884,3 +886,64 @@ def test_c_and_json_follow_every_term_of_a_plane_fallback(
         real=np.float64 if precision == "double" else np.float32,
     )
     _assert_close(c["streamed"], expected, RTOL if precision == "double" else 1e-4)
+
+
+@pytest.fixture(scope="module")
+def widened():
+    """A pipeline whose held-out runs let its model keep rows beyond the calibrated
+    temperatures (``handover=True`` on a drift that follows a lag: the linear model on the
+    features is exact, the fallback is not), and a colder and warmer excursion of it."""
+    frame = make_thermal_campaign(
+        n_units=1,
+        n_runs=6,
+        azimuths=[0.0],
+        sampling_period=120.0,
+        random_state=0,
+    ).frame
+    X = frame
+    features = make_compensation_pipeline(Ridge(1e-3))[0].fit(X)
+    lag = list(features.get_feature_names_out()).index("T_lag3600s")
+    y = 0.05 * np.asarray(features.transform(X))[:, lag]
+    # A small margin: the threshold the held-out runs calibrate lies above it, so that a
+    # row beyond the calibrated temperatures is held to the margin (boost_ > 0).
+    model = make_compensation_pipeline(Ridge(1e-3), margin=0.25, handover=True).fit(X, y)
+    excursion = pd.concat(
+        [
+            frame[frame["run"] == 0].assign(temperature=lambda t: t["temperature"] - 12.0),
+            frame[frame["run"] == 1].assign(run=9, temperature=lambda t: t["temperature"] + 12.0),
+        ],
+        ignore_index=True,
+    )
+    return model, excursion
+
+
+def test_exports_follow_a_domain_widened_by_held_out_evidence(widened, tmp_path):
+    model, excursion = widened
+    domain = model.domain_
+    assert model.handover_["temperatures below"]["keeps"]
+    assert np.all(domain.boost_low_ < domain.data_min_[domain.temperature_columns_])
+    assert domain.boost_ > 0
+    spec = json.loads(to_json(model, tmp_path / "model.json").read_text())["domain"]
+    assert spec["boost_temperature_low"] == domain.boost_low_.tolist()
+    features = np.asarray(model[0].transform(excursion), dtype=np.float64)
+    # Rows held to the margin and rows the evidence lets the model keep: both paths run.
+    beyond = domain.temperature_excess(features) > 0
+    temperatures = features[:, domain.temperature_columns_]
+    kept = beyond & np.all(
+        (temperatures >= domain.boost_low_) & (temperatures <= domain.boost_high_), axis=1
+    )
+    assert kept.sum() >= 10
+    assert (beyond & ~kept).sum() >= 10
+    network = model[1:].predict(features)
+    drift, distance, flag = _evaluate_domain(spec, features, network, model[1:].predict)
+    expected = model.calibration_distance(excursion)
+    np.testing.assert_array_equal(flag, model.outside_calibration(excursion))
+    atol = _distance_atol(model, expected)
+    np.testing.assert_allclose(distance, expected, rtol=RTOL, atol=atol)
+    _assert_close(drift, _quiet(model.predict, excursion))
+    if CC is None:
+        return
+    c = _run(_build(model, tmp_path), model, excursion)
+    np.testing.assert_array_equal(c["outside"], flag)
+    np.testing.assert_allclose(c["distance"], expected, rtol=RTOL, atol=atol)
+    _assert_close(c["streamed"], _quiet(model.predict, excursion))

@@ -223,6 +223,9 @@ def _domain_functions(writer, domain, prefix):
         writer.array("rate_scale", domain["rate_scale"], double=True)
         novelty = ""
         if domain["temperature_columns"] and domain.get("boost", 0.0):
+            low, high = domain["boost_temperature_low"], domain["boost_temperature_high"]
+            writer.array("boost_temperature_low", low, double=True)
+            writer.array("boost_temperature_high", high, double=True)
             novelty = TEMPERATURE_NOVELTY.substitute(names)
         parts.append(DOMAIN_RATES.substitute(names, temperature_novelty=novelty))
         distance = f"{prefix}_with_rates(features, box)"

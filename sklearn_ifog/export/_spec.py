@@ -76,6 +76,8 @@ ThermalFeatures outputs them, before any later step)::
       "rate_scale": [...],                   # their standard deviation over RATE_WEIGHT
       "boost": <float>,                      # threshold - margin: beyond the calibrated
                                              # rates or temperatures, held to the margin
+      "boost_temperature_low": [...], "boost_temperature_high": [...],   # where the
+                                             # temperature novelty starts
       "boost_rate_ramp": <float>,            # the novelty's scales (rho_r, rho_t): the
       "boost_temperature_ramp": <float>,     # boost in full at a novelty of 1
       "projection_rounds": <int>,            # rounds of "clip" with temperature columns
@@ -96,7 +98,8 @@ below the range, ``x[...] - rate_high_r`` above it, 0 inside; its distance is
 ``d = sqrt(b^2 + G^2) + boost * min(N, 1)`` with ``G^2 = sum_r (g_r / rate_scale_r)^2``
 and the novelty ``N^2 = (G / rho_r)^2 + sum_t (h_t / (rho_t scale[c_t]))^2``
 (``rho_r = boost_rate_ramp``, ``rho_t = boost_temperature_ramp``), ``h_t`` the excess of
-temperature column ``c_t`` beyond ``[temperature_low_t, temperature_high_t]`` (``d = b``
+temperature column ``c_t`` beyond ``[boost_temperature_low_t,
+boost_temperature_high_t]`` (``d = b``
 without rate columns or with every rate and temperature in its range: a rate
 the calibration never showed, such as a cooling row of a heating-only calibration, is
 outside even where the axes spread it within the margin). It is outside when

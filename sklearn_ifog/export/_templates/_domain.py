@@ -118,10 +118,10 @@ TEMPERATURE_NOVELTY = Template(
             const int column = ${prefix}_temperature_columns[t];
             const double value = features[column];
             double excess = 0.0;
-            if (value < ${prefix}_temperature_low[t]) {
-                excess = ${prefix}_temperature_low[t] - value;
-            } else if (value > ${prefix}_temperature_high[t]) {
-                excess = value - ${prefix}_temperature_high[t];
+            if (value < ${prefix}_boost_temperature_low[t]) {
+                excess = ${prefix}_boost_temperature_low[t] - value;
+            } else if (value > ${prefix}_boost_temperature_high[t]) {
+                excess = value - ${prefix}_boost_temperature_high[t];
             }
             excess = excess / ${prefix}_domain_scale[column] / ${PREFIX}_BOOST_TEMPERATURE_RAMP;
             novelty += excess * excess;
