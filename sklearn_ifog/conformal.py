@@ -43,8 +43,10 @@ only on average over all rows. Three things differ from row-wise conformal predi
    ``python benchmarks/bench_conformal.py --quick`` (one campaign;
    ``benchmarks/results/conformal_quick.md``) covers 0.938-0.995 of the rows outside the
    domain on its four splits, calibrate-warm / predict-cold included (0.956, at 2.45 times
-   the width inside; 0.674 without the slope term), where the constant band
+   the width inside), where the constant band
    (``adaptive=False``, without them) and MAPIE's cover 0.405-0.947 of the same rows.
+   Without the slope term that split was covered 0.674 (``conformal.md`` row "lumped seed 0
+   | warm->cold | ours" at commit a3eca12).
 
 Why this difficulty. On the nine campaigns of ``benchmarks/bench_conformal.py`` it was
 chosen on (three physics presets x seeds 0-2, 36 held-out folds; that benchmark also runs
@@ -57,9 +59,10 @@ The check's variants leave out the band's terms outside the calibration domain (
 none of them alone holds the runs calibrated warm and tested 7 to 14 degC colder on the glass
 transition: the default difficulty's lowest coverage there is 0.638 and 0.695 on the two
 seed sets (0.626 and 0.679 without the widening), at a mean width 1.15 and 1.13 times the
-oracle's (see the user guide for the table); with those terms the estimator covers that
+oracle's (see the user guide for the table). With those terms the estimator covers that
 split at least 0.942 on seeds 0-2 (``python benchmarks/bench_conformal.py``). The held-out
-folds that still fall below 0.85 (2 of 36, 2 of 24) are whole runs, or a whole heading's
+folds that still fall below 0.85 (2 of 36, and 2 of 24 on seeds 3-4,
+``conformal_difficulty.md``) are whole runs, or a whole heading's
 runs, offset by about one calibration r.m.s. error (a turn-on bias, a thermal history the
 model fits badly): nothing visible at prediction time ranks them (the same script's
 fold-level correlations), so no difficulty model can widen the band for them alone; only a
