@@ -222,10 +222,10 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
     paper's (T, dT, T·dT), the units carry them (kept in 11 or 12 of 12 folds there). Where
     the held-out excess comes from (``python benchmarks/rbf_variance_check.py --n-jobs 2``,
     ``benchmarks/results/rbf_variance.md``): a linear model on the default features fitted
-    to the training runs' *true* drift leaves 0.001-0.075 of the floor on the held-out
-    azimuths, fitted to their noisy rates 0.005-0.106, and a degree-2 polynomial of the
-    features fitted to the noisy rates 0.052-0.26. Most of the excess is estimation
-    variance, and only the glass transition at 60 s leaves a bias (0.075) for Gaussian
+    to the training runs' *true* drift leaves 0.001-0.0754 of the floor on the held-out
+    azimuths, fitted to their noisy rates 0.0051-0.106, and a degree-2 polynomial of the
+    features fitted to the noisy rates 0.0515-0.26. Most of the excess is estimation
+    variance, and only the glass transition at 60 s leaves a bias (0.0754) for Gaussian
     units to remove.
 
     The default refinement is variable projection: it moves centres and widths with the
@@ -238,13 +238,13 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
     sample period. A refinement is kept only when it beats the selected network on the
     held-out rows by more than one standard error of the paired difference, since early
     stopping chose it on those same rows: that guard took the default's pooled MSD over
-    the floor on the layered presets from 1.005-1.083 to 1.003-1.080 (same benchmark,
-    before it at commit b2bcca9). ``fit(..., groups=runs)`` holds whole runs out for the
+    the floor on the layered presets from 1.005-1.083 to 1.003-1.080
+    (``thermal_state.md``; before it at commit b2bcca9). ``fit(..., groups=runs)`` holds whole runs out for the
     selection and the refinement; ``python benchmarks/rbf_run_folds_check.py --n-jobs 2``
     measures it (``benchmarks/results/rbf_run_folds.md``): on the thermal-state campaigns
     it is better only on the glass transition at 60 s, so it is not the default, but it
     brings the refinement's worst held-out loss against the unrefined network on the
-    campaigns of ``tests/test_refine_holdout.py`` from 2.716 to 1.029 (varpro);
+    campaigns of ``tests/test_refine_holdout.py`` from 1.521 to 1.015 (varpro);
     ``tests/test_refine_holdout.py`` records campaigns where varpro and Levenberg–Marquardt
     end worse than the unrefined network on held-out runs (strict expected failures):
     refinement lowers the training objective, not always the error on other runs.
