@@ -25,7 +25,7 @@ What is measured
 Data sets (targets of the test sets are noise-free, so "test MSE" is the error against the true
 function):
 
-- ``smooth``: the issue's y = sin 3x₀ + x₁x₂ + 0.5 cos 2x₂ + N(0, 0.05²), x uniform in
+- ``smooth``: the issue's ``y = sin 3x₀ + x₁x₂ + 0.5 cos 2x₂ + N(0, 0.05²)``, x uniform in
   [-1, 1]³; N = 1e3, 1e4, 1e5, 1e6 training rows, 1e4 test rows.
 - ``friedman1``: :func:`sklearn.datasets.make_friedman1` with 5 features (noise 1.0);
   N = 1e3, 1e4, 1e5; test targets from the same function with ``noise=0``.
@@ -51,7 +51,7 @@ parameters at their defaults except ``learning_rate=GD_LEARNING_RATE`` for "gd")
 each in a Pipeline with StandardScaler and with the target standardised
 (TransformedTargetRegressor), only up to the sizes where they fit in time and memory:
 KernelRidge (rbf kernel, gamma = 1/n_features, alpha=1e-2; N ≤ 1e4), SVR (C=10,
-epsilon=0.05 in standardised target units; N ≤ 1e4), GaussianProcessRegressor (constant × ARD
+``epsilon=0.05`` in standardised target units; N ≤ 1e4), GaussianProcessRegressor (constant × ARD
 RBF + white noise, hyperparameters optimised; N ≤ 1e3: at 1e4 its gradient needs one 1e4²
 matrix per hyperparameter, several GB), MLPRegressor(hidden_layer_sizes=(20,), other parameters
 at their defaults; N ≤ 1e5), Nystroem(300 components) + Ridge (N ≤ 1e5) and degree-3

@@ -393,8 +393,9 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     towards a lot unlike it extrapolates worse than the unit's own model, which falls back
     outside its own calibration domain (``"none"``'s behaviour). The rule holds for
     single-run units too, from the strength they share: on lots of independent units
-    calibrated on one run each, the shrunk weights were 1.2 to 4.5 times worse than
-    ``"none"`` before it (``benchmarks/bench_unitwise.py``, seeds 5-7). The rule and its
+    calibrated on one run each, the shrunk weights were 1.21 to 4.51 times worse than
+    ``"none"`` before it (``python benchmarks/bench_unitwise.py --jobs 2`` at commit
+    d7ba442, seeds 5-7). The rule and its
     spread were chosen on seeds 0-4 (``benchmarks/unitwise_selection.py``, rules
     ``chosen_far_spread2`` / ``3`` / ``4`` and the previous ``chosen_far_multi_run``);
     ``benchmarks/bench_unitwise.py`` scores them on seeds 5-7. The distance is counted in
@@ -891,8 +892,8 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             # The shrunk layer keeps the lot model's domain and fallback: it pools the lot's
             # calibration, which covers more than the unit's own runs. With the unit's own
             # domain (at commit 0bba43d), `python benchmarks/bench_unitwise.py --jobs 2` (then on
-            # seeds 0-2) had "partial" up to 8.6 x the better of "none" and "full" on similar
-            # lots.
+            # seeds 0-2) had "partial" several times the better of "none" and "full" on
+            # similar lots.
             models[unit] = with_weights(lot, weights)
         return models
 
