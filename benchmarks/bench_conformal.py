@@ -12,12 +12,13 @@ methods are calibrated on the fold's training runs only, with the same drift mod
 ``RBFNetRegressor(refine=None, criterion="holdout")`` inside (no refinement and a one-split
 choice of centres and width: about five times cheaper to fit, for speed), at 90 % nominal
 coverage, on campaigns of one unit, four azimuths, three runs each, 300 s samples, for each
-physics preset (lumped, layered, layered_glass) and seeds 0, 1, 2 and 8, 9, 10
-(``_cases.conformal_campaign``, ``_cases.SEEDS["bench_conformal"]``). A seed draws
+physics preset (lumped, layered, layered_glass) and seeds 0, 1, 2 and 4211, 4212, 4213
+(``_cases.conformal_campaign``, ``_cases.SEEDS["bench_conformal"]``; the judged seeds are
+fresh in issue 42, 8-10 judged before and are retired). A seed draws
 the gyro: ConformalRegressor's difficulty model, its reference and ``confidence`` were
 chosen on seeds 0-2 (``benchmarks/conformal_difficulty_check.py``) and the calibration
 domain's margin and blend on seeds 0-7 (``benchmarks/bench_extrapolation.py --tune``), so
-seeds 8-10 are held out from every choice (the two groups are summarised apart). The
+seeds 4211-4213 are held out from every choice (the two groups are summarised apart). The
 methods:
 
 - ``ours``: :class:`~sklearn_ifog.ConformalRegressor` (run-wise, adaptive, CV+),
@@ -87,7 +88,7 @@ from _cases import (  # isort: skip
     conformal_real,
 )
 from _results import add_out_argument, command_line, publish, read_results  # isort: skip
-from _verdict import target_line  # isort: skip
+from _verdict import target_line, verdict_line  # isort: skip
 
 NOMINAL = 0.9
 # Coverage on rows outside the calibration domain may fall this far below NOMINAL.
@@ -117,7 +118,7 @@ SETTINGS = {"ours_cv": "groupkfold5"}
 # A seed of make_thermal_campaign draws the gyro itself. ConformalRegressor's difficulty
 # model, reference and confidence were chosen on seeds 0-2 of these campaigns
 # (benchmarks/conformal_difficulty_check.py), the calibration domain's margin and blend on
-# seeds 0-7 (benchmarks/bench_extrapolation.py --tune): seeds 8-10 judge them on gyros none
+# seeds 0-7 (benchmarks/bench_extrapolation.py --tune): seeds 4211-4213 judge them on gyros none
 # of that saw. Both groups are run and reported apart; every target holds on every campaign.
 CHOSEN_SEEDS = SEEDS["bench_conformal"]["tuning"]
 HELD_OUT_SEEDS = SEEDS["bench_conformal"]["judged"]
@@ -422,12 +423,14 @@ def _physics_of(key):
     return key.rsplit(" seed ", 1)[0]
 
 
-def lot_interval_targets(results):
+def lot_interval_targets(results, quick=False):
     """The issue's targets on a lot's intervals, per seed group: (lines, verdicts).
 
     With ``confidence=0.8`` (``ours_c08``), the share of the held-out runs (every run of
     every held-out fold) covered at least RUN_COVERAGE; and, per physics, the mean over the
-    held-out folds of ``ours``' width over the oracle's against WIDTH_LIMITS.
+    held-out folds of ``ours``' width over the oracle's against WIDTH_LIMITS. With
+    ``quick`` the share is not judged (INFO): one campaign's 12 runs cannot resolve a 95 %
+    rate (one miss is 92 %).
     """
     campaigns = {key: value for key, value in results.items() if not key.startswith("real")}
     lines = [
@@ -479,10 +482,11 @@ def lot_interval_targets(results):
             )
         share = float(np.mean(np.array(pooled["ours_c08"]) >= RUN_COVERAGE))
         verdicts.append(
-            target_line(
+            verdict_line(
                 share >= RUN_SHARE,
                 f"seeds {label}: with confidence={LOT_CONFIDENCE}, held-out runs covered >= "
                 f"{RUN_COVERAGE}: {share:.3f} of {len(pooled['ours_c08'])} >= {RUN_SHARE}",
+                not quick,
             )
         )
     return lines, verdicts
@@ -644,7 +648,7 @@ def main(argv=None):
     failures = check_targets(results)
     run_failures, lowest_run, worst_run = out_of_range_target(results)
     outside_failures, lowest, where = domain_target(results)
-    lot_lines, lot_verdicts = lot_interval_targets(results)
+    lot_lines, lot_verdicts = lot_interval_targets(results, args.quick)
     command = command_line(__file__, argv)
     all_failures = (
         failures

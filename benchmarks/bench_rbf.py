@@ -30,8 +30,8 @@ function):
 - ``friedman1``: :func:`sklearn.datasets.make_friedman1` with 5 features (noise 1.0);
   N = 1e3, 1e4, 1e5; test targets from the same function with ``noise=0``.
 - ``thermal``: :func:`sklearn_ifog.datasets.make_thermal_campaign` (3 units, 4 azimuths, 3 runs
-  each, one sample a minute, the default "layered" physics), seeds 8, 9 and 10
-  (``SEEDS["bench_rbf"]["judged"]``, one worker each), through
+  each, one sample a minute, the default "layered" physics), seeds 4231, 4232 and 4233
+  (``SEEDS["bench_rbf"]["judged"]``, fresh in issue 42; one worker each), through
   ``ThermalFeatures(time="time", run="run")`` (its default thermal-state terms);
   leave-one-azimuth-out within each unit (12 folds a seed); the score is the MSD of the
   compensated rate, ``mean((rate - prediction - reference)²)`` on the held-out runs. Folds
@@ -44,7 +44,11 @@ function):
   the ``LinearRegression`` peer.
 
 ``--quick``: smooth and friedman1 at N = 300 only, without the Gaussian process; thermal on
-one unit of seed 8 with one run per azimuth (4 folds).
+one unit of seed 0 (a tuning seed: a smoke run never reads a judged gyro) with one run per
+azimuth (4 folds). At that size "beats the best baseline" cannot be judged (4 folds of one
+run): it prints as ``INFO``, and the quick run's thermal target is a regression guard
+instead: the default network's mean MSD at most ``QUICK_LINEAR_RATIO`` times that of
+``LinearRegression`` in the same pipeline (its own linear tail).
 
 Models: ``RBFNetRegressor`` with each ``refine`` mode (None, "varpro", "lm", "gd"; all other
 parameters at their defaults except ``learning_rate=GD_LEARNING_RATE`` for "gd") and the peers,
@@ -102,7 +106,7 @@ from _cases import (  # isort: skip
     rbf_thermal_campaign,
 )
 from _results import add_out_argument, command_line, publish, read_results, write_results  # isort: skip
-from _verdict import TIE_MARGIN, compare, comparison_line, target_line  # isort: skip
+from _verdict import TIE_MARGIN, compare, comparison_line, target_line, verdict_line  # isort: skip
 
 GD_LEARNING_RATE = 0.3
 REFINE_MODES = (None, "varpro", "lm", "gd")
@@ -115,7 +119,12 @@ WORKER_TIMEOUT = 420  # seconds per (data set, N) worker
 # (benchmarks/bench_extrapolation.py --tune). The thermal targets are scored on neither.
 TUNING_SEEDS = SEEDS["bench_rbf"]["tuning"]
 THERMAL_SEEDS = SEEDS["bench_rbf"]["judged"]
-QUICK_THERMAL_SEEDS = THERMAL_SEEDS[:1]
+QUICK_THERMAL_SEEDS = TUNING_SEEDS[:1]
+# --quick's thermal guard: the default network's mean MSD at most this times LinearRegression's
+# in the same pipeline (its own linear tail). Four folds of one run cannot resolve the full
+# run's 2 % margin (a network fitted on one run per azimuth may lose a few percent to its
+# tail); a broken network (widths, selection, refinement) is off by multiples.
+QUICK_LINEAR_RATIO = 1.5
 # Largest training size at which each peer runs.
 PEER_LIMITS = {
     "KernelRidge": 10_000,
@@ -497,8 +506,12 @@ def _extra(results, dataset, n):
     return None
 
 
-def evaluate_targets(results):
-    """The issue's targets, each with its measured value, threshold and verdict."""
+def evaluate_targets(results, quick=False):
+    """The issue's targets, each with its measured value, threshold and verdict.
+
+    With ``quick``, the thermal "beats the best baseline" targets are not judged (``judged``
+    False: printed as INFO) and the quick guard (no worse than ``LinearRegression``) is.
+    """
     targets = []
     default = None
     for result in results:
@@ -507,8 +520,14 @@ def evaluate_targets(results):
             break
     rbf = rbf_name(default)
 
-    def add(name, value, threshold, strict=False):
-        target = {"target": name, "value": None, "threshold": threshold, "strict": strict}
+    def add(name, value, threshold, strict=False, judged=True):
+        target = {
+            "target": name,
+            "value": None,
+            "threshold": threshold,
+            "strict": strict,
+            "judged": judged,
+        }
         if value is not None and np.isfinite(value):
             target["value"] = float(value)
         ok = None
@@ -579,7 +598,15 @@ def evaluate_targets(results):
             worst_ratio,
             1.0 - TIE_MARGIN,
             strict=True,
+            judged=not quick,
         )
+        if quick and "LinearRegression" in summary:
+            add(
+                f"thermal LOAO, {seeds}: RBF mean MSD / LinearRegression's in the same "
+                f"pipeline (quick guard: a broken network is off by multiples)",
+                ours["mean_msd"] / summary["LinearRegression"]["mean_msd"],
+                QUICK_LINEAR_RATIO,
+            )
         if ours["mean_msd_extrapolating"] is not None:
             ratio = max(
                 ours["mean_msd_extrapolating"] / summary[b]["mean_msd_extrapolating"]
@@ -590,6 +617,7 @@ def evaluate_targets(results):
                 ratio,
                 1.0 - TIE_MARGIN,
                 strict=True,
+                judged=not quick,
             )
         if len(thermal["seeds"]) > 1:
             per_seed = []
@@ -758,6 +786,8 @@ def markdown(results, targets, elapsed, command, threads):
     ]
     for target in targets:
         verdict = "n/a" if target["ok"] is None else ("PASS" if target["ok"] else "FAIL")
+        if target["ok"] is not None and not target.get("judged", True):
+            verdict = f"INFO ({'held' if target['ok'] else 'did not hold'})"
         lines.append(
             f"| {target['target']} | {_fmt(target['value'], 4)} "
             f"| {'<' if target.get('strict') else '≤'} {_fmt(target['threshold'])} "
@@ -991,7 +1021,7 @@ def main(argv=None):
             command=command,
             seconds=elapsed,
         )
-    targets = evaluate_targets(results)
+    targets = evaluate_targets(results, args.quick)
     record["targets"] = targets
     record["refine_summary"] = refine_summary(results)
     record["refine_verdict"] = refine_verdict(results)
@@ -1011,10 +1041,10 @@ def main(argv=None):
             # Not measured: only --quick may skip a target's sizes.
             failed |= not args.quick
             continue
-        verdicts.append(
-            target_line(target["ok"], f"{target['target']} ({_fmt(target['value'], 4)})")
-        )
-        failed |= not target["ok"]
+        judged = target.get("judged", True)
+        text = f"{target['target']} ({_fmt(target['value'], 4)})"
+        verdicts.append(verdict_line(target["ok"], text, judged))
+        failed |= judged and not target["ok"]
     verdicts += lines
     publish(
         args.out,

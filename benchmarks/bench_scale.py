@@ -1,12 +1,15 @@
 """A production line's scale: what a lot of gyros costs to fit, serially and in parallel.
 
-Run (about 7 minutes on two cores)::
+Run (about 9 minutes on two cores)::
 
     .venv/bin/python benchmarks/bench_scale.py
 
-``--quick`` (CI): 2, 3 and 4 units of 2 runs at 600 s sampling, the same targets (which need
-not hold at that size). Writes ``benchmarks/results/scale[_quick].md`` and ``.json``
-(``--out DIR`` elsewhere). The lots are built in ``_cases.py`` (its ``bench_scale`` section).
+``--quick`` (CI): 2, 3 and 4 units of 2 runs at 600 s sampling, lots of the tuning seed. At
+that size only the Dask target is judged (a regression guard: equal predictions); the timing
+targets print as ``INFO`` (a toy lot's timings say nothing about a lot's). Writes
+``benchmarks/results/scale[_quick].md`` and ``.json`` (``--out DIR`` elsewhere). The lots
+are built in ``_cases.py`` (its ``bench_scale`` section; the full run draws them with the
+judged seed of ``SEEDS["bench_scale"]``).
 
 Measures ``UnitwiseRegressor`` around the default pipeline
 (``make_compensation_pipeline(RBFNetRegressor(random_state=0))``) on simulated lots of similar
@@ -18,10 +21,15 @@ units (``make_thermal_campaign``, one azimuth, ``--runs`` runs of about 280 rows
 - ``pooling="partial"`` (the default) on 10 units against ``"none"`` on the same lot, and on
   100 units in seconds;
 - ``n_jobs=2`` against serial (``n_jobs=None``) on 30 units with ``"none"``, the worker
-  processes started beforehand (their start-up timed on its own), the median ratio of three
+  processes started beforehand (their start-up timed on its own), in ``PARALLEL_PAIRS``
   pairs of fits timed back to back (serial, then parallel; one pair in ``--quick``), with
-  the cores this process sees, the load average before the run, and how many cores a
-  serial fit already keeps busy (numpy's BLAS threads);
+  the cores this process sees, the load average before the pairs, and how many cores a
+  serial fit already keeps busy (numpy's BLAS threads). **The judged statistic**, fixed in
+  issue 42 before the measurement it judges and not to be changed after one is seen: the
+  median of the five ratios (n_jobs=2 time / serial time) of five pairs. Every pair (both
+  times and its ratio) is printed in the results table and in the target's line. (Before,
+  the protocol had moved from one measurement, which failed, to the median of three pairs,
+  which passed: a statistic chosen after its result.)
 - a two-worker Dask ``LocalCluster`` (``joblib.parallel_config(backend="dask")``) against
   serial on 10 units: the largest absolute difference of the predictions.
 
@@ -30,8 +38,8 @@ Targets (issue 26; a FAIL line each, exit 1 when one fails):
 - ``"partial"`` fit <= 3 x ``"none"`` on 10 units;
 - 100 units with the default pooling in <= 300 s;
 - ``"none"``: fitted exponent of time against units <= 1.1;
-- ``n_jobs=2`` <= 0.6 x serial on 30 units (meaningful on an idle machine with two cores or
-  more: the cores and the load are printed beside it);
+- ``n_jobs=2`` <= 0.6 x serial on 30 units, the median ratio of the five pairs (meaningful
+  on an idle machine with two cores or more: the cores and the load are printed beside it);
 - Dask equal to serial within 1e-12.
 
 The network's own scale (fit and predict at 1e6 rows against its peers) is measured by
@@ -51,10 +59,10 @@ import numpy as np
 from sklearn_ifog import RBFNetRegressor, UnitwiseRegressor, make_compensation_pipeline
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _cases import SEEDS, scale_sizes
 from _cases import scale_lot as lot
-from _cases import scale_sizes
 from _results import add_out_argument, command_line, write_results
-from _verdict import exit_code, target_line
+from _verdict import exit_code, verdict_line
 
 PARTIAL_RATIO = 3.0  # "partial" fit <= 3 x "none"
 LARGE_LOT_SECONDS = 300.0  # 100 units with the default pooling
@@ -62,8 +70,9 @@ UNIT_EXPONENT = 1.1  # "none": time ~ units ** exponent
 PARALLEL_RATIO = 0.6  # n_jobs=2 against serial
 # Pairs of fits (serial, then n_jobs=2, back to back on the same lot) whose median ratio is
 # judged: a serial fit timed early against a parallel one timed minutes later moved from run
-# to run, on an idle two-core machine, by more than its margin to the target.
-PARALLEL_PAIRS = 3
+# to run, on an idle two-core machine, by more than its margin to the target. Five, fixed
+# in issue 42 before measuring (see the module docstring).
+PARALLEL_PAIRS = 5
 DASK_TOLERANCE = 1e-12
 
 
@@ -102,11 +111,12 @@ def dask_difference(X, y):
         return float(np.max(np.abs(spread.predict(X) - serial.predict(X))))
 
 
-def measure(units, n_runs, sampling_period, log=print):
-    """Every timing of the module docstring, in turn."""
+def measure(units, n_runs, sampling_period, seed, log=print):
+    """Every timing of the module docstring, in turn, on lots drawn with ``seed``."""
     small, middle, large = units
     record = {"cores": os.cpu_count(), "load_before": os.getloadavg()[0], "none": {}}
-    lots = {n: lot(n, n_runs, sampling_period) for n in units}
+    record["seed"] = seed
+    lots = {n: lot(n, n_runs, sampling_period, seed) for n in units}
     record["rows_per_unit"] = int(lots[small][0].shape[0] / small)
     cpu = {}
     for n in units:
@@ -132,9 +142,11 @@ def measure(units, n_runs, sampling_period, log=print):
         parallel, _ = timed_fit(*lots[middle], "none", n_jobs=2)
         record["parallel_pairs"].append([serial, parallel])
         log(f"{middle} units, serial {serial:.1f} s, n_jobs=2 {parallel:.1f} s")
-    pair = sorted(record["parallel_pairs"], key=lambda p: p[1] / p[0])[
-        len(record["parallel_pairs"]) // 2
-    ]
+    ratios = [parallel / serial for serial, parallel in record["parallel_pairs"]]
+    record["parallel_ratios"] = ratios
+    # the judged statistic: the median of the pairs' ratios (an odd count: one pair's)
+    record["parallel_ratio"] = float(np.median(ratios))
+    pair = sorted(record["parallel_pairs"], key=lambda p: p[1] / p[0])[len(ratios) // 2]
     record["parallel_middle"] = pair[1]
     record["parallel_serial"] = pair[0]
     record["dask_difference"] = dask_difference(*lots[small])
@@ -145,39 +157,48 @@ def measure(units, n_runs, sampling_period, log=print):
     return record
 
 
-def checks(record, units):
+def checks(record, units, quick=False):
+    """``(passed, text, judged)`` per target; with ``quick`` only the Dask one is judged."""
     small, middle, large = units
     ratio_partial = record["partial_small"] / record["none"][small]
-    ratio_parallel = record["parallel_middle"] / record.get(
-        "parallel_serial", record["none"][middle]
+    ratio_parallel = record["parallel_ratio"]
+    pairs = ", ".join(
+        f"{serial:.2f} s / {parallel:.2f} s = {parallel / serial:.3f}"
+        for serial, parallel in record["parallel_pairs"]
     )
+    timing = not quick
     return [
         (
             ratio_partial <= PARTIAL_RATIO,
             f"partial fit <= {PARTIAL_RATIO:g} x none on {small} units ({ratio_partial:.3f})",
+            timing,
         ),
         (
             record["partial_large"] <= LARGE_LOT_SECONDS,
             f"{large} units with the default pooling in <= {LARGE_LOT_SECONDS:g} s "
             f"({record['partial_large']:.1f} s)",
+            timing,
         ),
         (
             record["unit_exponent"] <= UNIT_EXPONENT,
             f"none: fit time ~ units ** exponent, exponent <= {UNIT_EXPONENT:g} "
             f"({record['unit_exponent']:.3f})",
+            timing,
         ),
         (
             ratio_parallel <= PARALLEL_RATIO,
-            f"n_jobs=2 <= {PARALLEL_RATIO:g} x serial on {middle} units, the median of "
-            f"{len(record.get('parallel_pairs', [0]))} pairs timed back to back "
-            f"({ratio_parallel:.3f}; "
+            f"n_jobs=2 <= {PARALLEL_RATIO:g} x serial on {middle} units, the median ratio of "
+            f"{len(record['parallel_pairs'])} pairs timed back to back "
+            f"({ratio_parallel:.3f}; pairs serial / n_jobs=2: {pairs}; "
             f"{record['cores']} cores seen, load {record['load_parallel']:.2f}, a serial fit "
             f"keeps {record['serial_cores_used']:.2f} cores busy)",
+            timing,
         ),
         (
             record["dask_difference"] <= DASK_TOLERANCE,
             f"two-worker Dask cluster equal to serial within {DASK_TOLERANCE:g} "
             f"({record['dask_difference']:.3g})",
+            True,
         ),
     ]
 
@@ -189,8 +210,9 @@ def markdown(record, units, lines, command, seconds):
         "# A production line's scale",
         "",
         f"Command: `{command}` ({seconds:.0f} s). {record['cores']} cores seen, load average "
-        f"{record['load_before']:.2f} before the run; about {record['rows_per_unit']} rows per "
-        "unit. See the script's docstring for the lots and the targets.",
+        f"{record['load_before']:.2f} before the run; lots of seed {record['seed']}, about "
+        f"{record['rows_per_unit']} rows per unit. See the script's docstring for the lots "
+        "and the targets.",
         "",
         "| fit | units | seconds | per unit |",
         "|---|---|---|---|",
@@ -206,14 +228,16 @@ def markdown(record, units, lines, command, seconds):
         f"{record['partial_large'] / large:.3f} |"
     )
     out.append(
-        f"| none, n_jobs=2 | {middle} | {record['parallel_middle']:.2f} | "
+        f"| none, n_jobs=2 (the median pair) | {middle} | {record['parallel_middle']:.2f} | "
         f"{record['parallel_middle'] / middle:.3f} |"
     )
     pairs = record.get("parallel_pairs", [])
     if pairs:
         out += [
             "",
-            f"Serial and n_jobs=2 on {middle} units, back to back (the median ratio is judged):",
+            f"Serial and n_jobs=2 on {middle} units, every pair timed back to back (the "
+            f"judged statistic, fixed before measuring: the median of the {len(pairs)} ratios, "
+            f"{record['parallel_ratio']:.3f}):",
             "",
             "| pair | serial (s) | n_jobs=2 (s) | ratio |",
             "|---|---|---|---|",
@@ -245,11 +269,13 @@ def main(argv=None):
     add_out_argument(parser)
     args = parser.parse_args(argv)
     units, n_runs, period = scale_sizes(args.quick, args.runs)
+    seeds = SEEDS["bench_scale"]
+    seed = seeds["tuning"][0] if args.quick else seeds["judged"][0]
     start = time.perf_counter()
-    record = measure(units, n_runs, period)
+    record = measure(units, n_runs, period, seed)
     seconds = time.perf_counter() - start
-    verdicts = checks(record, units)
-    lines = [target_line(ok, text) for ok, text in verdicts]
+    verdicts = checks(record, units, args.quick)
+    lines = [verdict_line(ok, text, judged) for ok, text, judged in verdicts]
     command = command_line(__file__, argv)
     stem = "scale_quick" if args.quick else "scale"
     results = {
@@ -258,7 +284,9 @@ def main(argv=None):
         "sampling_period": period,
         "record": {k: v for k, v in record.items() if k != "none"},
         "none": {str(n): t for n, t in record["none"].items()},
-        "checks": [{"pass": bool(ok), "target": text} for ok, text in verdicts],
+        "checks": [
+            {"pass": bool(ok), "target": text, "judged": judged} for ok, text, judged in verdicts
+        ],
     }
     write_results(
         args.out,
@@ -271,7 +299,7 @@ def main(argv=None):
         verdicts=lines,
     )
     print("\n".join(lines))
-    return exit_code(ok for ok, _ in verdicts)
+    return exit_code(ok for ok, _, judged in verdicts if judged)
 
 
 if __name__ == "__main__":

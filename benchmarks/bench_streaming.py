@@ -1,8 +1,9 @@
 """Real time in the field: streaming latency, chunked throughput, C, and online recalibration.
 
-Run: ``python benchmarks/bench_streaming.py`` (5 seeds) or ``--quick`` (seed 0, fewer and
-shorter timing blocks). Writes ``benchmarks/results/bench_streaming[_quick].md`` and ``.json``
-(``--out DIR`` elsewhere; ``--output`` is the older spelling).
+Run: ``python benchmarks/bench_streaming.py`` (5 judged seeds, 4261-4265) or ``--quick``
+(seed 0, a tuning seed; fewer and shorter timing blocks). Writes
+``benchmarks/results/bench_streaming[_quick].md`` and ``.json`` (``--out DIR`` elsewhere;
+``--output`` is the older spelling).
 
 Everything is measured in one run, against peers of the same run (issue 13):
 
@@ -19,8 +20,8 @@ Everything is measured in one run, against peers of the same run (issue 13):
    ``"output"`` (``{prefix}_adapt`` on the samples with a reference, 30 % of them), compiled
    with ``cc -std=c99 -Wall -Wextra -Werror -O2``; time per sample, and the largest
    difference to Python over 10,000 samples relative to the largest drift.
-4. **An aged unit.** Per seed, one simulated unit (``_cases.streaming_aged_unit``, the seeds
-   of ``_cases.SEEDS["bench_streaming"]``; 60 s samples, "cycle" chamber profile:
+4. **An aged unit.** Per seed, one simulated unit (``_cases.streaming_aged_unit``, the
+   judged seeds of ``_cases.SEEDS["bench_streaming"]``; 60 s samples, "cycle" chamber profile:
    a calibration programme spans the operating range, low-high-low):
    6 calibration runs of the new unit; then the unit ages
    (:func:`sklearn_ifog.datasets.age_campaign`: bias +0.05 deg/h, thermal sensitivity
@@ -466,8 +467,9 @@ def main(argv=None):
     if shutil.which("cc") is None:
         raise SystemExit("bench_streaming needs a C compiler ('cc').")
     start = time.perf_counter()
-    seeds = SEEDS["bench_streaming"]["judged"]
-    seeds = seeds[:1] if args.quick else seeds
+    # the ageing study: the judged seeds, or with --quick the tuning seed (0)
+    register = SEEDS["bench_streaming"]
+    seeds = register["tuning"][:1] if args.quick else register["judged"]
     blocks, calls, min_seconds = (5, 100, 0.05) if args.quick else (41, 500, 1.0)
     model, _, step_times, chunk_times, _, n_centers = latency_study(blocks, calls)
     c_results = c_study(model, min_seconds)

@@ -60,12 +60,14 @@ are the campaigns on which the default features (terms, lags, smoothing) were ch
 same run on its ``judged`` seeds, on which no default was chosen, writes
 ``thermal_state_heldout.*``::
 
-    python benchmarks/bench_thermal_state.py --seeds 8 9 10 --tag heldout --n-jobs 2
+    python benchmarks/bench_thermal_state.py --seeds 4241 4242 4243 --tag heldout --n-jobs 2
 
 The campaigns are ``_cases.thermal_state_campaign``. ``--quick`` (CI, well under a minute
 of CPU): one seed, 120 s samples, four models, one run per (unit, azimuth), only the first
 azimuth of each campaign held out (``QUICK_FOLDS``), and on the real recording gyro x on
-every fourth sample (``_cases.REAL_QUICK_STEP``) with the even bursts training only. Writes
+every fourth sample (``_cases.REAL_QUICK_STEP``) with the even bursts training only; target
+1's floor ratios print as ``INFO`` there (one run per azimuth cannot be held to them), targets
+2, 4 and 5 are judged. Writes
 ``benchmarks/results/thermal_state[_quick].md`` and ``.json`` (``--out DIR`` elsewhere).
 """
 
@@ -98,7 +100,7 @@ from _cases import (  # isort: skip
     thermal_state_campaign,
 )
 from _results import add_out_argument, command_line, publish  # isort: skip
-from _verdict import comparison_line, exit_code, target_line  # isort: skip
+from _verdict import comparison_line, exit_code, verdict_line  # isort: skip
 
 TARGET_RATIO = {"layered": 1.25, "layered_glass": 3.0}
 STATE_GAIN = 2.0  # thermal residual, paper / state, on "layered"
@@ -369,6 +371,7 @@ def summarize(records, default_features):
                     f"{TARGET_RATIO[physics]:g}: {label}",
                     "value": ratio,
                     "pass": bool(ratio <= TARGET_RATIO[physics]),
+                    "kind": "floor",
                 }
             )
         if "paper|RBFNet" in cell and "state|RBFNet" in cell:
@@ -520,8 +523,9 @@ def markdown(records, summary, checks, header):
             lines.append("")
     lines += ["## Targets", ""]
     lines += [f"- {_check_line(check)}" for check in checks]
-    n_fail = sum(not check["pass"] for check in checks)
-    lines += ["", f"{len(checks) - n_fail} of {len(checks)} targets pass."]
+    judged = [check for check in checks if check.get("judged", True)]
+    n_fail = sum(not check["pass"] for check in judged)
+    lines += ["", f"{len(judged) - n_fail} of {len(judged)} judged targets pass."]
     return "\n".join(lines) + "\n"
 
 
@@ -532,7 +536,7 @@ def _check_line(check):
         if isinstance(value, float)
         else f"state {value[0]:.3f} vs paper {value[1]:.3f}"
     )
-    return target_line(check["pass"], f"{check['target']} ({shown})")
+    return verdict_line(check["pass"], f"{check['target']} ({shown})", check.get("judged", True))
 
 
 def main(argv=None):
@@ -578,7 +582,7 @@ def main(argv=None):
 
     quick = args.quick
     # The default run is on the seeds the default features were chosen on (the register's
-    # "tuning"); --seeds 8 9 10 --tag heldout judges them on its "judged" seeds.
+    # "tuning"); --seeds 4241 4242 4243 --tag heldout judges them on its "judged" seeds.
     tuning = list(SEEDS["bench_thermal_state"]["tuning"])
     seeds = args.seeds or (tuning[:1] if quick else tuning)
     physics_list = args.physics or list(PHYSICS)
@@ -609,6 +613,13 @@ def main(argv=None):
         step=_cases.REAL_QUICK_STEP if quick else 1,
     )
     checks += real_checks(real)
+    if quick:
+        # Target 1's floor ratios hold a calibration of three runs per azimuth; one run per
+        # azimuth and one fold cannot be judged against them (INFO). Targets 2, 4 and 5 stay
+        # judged: a broken default (or feature set) fails them at any size.
+        for check in checks:
+            if check.get("kind") == "floor":
+                check["judged"] = False
     elapsed = time.perf_counter() - started
     explicit = args.taus is not None or args.state_terms is not None
     state = feature_sets(args.taus, args.smoothing, args.state_terms)["state"]().fit(
@@ -672,7 +683,7 @@ def main(argv=None):
         seconds=elapsed,
         verdicts=verdicts,
     )
-    return exit_code(check["pass"] for check in checks)
+    return exit_code(check["pass"] for check in checks if check.get("judged", True))
 
 
 if __name__ == "__main__":

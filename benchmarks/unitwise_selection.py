@@ -55,8 +55,8 @@ test MSD over the better of "none" and "full" (bench_unitwise's target 1: <= 1.0
 seeds 0-2 (headed "benchmark seeds": the seeds bench_unitwise scored when the rules were
 chosen) and seeds 3-4 (headed "held-out seeds") separately. A diagnostic: no target, exit 0
 when it ran. Both seed sets were read when ``OWN_MODEL_SPREAD`` and the far-unit rule were
-chosen here, so neither is held out for them: ``bench_unitwise.py`` scores them on seeds 5-7
-(its ``SELECTION_SEEDS`` are these 0-4).
+chosen here, so neither is held out for them: ``bench_unitwise.py`` scores them on its
+judged seeds, 4221-4223 (its ``SELECTION_SEEDS`` are these 0-4).
 """
 
 import argparse

@@ -3,12 +3,15 @@
 Each script in ``benchmarks/`` runs in a subprocess with its results directory set to a
 temporary one (``--out``; ``benchmarks/results/`` must not change), and writes the one result
 format of ``benchmarks/_results.py`` (a Markdown file with its title and command line, a JSON
-file with the envelope and the verdict lines it printed). At quick size a target may
-legitimately fail (exit 1), so the tests assert the verdict lines' format and that the exit
-code agrees with them (1 exactly when a ``FAIL:`` line is printed), that every
-WIN/TIE/LOSS line's label agrees with its two scores and the tie margin (a tie is never a win),
-and that the results were written. Marked ``benchmark``: ``-m "not benchmark"`` leaves them
-out of a quick local run; the README's test command runs them.
+file with the envelope and the verdict lines it printed). A quick run must exit 0 with no
+``FAIL:`` line: its PASS/FAIL targets are the regression guards a broken default would fail
+at that size, and a target that cannot be judged there prints as ``INFO:`` (never a
+verdict). The one exception is a still-open issue's target that fails today (``KNOWN_OPEN``):
+it must keep failing, visibly, until its issue removes the entry. The tests also assert the
+verdict lines' format, that every WIN/TIE/LOSS line's label agrees with its two scores and
+the tie margin (a tie is never a win), and that the results were written. Marked
+``benchmark``: ``-m "not benchmark"`` leaves them out of a quick local run; the README's
+test command runs them.
 """
 
 import hashlib
@@ -30,7 +33,7 @@ from _verdict import LINE, TIE_MARGIN, compare  # noqa: E402
 sys.path.remove(str(BENCHMARKS))
 
 TIMEOUT = 1200  # seconds; a quick run takes seconds to a minute on an idle machine
-VERDICT = re.compile(r"^(PASS|FAIL|WIN|TIE|LOSS)\b")
+VERDICT = re.compile(r"^(PASS|FAIL|WIN|TIE|LOSS|INFO)\b")
 NUMBER = r"[-+]?(?:[0-9.]+(?:[eE][-+]?\d+)?|inf|nan)"
 SCORES = re.compile(
     rf": (?P<ours>{NUMBER}) vs (?P<theirs>{NUMBER}) \(ratio [^;]*;.*tie within (?P<margin>\d+)%\)"
@@ -127,6 +130,16 @@ QUICK_RUNS = {
 }
 
 
+# Targets of still-open issues that a quick run fails today, per script: (issue, a piece of
+# the FAIL line). Each must still fail (strict: when its issue fixes it, the entry goes);
+# any other FAIL line, or a non-zero exit without these, fails the test.
+KNOWN_OPEN = {
+    "bench_extrapolation": [
+        ("issue 41", "layered_glass seed 0, cycle, outside T: never worse than uncompensated"),
+    ],
+}
+
+
 def test_every_benchmark_script_has_a_quick_run():
     scripts = {path.stem for path in BENCHMARKS.glob("*.py") if not path.stem.startswith("_")}
     assert scripts == set(QUICK_RUNS)
@@ -219,13 +232,19 @@ def test_quick_run_completes_with_consistent_verdicts(script, tmp_path):
         timeout=TIMEOUT,
     )
     tail = (done.stdout[-3000:] + "\n--- stderr ---\n" + done.stderr[-3000:]).strip()
-    assert done.returncode in (0, 1), tail
     lines = [line for line in done.stdout.splitlines() if VERDICT.match(line)]
     for line in lines:
         assert LINE.match(line), line
     if has_targets:
         assert any(line.startswith(("PASS:", "FAIL:")) for line in lines), tail
-    failed = any(line.startswith("FAIL:") for line in lines)
+    # A broken default shows in CI: a quick run's targets are judged at its size, and pass
+    # (but for a still-open issue's, KNOWN_OPEN, which must still fail).
+    failed = [line for line in lines if line.startswith("FAIL:")]
+    known = KNOWN_OPEN.get(script, [])
+    unexpected = [line for line in failed if not any(piece in line for _, piece in known)]
+    assert not unexpected, "\n".join(unexpected) + "\n" + tail
+    for issue, piece in known:
+        assert any(piece in line for line in failed), f"{issue} fixed {piece!r}: drop it"
     assert done.returncode == (1 if failed else 0), tail
     for line in lines:
         if line.startswith(("WIN:", "TIE:", "LOSS:")):
@@ -253,20 +272,81 @@ def test_quick_run_completes_with_consistent_verdicts(script, tmp_path):
     assert _digest(results) == before, "a quick run wrote into benchmarks/results/"
 
 
-def test_the_seed_register_keeps_tuning_and_judging_apart():
-    """``benchmarks/_cases.SEEDS``: each entry names a script, says what its tuning seeds
-    chose, and judges on none of them."""
+def _cases_module():
     sys.path.insert(0, str(BENCHMARKS))
     try:
-        from _cases import SEEDS
+        import _cases
     finally:
         sys.path.remove(str(BENCHMARKS))
-    scripts = {path.stem for path in BENCHMARKS.glob("*.py")}
-    assert set(SEEDS) <= scripts, sorted(set(SEEDS) - scripts)
-    for script, groups in SEEDS.items():
-        assert set(groups) == {"tuning", "judged", "chose"}, script
+    return _cases
+
+
+def test_the_seed_register_covers_every_script():
+    """``benchmarks/_cases.SEEDS``: one entry per script, with its presets, its seed groups
+    and what its tuning seeds chose."""
+    cases = _cases_module()
+    scripts = {path.stem for path in BENCHMARKS.glob("*.py") if not path.stem.startswith("_")}
+    assert set(cases.SEEDS) == scripts, sorted(set(cases.SEEDS) ^ scripts)
+    for script, groups in cases.SEEDS.items():
+        assert set(groups) == {"physics", "tuning", "retired", "judged", "chose"}, script
+        assert set(groups["physics"]) <= set(cases.PHYSICS), script
         assert groups["chose"], script
-        assert not set(groups["tuning"]) & set(groups["judged"]), script
+        seeds = [*groups["tuning"], *groups["retired"], *groups["judged"]]
+        assert len(seeds) == len(set(seeds)), f"{script}: a seed in two groups"
+
+
+def _groups_holding(cases, gyro):
+    physics, seed = gyro
+    return sorted(
+        f"{script} ({group})"
+        for script, groups in cases.SEEDS.items()
+        for group in ("tuning", "retired", "judged")
+        if physics in groups["physics"] and seed in groups[group]
+    )
+
+
+def test_a_judged_gyro_is_tuned_on_by_no_script():
+    """A (physics, seed) gyro is the same gyro in every script: one that judges in any
+    script is tuning or retired in none (the refinement cases the tests share included)."""
+    cases = _cases_module()
+    judged = cases.gyros("judged")
+    assert judged, "no judged gyro at all"
+    clashes = judged & (cases.gyros("tuning") | cases.gyros("retired"))
+    assert not clashes, {gyro: _groups_holding(cases, gyro) for gyro in sorted(clashes)}
+
+
+def test_no_source_draws_a_judged_seed():
+    """The judged seeds are drawn by the benchmarks' judged runs only: no test, example or
+    package module uses one (a test that draws a judged gyro would be tuning on it)."""
+    cases = _cases_module()
+    judged = {
+        seed for groups in cases.SEEDS.values() if groups["physics"] for seed in groups["judged"]
+    }
+    word = re.compile(r"\b(" + "|".join(str(seed) for seed in sorted(judged)) + r")\b")
+    found = [
+        f"{path.relative_to(ROOT)}: {match.group(0)}"
+        for folder in ("tests", "examples", "sklearn_ifog")
+        for path in sorted((ROOT / folder).rglob("*.py"))
+        for match in word.finditer(path.read_text())
+    ]
+    assert not found, found
+
+
+def test_what_was_chosen_on_the_recording_names_what_exists():
+    """``_cases.REAL_RECORDING`` discloses each choice made on the shipped (judged)
+    recording: a constant it names exists where it says, a script it names is one."""
+    import importlib
+
+    cases = _cases_module()
+    assert cases.REAL_RECORDING
+    scripts = {path.stem for path in BENCHMARKS.glob("*.py")}
+    for key, text in cases.REAL_RECORDING.items():
+        assert text, key
+        if ":" in key:
+            module, name = key.split(":")
+            assert hasattr(importlib.import_module(module), name), key
+        else:
+            assert key in scripts, key
 
 
 def test_the_readme_lists_every_script():
