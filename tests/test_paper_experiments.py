@@ -11,7 +11,7 @@ claim is asserted on several campaign seeds (``SEEDS`` for the RBF network,
 campaign seeds 0-7 as measured by the committed command
 (the same default network and linear model as here)::
 
-    python benchmarks/paper_claim_check.py --regressors 'RBF default' \
+    python benchmarks/paper_claim_check.py --seeds 8 --regressors 'RBF default' \
         'linear thermal model' --noise-only --physics lumped --tag default
 
 (results in ``benchmarks/results/paper_claim_default.md``; "over seeds 0-7" below quotes
