@@ -1,5 +1,13 @@
-"""``tools/check_quoted_figures.py``: each quoted figure is in the results file it cites."""
+"""``tools/check_quoted_figures.py``: each quoted figure is in the one result its sentence cites.
 
+The fixture is shaped like the benchmarks' results (``_results.py``): a ``Command:`` line,
+Markdown tables of a few hundred figures, ``N of M`` counts in table cells, verdict lines,
+and a JSON file with the figures at full precision.
+"""
+
+import json
+import random
+import subprocess
 import sys
 from pathlib import Path
 
@@ -11,16 +19,88 @@ import check_quoted_figures as checker  # noqa: E402
 
 sys.path.remove(str(ROOT / "tools"))
 
+PHYSICS = ("lumped", "layered", "layered_glass")
+SEEDS = (0, 1, 2, 8, 9, 10)
+METHODS = ("ours", "ours_flat", "mapie_rows", "mapie_runs")
+
+
+def _coverage_rows(seed=0):
+    """``{(data, method): (mean coverage, worst fold, width / oracle)}``, drawn as a run would."""
+    rng = random.Random(seed)
+    return {
+        (f"{physics} seed {s}", method): (
+            round(rng.uniform(0.85, 0.99), 3),
+            round(rng.uniform(0.6, 0.95), 3),
+            round(rng.uniform(0.95, 1.5), 3),
+        )
+        for physics in PHYSICS
+        for s in SEEDS
+        for method in METHODS
+    }
+
+
+COVERAGE = _coverage_rows()
+
+
+def _conformal_md(split_coverage=0.810):
+    lines = [
+        "# Conformal intervals: ours vs MAPIE",
+        "",
+        "Command: `python benchmarks/bench_conformal.py` (455 s). 90 % nominal.",
+        "",
+        "| data | method | mean coverage | worst fold | width / oracle |",
+        "|---|---|---|---|---|",
+    ]
+    lines += [
+        f"| {d} | {m} | {a:.3f} | {b:.3f} | {c:.3f} |" for (d, m), (a, b, c) in COVERAGE.items()
+    ]
+    lines += [
+        "",
+        "| data | split | method | rows outside | coverage outside |",
+        "|---|---|---|---|---|",
+        f"| layered seed 2 | warm->cycle | ours | 462 | {split_coverage:.3f} |",
+        "| layered seed 2 | warm->cycle | ours_flat | 462 | 0.742 |",
+        "| layered_glass seed 8 | held-out folds | ours | 33 | 0.848 |",
+        "| lumped seed 1 | warm->cycle | ours_flat | 306 | 0.846 |",
+        "",
+        "| policy | outside T | first rule |",
+        "|---|---|---|",
+        "| blend (default) | 2 of 30 | 2 of 60 |",
+        "| clamp 1.5 | 3 of 30 | 4 of 60 |",
+        "",
+        "- PASS: lumped seed 0, warm->cold: coverage 0.956 on the 454 rows outside >= 0.85",
+        f"- FAIL: layered seed 2, warm->cycle: coverage {split_coverage:.3f} on the 462 rows "
+        "outside < 0.85",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def _write_results(results, split_coverage=0.810):
+    results.mkdir(parents=True, exist_ok=True)
+    (results / "conformal.md").write_text(_conformal_md(split_coverage))
+    cells = [
+        {"data": d, "method": m, "coverage": a + 1e-4} for (d, m), (a, _, _) in COVERAGE.items()
+    ]
+    (results / "conformal.json").write_text(
+        json.dumps({"benchmark": "bench_conformal", "results": {"cells": cells}})
+    )
+    (results / "conformal_quick.md").write_text(
+        "# Conformal intervals (quick)\n\nCommand: `python benchmarks/bench_conformal.py "
+        "--quick` (23 s).\n\n| data | method | mean coverage |\n|---|---|---|\n"
+        "| lumped seed 0 | ours | 0.903 |\n"
+    )
+    (results / "thermal_state.md").write_text(
+        "# Thermal state\n\nCommand: `python benchmarks/bench_thermal_state.py --n-jobs 2` "
+        "(510 s, n_jobs=2).\n\n| model | MSD/floor |\n|---|---|\n| RBFNet | 1.0371 |\n"
+        "| Ridge | 0.09757 |\n"
+    )
+    (results / "thermal_state.json").write_text('{"cells": [{"coverage": 0.8934}]}')
+
 
 @pytest.fixture
 def tree(tmp_path):
-    """A project with one results file and an empty docs folder."""
-    results = tmp_path / "benchmarks" / "results"
-    results.mkdir(parents=True)
-    (results / "thermal_state.md").write_text(
-        "| model | MSD/floor |\n|---|---|\n| RBFNet | 1.0371 |\n| Ridge | 0.09757 |\n"
-    )
-    (results / "thermal_state.json").write_text('{"cells": [{"coverage": 0.8934}]}')
+    """A project with real-shaped results and an empty docs folder."""
+    _write_results(tmp_path / "benchmarks" / "results")
     (tmp_path / "docs").mkdir()
     (tmp_path / "README.md").write_text("# Project\n")
     (tmp_path / "CHANGELOG.md").write_text("# Changelog\n")
@@ -28,37 +108,118 @@ def tree(tmp_path):
 
 
 def _page(tree, text):
-    (tree / "docs" / "page.rst").write_text(text)
-    failures, historical, checked = checker.check(tree)
-    return failures, historical, checked
+    (tree / "docs" / "page.rst").write_text("Title\n=====\n\n" + text)
+    return checker.check(tree)
 
 
-def test_found_figures_pass_at_their_own_precision(tree):
-    failures, _, checked = _page(
-        tree,
-        "Title\n=====\n\nMeasured by ``python benchmarks/bench_thermal_state.py``: the network "
-        "leaves 1.037 (1.04 rounded), the ratio is 0.0976, coverage 89.3 % (JSON).\n",
-    )
+def test_a_figure_is_checked_against_the_row_its_sentence_cites(tree):
+    # the changelog's stale 0.846: another row of the same file holds it
+    row = '``conformal.md`` row "layered seed 2 | warm->cycle | ours"'
+    failures, _, checked = _page(tree, f"Covered 0.810 ({row}).\n")
+    assert (failures, checked) == ([], 1)
+    failures, _, _ = _page(tree, f"Covered 0.846 ({row}).\n")
+    assert failures == [
+        'docs/page.rst:4: 0.846 not in conformal ("layered seed 2 | warm->cycle | ours")'
+    ]
+    failures, _, _ = _page(tree, "Covered 0.846 (``conformal.md``).\n")
     assert failures == []
-    assert checked == 4
 
 
-def test_a_figure_absent_from_the_cited_results_fails_with_file_and_line(tree):
+def test_a_row_is_named_by_its_leading_cells(tree):
+    # "ours" is not "ours_flat", "seed 1" is not "seed 10", and ``*`` stands for one cell
+    coverage = COVERAGE[("lumped seed 0", "ours")][0]
     failures, _, _ = _page(
         tree,
-        "Title\n=====\n\nResults in ``benchmarks/results/thermal_state.md``.\n\n"
-        "The network measures 1.038 and about 0.08x.\n",
+        f'Covered {coverage:.3f} (``conformal.md`` row "lumped seed 0 | ours"); 0.742 and 0.846 '
+        '(``conformal.md`` rows "* | warm->cycle | ours_flat").\n',
+    )
+    assert failures == []
+    failures, _, _ = _page(tree, 'Covered 0.742 (``conformal.md`` rows "layered seed 2").\n')
+    assert failures == []
+    failures, _, _ = _page(tree, 'Seen 0.742 (``conformal.md`` row "* | warm->cycle | ours").\n')
+    assert len(failures) == 1
+    seed_1 = COVERAGE[("lumped seed 1", "ours")][0]
+    seed_10 = COVERAGE[("lumped seed 10", "ours")][0]
+    assert seed_1 != seed_10
+    failures, _, _ = _page(
+        tree, f'Covered {seed_10:.3f} (``conformal.md`` row "lumped seed 1 | ours").\n'
+    )
+    assert len(failures) == 1
+
+
+def test_a_verdict_line_is_cited_by_its_opening_words(tree):
+    verdict = '``conformal.md`` verdict "FAIL: layered seed 2"'
+    assert _page(tree, f"Covered 0.810 ({verdict}).\n")[0] == []
+    assert len(_page(tree, f"Covered 0.956 ({verdict}).\n")[0]) == 1
+
+
+def test_counts_are_checked_in_the_cited_row(tree):
+    rows = '``conformal.md`` rows "clamp 1.5" and "blend (default)"'
+    assert _page(tree, f"The clamp fails 3 of 30, the blend 2 of 30 ({rows}).\n")[0] == []
+    failures, _, checked = _page(
+        tree, 'The clamp fails 4 of 30 and 6 of\n60 (``conformal.md`` row "clamp 1.5").\n'
+    )
+    assert checked == 2
+    assert [f.split(": ")[1] for f in failures] == [
+        '4 of 30 not in conformal ("clamp 1.5")',
+        '6 of 60 not in conformal ("clamp 1.5")',
+    ]
+
+
+def test_figures_are_checked_to_three_significant_digits(tree):
+    row = '``conformal.md`` row "layered seed 2 | warm->cycle | ours"'
+    # 0.81 and 81 % stand for 0.810 (to three digits); 0.8 and 0.85 do not
+    assert _page(tree, f"Covered 0.810, 81.0 % ({row}).\n")[0] == []
+    failures, _, _ = _page(tree, f"Covered 0.8, about 0.81 or 0.85 ({row}).\n")
+    assert [f.split(": ")[1].split(" ")[0] for f in failures] == ["0.8", "0.85"]
+    # a figure with more digits is checked to all of them (the JSON holds them)
+    assert _page(tree, "The network leaves 1.0371 and 1.037 (``thermal_state.md``).\n")[0] == []
+    assert len(_page(tree, "The network leaves 1.0372 (``thermal_state.md``).\n")[0]) == 1
+
+
+def test_a_command_cites_the_one_result_it_writes(tree):
+    failures, _, _ = _page(
+        tree,
+        "Quick: ``python benchmarks/bench_conformal.py --quick`` covers 0.903 and 0.846.\n\n"
+        "Full: ``python benchmarks/bench_thermal_state.py`` leaves 1.037.\n",
+    )
+    # --n-jobs changes no number, so the full thermal-state command is the committed one
+    assert failures == ["docs/page.rst:4: 0.846 not in conformal_quick"]
+    failures, _, _ = _page(
+        tree, "``python benchmarks/bench_conformal.py --seeds 99`` covers 0.903.\n"
     )
     assert failures == [
-        "docs/page.rst:6: 1.038 not in thermal_state",
-        "docs/page.rst:6: 0.08 not in thermal_state",
+        "docs/page.rst:4: 0.903 cites `python benchmarks/bench_conformal.py --seeds 99` "
+        "(no committed result)"
     ]
+
+
+def test_a_sentence_without_citation_uses_the_last_one_before_it(tree):
+    failures, _, checked = _page(
+        tree,
+        "The network leaves 1.037 (``thermal_state.md``). Ridge leaves 0.0976. The band\n"
+        'covers 0.810 (``conformal.md`` row "layered seed 2 | warm->cycle | ours"). It\n'
+        "also leaves 1.037.\n",
+    )
+    assert checked == 4
+    assert failures == [
+        'docs/page.rst:6: 1.037 not in conformal ("layered seed 2 | warm->cycle | ours")'
+    ]
+
+
+def test_a_selector_selects_something_and_follows_a_citation(tree):
+    failures, _, _ = _page(tree, 'Covered 0.810 (``conformal.md`` row "no such split").\n')
+    assert failures[0] == "docs/page.rst:4: no line of conformal holds ('no such split',)"
+    failures, _, _ = _page(
+        tree, 'Covered 0.810 (``conformal.md``); the worst row "layered seed 2" says so.\n'
+    )
+    assert failures == ['docs/page.rst:4: row "layered seed 2" follows no citation']
 
 
 def test_a_section_without_citation_and_code_are_not_checked(tree):
     failures, _, checked = _page(
         tree,
-        "Title\n=====\n\nA margin of 1.5 and a width of 2.25 are parameters.\n\n"
+        "A margin of 1.5 and a width of 2.25 are parameters.\n\n"
         "Other\n=====\n\nSee ``thermal_state.md``; run::\n\n    fit(margin=3.75)\n\n"
         "with ``alpha=4.5`` and a tolerance of 1e-12.\n",
     )
@@ -66,15 +227,42 @@ def test_a_section_without_citation_and_code_are_not_checked(tree):
     assert checked == 0
 
 
-def test_a_paragraph_citing_a_commit_is_historical(tree):
-    failures, historical, checked = _page(
-        tree,
-        "Title\n=====\n\nResults in ``thermal_state.md``: 1.037.\n\n"
-        "Before, it measured 1.232 (at\ncommit 768ed07).\n",
+def _git(root, *args):
+    return subprocess.run(
+        ["git", "-C", str(root), *args], capture_output=True, text=True, check=True
+    ).stdout.strip()
+
+
+def test_a_past_measurement_is_checked_at_its_commit(tree):
+    _git(tree, "init", "-q")
+    _git(tree, "-c", "user.name=t", "-c", "user.email=t@t", "add", "benchmarks")
+    _git(tree, "-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "results")
+    past = _git(tree, "rev-parse", "--short", "HEAD")
+    _write_results(tree / "benchmarks" / "results", split_coverage=0.822)
+    row = '``conformal.md`` row "layered seed 2 | warm->cycle | ours"'
+    failures, _, _ = _page(
+        tree, f"Now 0.822 ({row}). At commit {past} it was 0.810, and 0.846 was another split.\n"
     )
-    assert failures == []
-    assert checked == 1
-    assert historical == ["docs/page.rst:1: a paragraph cites a commit"]
+    # the commit's sentence reads the row at that commit and now; a row it never held fails
+    assert failures == [
+        f"docs/page.rst:4: 0.846 not in conformal, conformal@{past} "
+        '("layered seed 2 | warm->cycle | ours"; "layered seed 2 | warm->cycle | ours")'
+    ]
+    failures, _, _ = _page(tree, f"Before ({row} at commit deadbee) it was 0.810.\n")
+    assert failures[0] == (
+        'docs/page.rst:4: conformal "layered seed 2 | warm->cycle | ours" '
+        "was not committed at deadbee"
+    )
+
+
+def test_a_paragraph_marked_history_is_skipped_and_listed(tree):
+    failures, history, checked = _page(
+        tree,
+        "Results in ``thermal_state.md``: 1.037.\n\n"
+        "[history] A trial run that was not kept measured 1.232.\n",
+    )
+    assert (failures, checked) == ([], 1)
+    assert history == ["docs/page.rst:6: 1.232 [history]"]
 
 
 def test_docstring_doctest_output_is_not_prose(tree):
@@ -91,24 +279,85 @@ def test_docstring_doctest_output_is_not_prose(tree):
 
 def test_the_changelog_is_checked_entry_by_entry(tree):
     (tree / "CHANGELOG.md").write_text(
-        "# Changelog\n\n## [Unreleased]\n\n- Faster (``python benchmarks/bench_thermal_state.py``"
-        "): 0.0976x.\n- Another entry: 0.0977x, no citation.\n"
+        "# Changelog\n\n## [Unreleased]\n\n- Faster (`python benchmarks/bench_thermal_state.py"
+        "`): 0.0976x.\n- Another entry: 0.0977x, no citation.\n"
     )
     failures, _, checked = checker.check(tree)
     assert failures == []
     assert checked == 1
 
 
-def test_the_committed_tree_quotes_only_figures_its_results_hold():
-    failures, _, checked = checker.check()
-    assert failures == []
-    assert checked > 100
-
-
 def test_markdown_lines_are_reported_where_they_are(tree):
-    (tree / "README.md").write_text(
-        "# Project\n\nIntro.\n\n## Speed\n\n"
-        "Measured by ``python benchmarks/bench_thermal_state.py``:\n\n1.038 faster.\n"
+    (tree / "benchmarks" / "README.md").write_text(
+        "# Benchmarks\n\nIntro.\n\n## Speed\n\n"
+        "Measured by `python benchmarks/bench_thermal_state.py`:\n\n1.038 faster.\n"
     )
     failures, _, _ = checker.check(tree)
-    assert failures == ["README.md:9: 1.038 not in thermal_state"]
+    assert failures == ["benchmarks/README.md:9: 1.038 not in thermal_state"]
+
+
+def _random_figure(rng):
+    """The issue's probe: a 3-decimal figure in [0.5, 1.5]."""
+    return f"{rng.randint(500, 1500) / 1000:.3f}"
+
+
+def _pass_rate(quotes, seed, draws=200):
+    rng = random.Random(seed)
+    tried = [q for q in quotes if not q.is_count]
+    passed = sum(q.found(_random_figure(rng)) for q in tried for _ in range(draws))
+    return passed / (len(tried) * draws)
+
+
+def test_random_figures_rarely_pass_a_row_citation(tree):
+    # one sentence per row of the coverage table; each quotes the row's own coverage
+    sentences = [
+        f'Data {d}: {a:.3f} (``conformal.md`` row "{d} | {m}").'
+        for (d, m), (a, _, _) in COVERAGE.items()
+    ]
+    (tree / "docs" / "page.rst").write_text("Title\n=====\n\n" + "\n".join(sentences) + "\n")
+    quotes, problems, _ = checker.collect(tree)
+    assert problems == []
+    assert all(q.found() for q in quotes)
+    assert len(quotes) == len(COVERAGE)
+    rates = [_pass_rate(quotes, seed) for seed in (0, 1, 2)]
+    # measured: 0.31 % to 0.36 % of 14,400 random figures per seed (18 % cited to the file)
+    assert max(rates) <= 0.02, rates
+    # the same figures cited to the whole file: many random figures pass, as the issue found
+    whole = "\n".join(s.split(" (")[0] + " (``conformal.md``)." for s in sentences)
+    (tree / "docs" / "page.rst").write_text("Title\n=====\n\n" + whole + "\n")
+    wide_quotes, _, _ = checker.collect(tree)
+    assert _pass_rate(wide_quotes, seed=0) > 10 * max(rates)
+    assert len(checker.wide(wide_quotes)) == len(wide_quotes)
+    assert checker.wide(quotes) == []
+
+
+def test_acceptance_counts_the_grid_a_random_figure_is_drawn_on():
+    # 0.846 at three decimals: 847 figures from 0.423 to 1.269; two of them are in the values
+    assert checker.acceptance("0.846", False, {0.846, 1.2, 5.0}) == pytest.approx(2 / 847)
+    assert checker.acceptance("3 of 30", False, lines=["| 3 of 30 | 2 of 30 |"]) == 2 / 31
+    rng = random.Random(0)
+    drawn = [float(checker.random_like("0.846", rng)) for _ in range(2000)]
+    assert 0.423 <= min(drawn) < 0.45
+    assert 1.24 < max(drawn) <= 1.269
+    assert all(len(checker.random_like("3.53e-4", rng)) == 7 for _ in range(100))
+
+
+@pytest.fixture(scope="module")
+def committed():
+    return checker.collect()
+
+
+def test_the_committed_tree_quotes_only_figures_its_results_hold(committed):
+    quotes, problems, history = committed
+    failures, _, checked = checker._report(quotes, problems, history)
+    assert failures == []
+    assert checked > 400
+
+
+def test_random_figures_rarely_pass_the_committed_row_citations(committed):
+    quotes, _, _ = committed
+    pinned = [q for q in quotes if q.scope and all(s is not None for _, _, s in q.scope)]
+    assert len([q for q in pinned if not q.is_count]) >= 20
+    rates = [_pass_rate(pinned, seed) for seed in (0, 1, 2)]
+    # measured when written: 0.78 % to 1.05 % over 30 row-cited figures, 200 draws each
+    assert max(rates) <= 0.02, rates
