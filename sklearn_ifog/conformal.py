@@ -152,6 +152,43 @@ _DIFFICULTY_NEIGHBORS = 10
 _EXTRAPOLATION_REFERENCE = 0.95
 
 
+def _check_values(values, name, shape, what="finite", *, low=-np.inf, high=np.inf):
+    """``values`` as a float array of ``shape``, finite and within [low, high].
+
+    Otherwise a ValueError naming ``name``, the shape or the values it expected (``what``)
+    and the first offending entry: a wrong length must not broadcast, a NaN must not pass
+    into the bounds, nor a value out of range widen them silently.
+    """
+    try:
+        array = np.asarray(values, dtype=float)
+    except (TypeError, ValueError) as error:
+        raise TypeError(
+            f"{name} must be an array of numbers; got {type(values).__name__}."
+        ) from error
+    if array.shape != tuple(shape):
+        raise ValueError(f"{name} must have shape {tuple(shape)}, got {array.shape}.")
+    bad = ~np.isfinite(array) | (array < low) | (array > high)
+    if bad.any():
+        where = tuple(int(i) for i in np.argwhere(bad)[0])
+        index = where[0] if len(where) == 1 else where
+        raise ValueError(
+            f"{name} must be {what}; got {float(array[where])!r} at index {index} "
+            f"({int(bad.sum())} of {array.size} values)."
+        )
+    return array
+
+
+def _check_level(level, name="level", *, closed=False):
+    """A level in (0, 1) ([0, 1] if ``closed``) as a float; a ValueError naming ``name``."""
+    interval = "[0, 1]" if closed else "(0, 1)"
+    if isinstance(level, bool | np.bool_) or not isinstance(level, numbers.Real):
+        raise TypeError(f"{name} must be a real number in {interval}, got {level!r}.")
+    inside = 0.0 <= level <= 1.0 if closed else 0.0 < level < 1.0
+    if not inside:  # NaN included
+        raise ValueError(f"{name} must be a real number in {interval}, got {level!r}.")
+    return float(level)
+
+
 # --------------------------------------------------------------------------------------------
 # Numerics (numpy in, numpy out)
 # --------------------------------------------------------------------------------------------
@@ -177,13 +214,25 @@ def conformal_quantile(scores, level):
     quantile : float or ndarray of shape (n_samples,)
         The quantile along the first axis.
 
+    Raises
+    ------
+    ValueError
+        If ``scores`` is empty or holds a NaN or an infinity (a NaN would sort last and
+        silently drop out of the quantile), or ``level`` is not in (0, 1).
+    TypeError
+        If ``level`` is not a real number.
+
     Examples
     --------
     >>> from sklearn_ifog.conformal import conformal_quantile
     >>> float(conformal_quantile([1.0, 2.0, 3.0, 4.0], 0.5))
     3.0
     """
+    level = _check_level(level)
     scores = np.asarray(scores, dtype=float)
+    if scores.ndim == 0 or scores.shape[0] == 0:
+        raise ValueError(f"scores must hold at least one score, got shape {scores.shape}.")
+    scores = _check_values(scores, "scores", scores.shape)
     n_scores = scores.shape[0]
     rank = min(int(np.ceil((n_scores + 1) * level)), n_scores)
     rank = max(rank, 1)
@@ -209,6 +258,11 @@ def run_quantile_scores(scores, groups, level):
     group_scores : ndarray of shape (n_groups,)
         The quantile of each group's scores.
 
+    Raises
+    ------
+    ValueError
+        If ``groups`` does not hold one label per score, or ``level`` is not in [0, 1].
+
     Examples
     --------
     >>> from sklearn_ifog.conformal import run_quantile_scores
@@ -216,8 +270,15 @@ def run_quantile_scores(scores, groups, level):
     >>> labels.tolist(), q.tolist()
     ([0, 1], [2.0, 15.0])
     """
+    level = _check_level(level, closed=True)
     scores = np.asarray(scores, dtype=float)
-    segments = _table.run_segments(np.asarray(groups), scores.shape[0])
+    groups = np.asarray(groups)
+    if scores.ndim != 1 or groups.shape != scores.shape:
+        raise ValueError(
+            "groups must hold one label per score: scores and groups of shape (n_samples,), "
+            f"got {scores.shape} and {groups.shape}."
+        )
+    segments = _table.run_segments(groups, scores.shape[0])
     labels = np.array([label for label, _ in segments])
     group_scores = np.array([np.quantile(scores[rows], level) for _, rows in segments])
     return labels, group_scores
@@ -250,6 +311,12 @@ def plus_interval(predictions, scale, group_scores, group_fold, level):
     bounds : ndarray of shape (n_samples, 2)
         Lower and upper bound of every row.
 
+    Raises
+    ------
+    ValueError
+        If ``scale`` does not hold one value per row of ``predictions``, ``group_fold`` one
+        fold per group score, or a fold that ``predictions`` does not have.
+
     Examples
     --------
     >>> import numpy as np
@@ -259,6 +326,30 @@ def plus_interval(predictions, scale, group_scores, group_fold, level):
     ... )
     array([[-1.,  3.]])
     """
+    predictions = np.asarray(predictions, dtype=float)
+    if predictions.ndim != 2:
+        raise ValueError(
+            f"predictions must have shape (n_folds, n_samples), got {predictions.shape}."
+        )
+    scale = np.asarray(scale, dtype=float)
+    group_scores = np.asarray(group_scores, dtype=float)
+    group_fold = np.asarray(group_fold)
+    if scale.shape != predictions.shape[1:]:
+        raise ValueError(
+            f"scale must hold one value per row: shape ({predictions.shape[1]},), got "
+            f"{scale.shape}."
+        )
+    if group_scores.ndim != 1 or group_fold.shape != group_scores.shape:
+        raise ValueError(
+            "group_fold must hold one fold per group score: group_scores and group_fold of "
+            f"shape (n_groups,), got {group_scores.shape} and {group_fold.shape}."
+        )
+    n_folds = predictions.shape[0]
+    if group_fold.dtype.kind not in "iu" or np.any((group_fold < 0) | (group_fold >= n_folds)):
+        raise ValueError(
+            f"group_fold must hold fold indices in [0, {n_folds}) (one per row of "
+            f"predictions), got {group_fold.tolist()}."
+        )
     centre = predictions[group_fold]  # (n_groups, n_samples)
     spread = group_scores[:, None] * scale[None, :]
     lower = -conformal_quantile(-(centre - spread), level)
@@ -286,6 +377,11 @@ def knn_distance(reference, query, n_neighbors=_DIFFICULTY_NEIGHBORS):
     distance : ndarray of shape (n_queries,)
         Mean distance to the ``n_neighbors`` nearest reference rows.
 
+    Raises
+    ------
+    ValueError
+        If ``query`` has not as many columns as ``reference``, or ``n_neighbors`` is below 1.
+
     Examples
     --------
     >>> import numpy as np
@@ -296,7 +392,16 @@ def knn_distance(reference, query, n_neighbors=_DIFFICULTY_NEIGHBORS):
     """
     reference = np.asarray(reference, dtype=float)
     query = np.asarray(query, dtype=float)
-    n_neighbors = max(1, min(int(n_neighbors), reference.shape[0]))
+    if reference.ndim != 2 or query.ndim != 2 or query.shape[1] != reference.shape[1]:
+        raise ValueError(
+            "reference and query must be 2-D with the same number of columns "
+            f"(n_features), got shapes {reference.shape} and {query.shape}."
+        )
+    if isinstance(n_neighbors, bool) or not isinstance(n_neighbors, numbers.Integral):
+        raise TypeError(f"n_neighbors must be an integer >= 1, got {n_neighbors!r}.")
+    if n_neighbors < 1:
+        raise ValueError(f"n_neighbors must be an integer >= 1, got {n_neighbors!r}.")
+    n_neighbors = min(int(n_neighbors), reference.shape[0])
     tree = NearestNeighbors(n_neighbors=n_neighbors).fit(reference)
     return tree.kneighbors(query, return_distance=True)[0].mean(axis=1)
 
@@ -325,6 +430,12 @@ def extrapolation_variance(predictions, reference):
     variance : ndarray of shape (n_samples,)
         ``(K - 1) * max(0, var_k(predictions) - reference)``.
 
+    Raises
+    ------
+    ValueError
+        If ``reference`` is negative or not finite (a negative one would widen every band,
+        a NaN one give NaN variances).
+
     Examples
     --------
     >>> import numpy as np
@@ -333,6 +444,7 @@ def extrapolation_variance(predictions, reference):
     >>> extrapolation_variance(predictions, reference=0.5).round(3).tolist()
     [0.0, 0.333]
     """
+    _check_values(reference, "reference", (), "a finite variance >= 0", low=0.0)
     predictions = np.asarray(predictions, dtype=float)
     n_folds = predictions.shape[0]
     excess = np.maximum(predictions.var(axis=0) - reference, 0.0)
@@ -371,6 +483,11 @@ def thermal_slope(temperature, y):
     -------
     slope : float
 
+    Raises
+    ------
+    ValueError
+        If ``temperature`` and ``y`` differ in length.
+
     Examples
     --------
     >>> thermal_slope([10.0, 20.0, 30.0], [1.0, 3.0, 5.0])
@@ -380,6 +497,11 @@ def thermal_slope(temperature, y):
     """
     temperature = np.asarray(temperature, dtype=float).ravel()
     y = np.asarray(y, dtype=float).ravel()
+    if y.shape != temperature.shape:
+        raise ValueError(
+            "temperature and y must hold one value per calibration row each, got "
+            f"{temperature.shape[0]} and {y.shape[0]} values."
+        )
     centred = temperature - temperature.mean()
     spread = float(centred @ centred)
     if spread == 0.0:
@@ -1014,14 +1136,17 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             Each fold model's predictions (``estimators_``, in order).
         difficulty_features : array-like of shape (n_samples, n_features), default=None
             The difficulty model's input: the rows through every step of ``estimator_``
-            before the regressor. Needed when ``adaptive=True``; ignored otherwise.
+            before the regressor (``n_features`` the width of ``feature_mean_``). Needed
+            when ``adaptive=True``; ignored otherwise.
         coverage : float, default=None
             Nominal coverage in (0, 1); None uses the ``coverage`` of fit.
         fallback_share : array-like of shape (n_samples,), default=None
-            The full model's ``"blend"`` weight of every row on its fallback (0 inside its
-            calibration domain); None leaves the terms outside the domain out.
+            The full model's ``"blend"`` weight of every row on its fallback, in [0, 1] (0
+            inside its calibration domain); None leaves the terms outside the domain out.
+            Checked, then not used, when the model has no such terms (``fallback_scores_``
+            is None: ``adaptive=False``, or an estimator that does not blend).
         temperature_beyond : array-like of shape (n_samples,), default=None
-            Degrees beyond the full model's calibrated temperatures of every row
+            Degrees beyond the full model's calibrated temperatures of every row, >= 0
             (:func:`~sklearn_ifog.domain.temperature_excess` of its feature rows; 0 within
             them), used with ``fallback_share``: the band widens there by
             ``thermal_slope_`` per degree. None leaves that term out.
@@ -1030,15 +1155,34 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         -------
         bounds : ndarray of shape (n_samples, 2)
             Column 0 the lower bound, column 1 the upper bound.
+
+        Raises
+        ------
+        ValueError
+            If an argument is not of the shape given above (one value per row of
+            ``centre``; ``n_folds`` rows of ``fold_predictions``; as many columns of
+            ``difficulty_features`` as the difficulty model was fitted on), or holds a NaN
+            or an infinity; if ``fallback_share`` is outside [0, 1] or
+            ``temperature_beyond`` negative (either would widen the band silently); if
+            ``temperature_beyond`` is given without ``fallback_share`` (it would be
+            dropped); if ``difficulty_features`` is None with ``adaptive=True``; if
+            ``coverage`` is not in (0, 1).
+        TypeError
+            If an argument holds something other than numbers.
         """
         check_is_fitted(self)
         centre = np.asarray(centre, dtype=float).ravel()
+        n_samples = centre.shape[0]
+        centre = _check_values(
+            centre, "centre", (n_samples,), "finite (the full model's prediction of every row)"
+        )
         predictions = np.asarray(fold_predictions, dtype=float)
-        if predictions.shape != (len(self.estimators_), centre.shape[0]):
+        if predictions.shape != (len(self.estimators_), n_samples):
             raise ValueError(
                 f"fold_predictions must have shape (n_folds, n_samples) = "
-                f"({len(self.estimators_)}, {centre.shape[0]}), got {predictions.shape}."
+                f"({len(self.estimators_)}, {n_samples}), got {predictions.shape}."
             )
+        predictions = _check_values(predictions, "fold_predictions", predictions.shape)
         raw = None
         if self.adaptive:
             if difficulty_features is None:
@@ -1046,7 +1190,35 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                     "difficulty_features is required when adaptive=True: the rows through "
                     "the steps of estimator_ before its regressor."
                 )
-            raw = np.asarray(difficulty_features, dtype=float)
+            raw = _check_values(
+                difficulty_features,
+                "difficulty_features",
+                (n_samples, self.feature_mean_.shape[0]),
+                "finite (the rows through the steps of estimator_ before its regressor)",
+            )
+        if fallback_share is not None:
+            fallback_share = _check_values(
+                fallback_share,
+                "fallback_share",
+                (n_samples,),
+                "a weight in [0, 1] for every row",
+                low=0.0,
+                high=1.0,
+            )
+        if temperature_beyond is not None:
+            if fallback_share is None:
+                raise ValueError(
+                    "temperature_beyond is used only with fallback_share (its slope term is "
+                    "one of the terms outside the domain); pass fallback_share too, or leave "
+                    "temperature_beyond None."
+                )
+            temperature_beyond = _check_values(
+                temperature_beyond,
+                "temperature_beyond",
+                (n_samples,),
+                "a number of degrees >= 0 for every row",
+                low=0.0,
+            )
         extrapolation = None
         if fallback_share is not None and getattr(self, "fallback_scores_", None) is not None:
             # What the regressor itself extrapolates to, before the policy set it aside.
@@ -1097,7 +1269,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             # coverage of fit (a standard deviation there, so another coverage scales it).
             slope = getattr(self, "thermal_slope_", 0.0)
             if slope != 0.0 and temperature_beyond is not None:
-                beyond = np.asarray(temperature_beyond, dtype=float).reshape(centre.shape)
+                beyond = temperature_beyond
                 z_fit = norm.ppf((1 + self.coverage) / 2)
                 extra = extra + np.square(slope * beyond / z_fit)
         bounds = _widen(bounds, extra, level)

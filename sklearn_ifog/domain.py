@@ -1159,14 +1159,36 @@ def apply_policy(policy, prediction, features, distance, outside, *, domain, fal
 
 
 def _columns(value, name, n_features):
-    """The columns a ``temperature`` or ``rate`` parameter names, checked against X."""
-    columns = [] if value is None else np.atleast_1d(value).tolist()
+    """The columns a ``temperature`` or ``rate`` parameter names, checked against X.
+
+    A bool is not a column position (``True`` would read column 1): TypeError. A column
+    named twice would count its excess twice: ValueError.
+    """
+    if value is None:
+        columns = []
+    elif isinstance(value, list | tuple | np.ndarray):
+        columns = list(np.asarray(value, dtype=object).ravel())
+    else:
+        columns = [value]
+    flags = [c for c in columns if isinstance(c, bool | np.bool_)]
+    if flags:
+        raise TypeError(
+            f"{name} must name columns of X by integer position, got the bool {flags[0]!r} "
+            "(a bool is not a column index)."
+        )
     bad = [c for c in columns if not isinstance(c, Integral) or not 0 <= c < n_features]
     if bad:
         raise ValueError(
             f"{name} must name columns 0 to {n_features - 1} of X by position, got {bad[0]!r}."
         )
-    return [int(c) for c in columns]
+    columns = [int(c) for c in columns]
+    repeated = sorted({c for c in columns if columns.count(c) > 1})
+    if repeated:
+        raise ValueError(
+            f"{name} must name each column once, got column {repeated[0]} "
+            f"{columns.count(repeated[0])} times in {columns}."
+        )
+    return columns
 
 
 class CalibrationDomain(OutlierMixin, BaseEstimator):
@@ -1317,7 +1339,11 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         ValueError
             If a feature is constant over the calibration (one temperature only: the
             calibration cannot say where else it holds), X holds NaN or inf, or
-            ``groups`` does not hold one label per row.
+            ``groups`` does not hold one label per row; if ``temperature`` or ``rate``
+            names a column X does not have, names a column twice, or both name one column.
+        TypeError
+            If ``temperature`` or ``rate`` is (or holds) a bool: a bool is not a column
+            position.
 
         Warns
         -----
@@ -1329,6 +1355,14 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         check_varies(X, getattr(self, "feature_names_in_", None))
         self.temperature_columns_ = _columns(self.temperature, "temperature", X.shape[1])
         self.rate_columns_ = _columns(self.rate, "rate", X.shape[1])
+        both = sorted(set(self.temperature_columns_) & set(self.rate_columns_))
+        if both:
+            raise ValueError(
+                f"temperature and rate must name different columns of X, got column {both[0]} "
+                f"in both (temperature={self.temperature!r}, rate={self.rate!r}): a column is "
+                "a temperature (its range admits no margin) or a rate (its excess is a term of "
+                "the distance), not both."
+            )
         box = fit_box(X, self.rate_columns_)
         self.center_, self.scale_, self.components_ = box.center, box.scale, box.axes
         self.axis_scale_, self.lower_, self.upper_ = box.axis_scale, box.lower, box.upper
