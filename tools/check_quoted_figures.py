@@ -120,6 +120,7 @@ SENTENCE_END = re.compile(r"(?<=[.!?])\s+(?=[A-Z(`\"*])|\n\s*\n|\n(?=\s*[-*] )")
 # Options that choose how a run is spread over cores, not what it measures.
 NEUTRAL_OPTIONS = {"--n-jobs", "--jobs"}
 SIGNIFICANT = 3
+PROSE_DIRECTIVES = {"list-table", "csv-table", "table", "note", "warning", "seealso"}
 # The share of random figures a citation may accept before --wide lists it (issue 42).
 WIDE = 0.02
 
@@ -504,11 +505,15 @@ def _strip_literals(lines, markdown):
                 block_indent = pending_indent
                 kept.append("")
                 continue
-        if stripped.endswith("::") or re.match(
-            r"\.\. (code-block|code|literalinclude|math)", stripped
-        ):
+        directive = re.match(r"\.\. ([a-z-]+)::", stripped)
+        # a table directive's body is prose (its cells are measurements); other directives'
+        # bodies and a paragraph's closing "::" are code, names or options
+        if directive and directive[1] in PROSE_DIRECTIVES:
+            kept.append("")
+            continue
+        if stripped.endswith("::") or directive:
             pending, pending_indent = True, indent
-            if stripped.startswith(".."):
+            if directive:
                 kept.append("")
                 continue
         kept.append(line)
