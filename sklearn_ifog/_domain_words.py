@@ -9,6 +9,19 @@ import numpy as np
 
 __all__ = ["number_text", "policy_actions"]
 
+#: A rate dT beyond its calibrated range by at most this share of that range is round-off,
+#: not a rate the calibration never saw, and is not worded (:func:`rate_beyond_text`).
+#: Why relative to the calibrated range: the excess is the difference of a rate recomputed
+#: from a new log (a difference of temperatures over a time step, through the lags) and the
+#: calibrated extreme, each carrying a few units in the last place of numbers of the size
+#: of that range; so round-off scales with the range, in whatever unit dT is read (degC per
+#: minute or per second: an absolute tolerance would be 60 times off in one of them). It
+#: cannot be relative to the extreme itself: the slowest rate of a heating-only calibration
+#: is a soak's, about 0, where any round-off (a 1.47e-14 below it) is infinitely many times
+#: the value. 1e-9 of the range is ten million times a double's round-off and far below any
+#: rate excess a calibration could be faulted for.
+ROUNDOFF_SHARE = 1e-9
+
 
 def policy_actions(status):
     """What the ``outside`` policies did to the rows outside, one clause per policy."""
@@ -55,6 +68,39 @@ def policy_actions(status):
             )
         clauses.append(clause)
     return clauses
+
+
+def rate_beyond_text(below, above, low, high):
+    """:func:`beyond_text` for the rate dT, without what is round-off.
+
+    ``below`` and ``above`` count only beyond :data:`ROUNDOFF_SHARE` times the calibrated
+    range ``high - low``.
+
+    Parameters
+    ----------
+    below, above : float
+        How far the rate went below ``low`` and above ``high`` (0 or NaN: not at all).
+    low, high : float
+        The calibrated rate range (the slowest and the fastest calibrated rate), in dT's
+        unit.
+
+    Returns
+    -------
+    text : str
+        As :func:`beyond_text` with "slowest" and "fastest"; "" when neither excess is
+        beyond round-off.
+
+    Examples
+    --------
+    >>> rate_beyond_text(1.47e-14, 0.0, 0.0, 0.5)
+    ''
+    >>> rate_beyond_text(0.02, 0.0, 0.0, 0.5)
+    '0.02 below the slowest'
+    """
+    tolerance = ROUNDOFF_SHARE * abs(high - low)
+    below = below if below > tolerance else 0.0
+    above = above if above > tolerance else 0.0
+    return beyond_text(below, above, "slowest", "fastest")
 
 
 def number_text(value):

@@ -908,7 +908,8 @@ def fit_fallback(
     repeated_ratio=REPEATED_RATIO,
     carried_scale=CARRIED_SCALE,
 ):
-    """Fit the fallback: a line in T where its slope extrapolates, else a constant.
+    """Fit the fallback: a plane in T and dT where held-out runs repeat it, else a line in T
+    where its slope extrapolates, else a constant (per output).
 
     The slope is kept for an output only when it *extrapolates* better than a constant:
     the coldest and the warmest fifth of the rows are held out in turn and a constant and a

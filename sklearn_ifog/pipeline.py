@@ -27,6 +27,7 @@ from sklearn_ifog._compat import (
     _safe_indexing,
 )
 from sklearn_ifog._contract import get_term, sensor_keys
+from sklearn_ifog._domain_words import ROUNDOFF_SHARE
 from sklearn_ifog._table import as_float_rows, label_column
 from sklearn_ifog.domain import (
     CalibrationDomain,
@@ -102,8 +103,9 @@ def make_compensation_pipeline(
         ``("T", "dT")`` its traditional model.
     outside : {"blend", "clip", "none"}, default="blend"
         What the model predicts for rows outside its calibration domain
-        (:class:`CompensationPipeline`): ``"blend"`` moves smoothly to a line in T (or a
-        constant) as the row lies farther out; ``"clip"`` predicts at the domain's edge;
+        (:class:`CompensationPipeline`): ``"blend"`` moves smoothly to its fallback (a plane
+        in T and dT, a line in T or a constant, :func:`~sklearn_ifog.domain.fit_fallback`)
+        as the row lies farther out; ``"clip"`` predicts at the domain's edge;
         ``"none"`` leaves the regressor's extrapolation alone.
     margin : float, default=1.5
         Smallest distance outside the calibrated box, in decorrelated standard deviations,
@@ -239,7 +241,7 @@ class CompensationPipeline(Pipeline):
         Prediction outside the domain. ``"blend"``: ``(1 - w) * model + w * fallback`` with
         ``w`` rising smoothly from 0 at the threshold to 1 at the threshold plus ``BLEND_WIDTH``
         (:func:`~sklearn_ifog.domain.fallback_weight`), so far outside the model gives way
-        to the line (no step anywhere). ``"clip"``: the model at the nearest point of the
+        to the fallback (no step anywhere). ``"clip"``: the model at the nearest point of the
         domain (the box widened by the threshold, every temperature clamped to its calibrated
         range: the firmware convention of clamping T to [TMIN, TMAX]). ``"none"``: the
         regressor's own extrapolation (the behaviour before the domain existed). The
@@ -611,7 +613,7 @@ class CompensationPipeline(Pipeline):
             low, high = self.domain_.data_min_[column], self.domain_.data_max_[column]
             rate = rows[outside, column]
             excess = float(np.max(np.maximum(low - rate, 0.0) + np.maximum(rate - high, 0.0)))
-            if excess > 0:
+            if excess > ROUNDOFF_SHARE * (high - low):  # beyond round-off (the CLI's rule)
                 message += (
                     f"; rates up to {excess:.3g} beyond the calibrated "
                     f"{self.feature_names_out_[column]} {low:.3g} to {high:.3g}"

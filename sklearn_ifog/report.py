@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from sklearn_ifog import _table
-from sklearn_ifog._domain_words import beyond_text, number_text, policy_actions
+from sklearn_ifog._domain_words import number_text, policy_actions, rate_beyond_text
 from sklearn_ifog._io import atomic_path
 from sklearn_ifog._per_run import ALL_RUNS, compensation_arrays, sample_period
 
@@ -872,13 +872,13 @@ def _add_summary(report, heading, data, table, data_name, bias_window, no_time, 
     report.add_table(table, caption="Per-run MSD and bias stability, before and after.")
 
 
-def _temperature_clause(table):
+def _temperature_clause(table, status):
     """How far the temperature (and its rate) went beyond the calibrated ranges (all runs),
     as a clause."""
     below, above = table.loc[ALL_RUNS, ["degC_below", "degC_above"]]
     if np.isnan(below):  # a model without a temperature feature
         return ""
-    rates = _rate_clause(table)
+    rates = _rate_clause(table, status)
     beyond = []
     if below > 0:
         beyond.append(f"down to {below:.3g} °C below the coldest")
@@ -895,11 +895,14 @@ def _temperature_clause(table):
     return f" The coil temperature went {' and '.join(beyond)} calibrated temperature." + rates
 
 
-def _rate_clause(table):
+def _rate_clause(table, status):
     """How far the rate dT went beyond the calibrated rates (all runs), as a clause ("" when
-    it never did, or without a rate)."""
+    it never did beyond round-off, or without a rate)."""
     below, above = table.loc[ALL_RUNS, ["rate_below", "rate_above"]]
-    beyond = beyond_text(below, above, "slowest", "fastest")
+    low, high = status.get("rate_min"), status.get("rate_max")
+    if low is None or np.isnan(low).all():  # a model without a rate dT
+        return ""
+    beyond = rate_beyond_text(below, above, np.nanmin(low), np.nanmax(high))
     if not beyond:
         return ""
     return (
@@ -937,7 +940,7 @@ def _add_calibration(report, data, status, table):
         f"{runs_outside} of {len(data.segments)} run(s), lie outside the model's calibration "
         f"domain (the temperatures, rates and thermal states it was calibrated on"
         f"{calibrated}), up to {number_text(table.loc[ALL_RUNS, 'max_distance'])} decorrelated "
-        f"standard deviations out.{_temperature_clause(table)} There, "
+        f"standard deviations out.{_temperature_clause(table, status)} There, "
         f"{'; '.join(policy_actions(status))}. The figures shade these stretches: their "
         "compensation is an extrapolation, not a calibrated one; calibrate over the "
         "conditions these runs reach to trust it."

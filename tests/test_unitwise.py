@@ -359,8 +359,9 @@ def test_the_own_model_rule_follows_the_evidence_unit_by_unit(lot, reversed_unit
 @pytest.mark.parametrize("seed", [4, 6])
 def test_units_of_one_design_keep_no_own_model_and_a_reversed_one_does(seed):
     """Units of one design without scatter (lot_spread=0: they differ by their noise and
-    their runs only): the evidence puts none of them two noise standard deviations from
-    the lot, so none keeps its own model; with unit 1's drift reversed, unit 1 does.
+    their runs only): the evidence puts none of them ``OWN_MODEL_SPREAD`` (3) noise standard
+    deviations from the lot, so none keeps its own model; with unit 1's drift reversed, unit
+    1 does.
 
     Both hold on lot seeds 0-19 (checked once); seeds 4 and 6, the two whose smallest
     ``n lam`` lies closest above the threshold 1 / OWN_MODEL_SPREAD², run here.

@@ -143,7 +143,12 @@ def _calibration_status(model, X, path):
 def _outside_lines(status, runs, run_name, units=None, unit_name=None):
     """One line per run with rows outside the calibration domain, after a heading (a run
     of a lot named with its unit)."""
-    from sklearn_ifog._domain_words import beyond_text, number_text, policy_actions
+    from sklearn_ifog._domain_words import (
+        beyond_text,
+        number_text,
+        policy_actions,
+        rate_beyond_text,
+    )
     from sklearn_ifog._table import run_segments
     from sklearn_ifog.report import per_run_calibration
 
@@ -176,10 +181,12 @@ def _outside_lines(status, runs, run_name, units=None, unit_name=None):
                 f", temperature up to {beyond} calibrated temperature "
                 f"({coldest:.4g} to {warmest:.4g} degC)"
             )
-        rates = beyond_text(run.rate_below, run.rate_above, "slowest", "fastest")
-        if rates:
+        rates = ""
+        if not np.isnan(status.rate_min[rows]).all():  # a model with a rate dT
             slowest = np.nanmin(status.rate_min[rows])
             fastest = np.nanmax(status.rate_max[rows])
+            rates = rate_beyond_text(run.rate_below, run.rate_above, slowest, fastest)
+        if rates:
             line += f", rate dT up to {rates} calibrated rate ({slowest:.3g} to {fastest:.3g})"
         lines.append(line)
     return lines

@@ -24,6 +24,25 @@ from sklearn_ifog.cli._demo import DEMO_SIZES, run_demo
 __all__ = ["main"]
 
 
+def _terms_help():
+    """The help of ``fit --terms``: ThermalFeatures' ``terms="auto"``, read from the code."""
+    from sklearn_ifog._contract import (
+        DEFAULT_ROW_TERMS,
+        DEFAULT_SMOOTHING,
+        DEFAULT_STATE_TERMS,
+        DEFAULT_TERMS,
+        traditional_terms,
+    )
+
+    return (
+        "thermal terms (default: ThermalFeatures' terms='auto': "
+        f"{' '.join(DEFAULT_STATE_TERMS)}, dT smoothed over {DEFAULT_SMOOTHING:g} s, with a "
+        f"time column; {' '.join(DEFAULT_ROW_TERMS)} without one; "
+        f"'{' '.join(DEFAULT_TERMS)}' is the paper's modified model, "
+        f"'{' '.join(traditional_terms(DEFAULT_TERMS))}' its traditional one)"
+    )
+
+
 def command_demo(args):
     """``demo``: :func:`~sklearn_ifog.cli._demo.run_demo` into ``--out``."""
     run_demo(Path(args.out), quick=args.quick, size=args.size, n_jobs=args.n_jobs)
@@ -98,9 +117,7 @@ def _add_fit(commands):
         nargs="+",
         default=None,
         metavar="TERM",
-        help="thermal terms (default: ThermalFeatures' default: T dT TdT T_lag900s "
-        "T_lag3600s, dT smoothed over 120 s, with a time column; T dT TdT without one; "
-        "'T dT TdT' is the paper's modified model, 'T dT' its traditional one)",
+        help=_terms_help(),
     )
     fit.add_argument(
         "--unit",
