@@ -1455,6 +1455,14 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         -------
         self : CalibrationDomain
 
+        Raises
+        ------
+        ValueError
+            If the domain has temperature and rate columns and ``threshold`` is NaN, or a
+            range is not of the shape above (one value per rate or temperature column) or
+            holds a NaN; the domain is then left unchanged (a range of another length would
+            broadcast, a NaN would become the range).
+
         Examples
         --------
         >>> import numpy as np
@@ -1472,6 +1480,25 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         check_is_fitted(self)
         if not (self.temperature_columns_ and self.rate_columns_):
             return self
+        if threshold is not None and np.isnan(threshold):
+            raise ValueError(f"threshold must be a distance, not NaN; got {threshold!r}.")
+        widths = {
+            "rate_low": (rate_low, len(self.rate_columns_), "rate"),
+            "rate_high": (rate_high, len(self.rate_columns_), "rate"),
+            "temperature_low": (temperature_low, len(self.temperature_columns_), "temperature"),
+            "temperature_high": (temperature_high, len(self.temperature_columns_), "temperature"),
+        }
+        for name, (value, width, kind) in widths.items():
+            if value is None:
+                continue
+            array = np.asarray(value, dtype=np.float64)
+            if array.shape != (width,):
+                raise ValueError(
+                    f"{name} must hold one value per {kind} column of the domain: shape "
+                    f"({width},), got {array.shape}."
+                )
+            if np.isnan(array).any():
+                raise ValueError(f"{name} must not hold NaN, got {array.tolist()}.")
         if threshold is not None and threshold > self.threshold_:
             self.threshold_ = float(threshold)
             self.boost_ = self.threshold_ - float(self.margin)

@@ -288,3 +288,43 @@ def test_distinct_temperature_and_rate_columns_are_kept(rows):
         domain = CalibrationDomain(temperature=[0, 2], rate=1).fit(rows)
     assert domain.temperature_columns_ == [0, 2]
     assert domain.rate_columns_ == [1]
+
+
+@pytest.fixture
+def extendable():
+    t = np.linspace(10.0, 40.0, 150)
+    rate = np.tile(np.linspace(0.1, 0.3, 50), 3)
+    return CalibrationDomain(temperature=0, rate=1).fit(
+        np.column_stack([t, rate]), groups=np.repeat([0, 1, 2], 50)
+    )
+
+
+@pytest.mark.parametrize(
+    ("name", "value", "message"),
+    [
+        (
+            "rate_low",
+            [0.0, 0.0],
+            r"rate_low must hold one value per rate column .* \(1,\), got \(2,\)",
+        ),
+        ("rate_high", 0.5, r"rate_high must hold one value per rate column .* got \(\)"),
+        ("temperature_low", [np.nan], "temperature_low must not hold NaN"),
+        ("temperature_high", [[45.0]], r"temperature_high must hold one value per temperature"),
+        ("threshold", np.nan, "threshold must be a distance, not NaN"),
+    ],
+)
+def test_extend_refuses_a_range_that_does_not_fit_and_changes_nothing(
+    extendable, name, value, message
+):
+    before = {
+        key: np.copy(getattr(extendable, key))
+        for key in ("threshold_", "rate_low_", "rate_high_", "boost_low_", "boost_high_")
+    }
+    with pytest.raises(ValueError, match=message):
+        extendable.extend(**{name: value})
+    for key, array in before.items():
+        np.testing.assert_array_equal(getattr(extendable, key), array)
+    # a range of the right shape widens it
+    extendable.extend(rate_high=[0.45], temperature_low=[5.0])
+    assert extendable.rate_high_.tolist() == [0.45]
+    assert extendable.boost_low_.tolist() == [5.0]
