@@ -124,7 +124,7 @@ def test_difficulty_features_of_the_wrong_width_or_length_name_the_argument(band
 
 @pytest.mark.parametrize("share", [5.0, 1.5, -0.1])
 def test_a_share_outside_0_1_is_refused_not_a_wider_band(band_inputs, share):
-    """A share of 5 used to widen the band 5.7 times silently."""
+    """A share of 5 used to widen the band silently."""
     model, inputs, _ = band_inputs
     shares = inputs["fallback_share"].copy()
     shares[7] = share
