@@ -16,8 +16,10 @@ A *citation* names one committed result, in the prose itself:
   any other line by its opening words: ``conformal.md`` row "layered seed 2 | warm->cycle |
   ours" is that split's row of ``ours`` (not ``ours_flat``; "seed 1" is not "seed 10"),
   rows "* | warm->cold | ours" every campaign's, and verdict "FAIL: layered seed 8" the
-  verdict lines that begin so. A selector that selects nothing, or that follows no
-  citation, is reported. The text of a selector is a label, not a figure.
+  verdict lines that begin so. ``under "<words>"`` after the quoted texts keeps the lines
+  whose table follows a line holding those words (its heading or caption): ``rows "RBFNet"
+  under "layered, 60 s"``. A selector that selects nothing, or that follows no citation,
+  is reported. The text of a selector is a label, not a figure.
 
 Which citation a figure is checked against
 ------------------------------------------
@@ -93,7 +95,10 @@ FIGURE = re.compile(
 COUNT = re.compile(r"(?<![\w.\-/])(?P<n>\d+)\s+of\s+(?P<m>\d+)(?![\w]|\.\d)")
 RESULT_NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
 _JOIN = r"\s*(?:,|,?\s*and|or)\s*"
-_ONE_SELECTOR = rf'(?:rows?|lines?|verdicts?)\s+"[^"]{{1,160}}"(?:{_JOIN}"[^"]{{1,160}}")*'
+_ONE_SELECTOR = (
+    rf'(?:rows?|lines?|verdicts?)\s+"[^"]{{1,160}}"(?:{_JOIN}"[^"]{{1,160}}")*'
+    r'(?:\s+under\s+"[^"]{1,160}")?'
+)
 _SELECTOR = rf"(?:{_ONE_SELECTOR}(?:{_JOIN}{_ONE_SELECTOR})*)"
 _TAIL = rf"(?P<tail>[`\s,:;(]*{_SELECTOR})?"
 RESULT_FILE = re.compile(
@@ -168,14 +173,30 @@ class Result:
         return {value for value in found if math.isfinite(value)}
 
     def select(self, selectors=None):
+        """The lines ``selectors`` name (``(cells, context)`` pairs), or all of them."""
         if selectors is None:
             return self.lines
-        patterns = [_selector_pattern(text) for text in selectors]
-        return [
-            line
-            for line in self.lines
-            if any(p.match(_table_words(line).removeprefix("- ")) for p in patterns)
+        patterns = [
+            (_selector_pattern(cells), context and _phrase(context))
+            for cells, context in selectors
         ]
+        selected, context_lines, in_table = [], [], False
+        for line in self.lines:
+            # a line's context: the text since the table before it (its heading, its caption)
+            if line.startswith("|"):
+                in_table = True
+            else:
+                if in_table:
+                    context_lines, in_table = [], False
+                if line.strip():
+                    context_lines.append(" ".join(line.split()))
+            label = _table_words(line).removeprefix("- ")
+            if any(
+                p.match(label) and (c is None or any(c.search(x) for x in context_lines))
+                for p, c in patterns
+            ):
+                selected.append(line)
+        return selected
 
 
 def _selector_pattern(text):
@@ -183,6 +204,10 @@ def _selector_pattern(text):
     cells = _table_words(text).split(" | ")
     cells = [r"[^|]*?" if cell == "*" else re.escape(cell) for cell in cells]
     return re.compile(r" \| ".join(cells) + r"(?!\w)")
+
+
+def _phrase(text):
+    return re.compile(r"(?<!\w)" + re.escape(" ".join(text.split())) + r"(?!\w)")
 
 
 def _table_words(text):
@@ -301,13 +326,23 @@ class Citation:
             return f"`{self.command}` (no committed result)"
         if self.selectors is None:
             return self.stem
-        return f"{self.stem} " + " or ".join(f'"{s}"' for s in self.selectors)
+        return f"{self.stem} {_describe(self.selectors)}"
+
+
+def _describe(selectors):
+    return " or ".join(f'"{cells}"' + (f' under "{c}"' if c else "") for cells, c in selectors)
 
 
 def _selectors(tail):
+    """``(leading cells, context or None)`` of each quoted text of a selector."""
     if not tail:
         return None
-    return tuple(" ".join(text.split()) for text in QUOTED.findall(tail))
+    found = []
+    for match in re.finditer(_ONE_SELECTOR, tail):
+        labels, _, context = match.group().partition(" under ")
+        context = " ".join(QUOTED.findall(context)[0].split()) if context else None
+        found += [(" ".join(text.split()), context) for text in QUOTED.findall(labels)]
+    return tuple(found)
 
 
 def citations(text, results):
@@ -679,7 +714,7 @@ def block_quotes(relative, first, text, results):
         for label, result, selectors in scope:
             lines = result.select(selectors)
             if not lines:
-                problems.append(f"{where}: no line of {label} holds {selectors}")
+                problems.append(f"{where}: no line of {label} is {_describe(selectors)}")
             quote.lines += lines
             quote.values |= result.values(selectors)
         quotes.append(quote)
@@ -721,11 +756,7 @@ def _report(quotes, problems, history, verbose=False):
 
 def _selector_note(quote):
     selected = [s for _, _, s in quote.scope if s is not None]
-    return (
-        " (" + "; ".join(" or ".join(f'"{t}"' for t in s) for s in selected) + ")"
-        if selected
-        else ""
-    )
+    return f" ({'; '.join(_describe(s) for s in selected)})" if selected else ""
 
 
 def wide(quotes, limit=WIDE):
