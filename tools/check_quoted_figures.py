@@ -16,10 +16,12 @@ A *citation* names one committed result, in the prose itself:
   any other line by its opening words: ``conformal.md`` row "layered seed 2 | warm->cycle |
   ours" is that split's row of ``ours`` (not ``ours_flat``; "seed 1" is not "seed 10"),
   rows "* | warm->cold | ours" every campaign's, and verdict "FAIL: layered seed 8" the
-  verdict lines that begin so. ``under "<words>"`` after the quoted texts keeps the lines
-  whose table follows a line holding those words (its heading or caption): ``rows "RBFNet"
-  under "layered, 60 s"``. A selector that selects nothing, or that follows no citation,
-  is reported. The text of a selector is a label, not a figure.
+  verdict lines that begin so. ``column "<header>"`` (or ``columns "a" and "b"``) after
+  the quoted texts keeps only the cells under the header cells that start so, and
+  ``under "<words>"`` keeps the rows whose table follows a line holding those words (its
+  heading or caption): ``rows "RBFNet" column "state MSD/floor" under "layered, 60 s"``.
+  A selector that selects nothing, or that follows no citation, is reported. The text of a
+  selector is a label, not a figure.
 
 Which citation a figure is checked against
 ------------------------------------------
@@ -95,10 +97,13 @@ FIGURE = re.compile(
 COUNT = re.compile(r"(?<![\w.\-/])(?P<n>\d+)\s+of\s+(?P<m>\d+)(?![\w]|\.\d)")
 RESULT_NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
 _JOIN = r"\s*(?:,|,?\s*and|or)\s*"
-_ONE_SELECTOR = (
-    rf'(?:rows?|lines?|verdicts?)\s+"[^"]{{1,160}}"(?:{_JOIN}"[^"]{{1,160}}")*'
-    r'(?:\s+under\s+"[^"]{1,160}")?'
+_QUOTES = rf'"[^"]{{1,160}}"(?:{_JOIN}"[^"]{{1,160}}")*'
+_PARTS = (
+    rf"(?:rows?|lines?|verdicts?)\s+(?P<labels>{_QUOTES})"
+    rf"(?:\s+columns?\s+(?P<columns>{_QUOTES}))?"
+    r'(?:\s+under\s+(?P<context>"[^"]{1,160}"))?'
 )
+_ONE_SELECTOR = re.sub(r"\(\?P<\w+>", "(?:", _PARTS)
 _SELECTOR = rf"(?:{_ONE_SELECTOR}(?:{_JOIN}{_ONE_SELECTOR})*)"
 _TAIL = rf"(?P<tail>[`\s,:;(]*{_SELECTOR})?"
 RESULT_FILE = re.compile(
@@ -177,25 +182,36 @@ class Result:
         if selectors is None:
             return self.lines
         patterns = [
-            (_selector_pattern(cells), context and _phrase(context))
-            for cells, context in selectors
+            (_selector_pattern(cells), columns, context and _phrase(context))
+            for cells, columns, context in selectors
         ]
-        selected, context_lines, in_table = [], [], False
+        selected, context_lines, header = [], [], None
         for line in self.lines:
             # a line's context: the text since the table before it (its heading, its caption)
             if line.startswith("|"):
-                in_table = True
+                header = header or _cells(line)
             else:
-                if in_table:
-                    context_lines, in_table = [], False
+                if header is not None:
+                    context_lines, header = [], None
                 if line.strip():
-                    context_lines.append(" ".join(line.split()))
+                    context_lines.append(_words(line))
             label = _table_words(line).removeprefix("- ")
-            if any(
-                p.match(label) and (c is None or any(c.search(x) for x in context_lines))
-                for p, c in patterns
-            ):
-                selected.append(line)
+            for pattern, columns, context in patterns:
+                if not pattern.match(label) or (
+                    context is not None and not any(context.search(x) for x in context_lines)
+                ):
+                    continue
+                if columns is None:
+                    selected.append(line)
+                else:
+                    # a column is named by the start of its header cell
+                    cells = _cells(line)
+                    selected += [
+                        cells[i]
+                        for i, name in enumerate(header or [])
+                        if i < len(cells) and any(name.startswith(c) for c in columns)
+                    ]
+                break
         return selected
 
 
@@ -204,6 +220,10 @@ def _selector_pattern(text):
     cells = _table_words(text).split(" | ")
     cells = [r"[^|]*?" if cell == "*" else re.escape(cell) for cell in cells]
     return re.compile(r" \| ".join(cells) + r"(?!\w)")
+
+
+def _cells(line):
+    return [_words(cell) for cell in line.strip().strip("|").split("|")]
 
 
 def _phrase(text):
@@ -330,19 +350,28 @@ class Citation:
 
 
 def _describe(selectors):
-    return " or ".join(f'"{cells}"' + (f' under "{c}"' if c else "") for cells, c in selectors)
+    return " or ".join(
+        f'"{cells}"'
+        + (" column " + " and ".join(f'"{c}"' for c in columns) if columns else "")
+        + (f' under "{context}"' if context else "")
+        for cells, columns, context in selectors
+    )
 
 
 def _selectors(tail):
-    """``(leading cells, context or None)`` of each quoted text of a selector."""
+    """``(leading cells, columns or None, context or None)`` of each row a selector names."""
     if not tail:
         return None
     found = []
-    for match in re.finditer(_ONE_SELECTOR, tail):
-        labels, _, context = match.group().partition(" under ")
-        context = " ".join(QUOTED.findall(context)[0].split()) if context else None
-        found += [(" ".join(text.split()), context) for text in QUOTED.findall(labels)]
+    for match in re.finditer(_PARTS, tail):
+        columns = match["columns"] and tuple(_words(t) for t in QUOTED.findall(match["columns"]))
+        context = match["context"] and _words(match["context"].strip('"'))
+        found += [(_words(text), columns, context) for text in QUOTED.findall(match["labels"])]
     return tuple(found)
+
+
+def _words(text):
+    return " ".join(text.split())
 
 
 def citations(text, results):
