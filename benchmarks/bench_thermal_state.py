@@ -72,6 +72,7 @@ every fourth sample (``_cases.REAL_QUICK_STEP``) with the even bursts training o
 """
 
 import argparse
+import re
 import sys
 import time
 import warnings
@@ -126,7 +127,15 @@ def feature_sets(taus, smoothing, terms=None):
     }
 
 
-def regressors(seed, max_kernel_samples=600, max_mlp_samples=3000):
+TAIL_SWEEP = re.compile(r"^RBFNet \(tail_alpha=(?P<alpha>[0-9.eE+-]+)\)$")
+
+
+def swept_tail_alphas(models):
+    """The tail penalty strengths named in ``models`` ("RBFNet (tail_alpha=<value>)")."""
+    return [float(m["alpha"]) for m in map(TAIL_SWEEP.match, models) if m is not None]
+
+
+def regressors(seed, max_kernel_samples=600, max_mlp_samples=3000, tail_alphas=()):
     def scaled(regressor):
         return TransformedTargetRegressor(regressor=regressor, transformer=StandardScaler())
 
@@ -152,7 +161,16 @@ def regressors(seed, max_kernel_samples=600, max_mlp_samples=3000):
             random_state=seed,
         )
 
+    # The default network at other tail penalty strengths (the sweep that chose the
+    # default, issue 41), asked for by name: --models "RBFNet (tail_alpha=0)" ...
+    sweep = {
+        f"RBFNet (tail_alpha={alpha:g})": (
+            lambda alpha=alpha: RBFNetRegressor(tail_alpha=alpha, random_state=seed)
+        )
+        for alpha in tail_alphas
+    }
     return {
+        **sweep,
         "RBFNet": lambda: RBFNetRegressor(random_state=seed),
         "RBFNet (quadratic tail)": lambda: RBFNetRegressor(tail="quadratic", random_state=seed),
         "RBFNet (refine=None)": lambda: RBFNetRegressor(refine=None, random_state=seed),
@@ -200,7 +218,9 @@ def _evaluate_fold(seed, physics, period, sizes, fold, models, sets_spec):
         "results": {},
     }
     for set_name, make_features in sets.items():
-        for model_name, make_model in regressors(seed).items():
+        for model_name, make_model in regressors(
+            seed, tail_alphas=swept_tail_alphas(models)
+        ).items():
             if model_name not in models:
                 continue
             pipeline = Pipeline(
@@ -242,7 +262,10 @@ def real_recording(models, seed=0, axes=REAL_AXES, parities=(0, 1), step=1):
     """
     X, Y = _cases.real_recording_xy(step)
     burst = X["burst"].to_numpy()
-    candidates = {**regressors(seed), "linear in T": LinearRegression}
+    candidates = {
+        **regressors(seed, tail_alphas=swept_tail_alphas(models)),
+        "linear in T": LinearRegression,
+    }
     scores = {}
     for parity in parities:
         train = burst % 2 == parity
@@ -588,7 +611,7 @@ def main(argv=None):
     physics_list = args.physics or list(PHYSICS)
     periods = args.periods or ([120.0] if quick else [10.0, 60.0])
     models = args.models or (list(QUICK_MODELS) if quick else list(regressors(0)))
-    unknown = sorted(set(models) - set(regressors(0)))
+    unknown = sorted(set(models) - set(regressors(0, tail_alphas=swept_tail_alphas(models))))
     if unknown:
         parser.error(f"unknown model(s) {unknown}; choose from {list(regressors(0))}")
     sizes = THERMAL_STATE_QUICK if quick else THERMAL_STATE_FULL

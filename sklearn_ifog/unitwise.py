@@ -232,6 +232,10 @@ def _own_score(model, X, Y, folds):
         n_centers = np.shape(final.centers_)[0]
         penalty[:n_centers] = final.alpha
         penalty[n_centers:-1] = final.selection_path_.get("tail_alpha", 0.0)
+        # The tail penalty's shape: a ridge on the reparametrised tail, as the network's.
+        basis = final.selection_path_.get("tail_transform")
+        if basis is not None and Phi.shape[1] > n_centers + 1:
+            Phi[:, n_centers:-1] = Phi[:, n_centers:-1] @ basis
     zero = np.zeros((Phi.shape[1], Y.shape[1]))
     sse = 0.0
     for test in folds:

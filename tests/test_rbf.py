@@ -108,6 +108,7 @@ def test_fit_options_hold_every_parameter_by_name():
         refine="lm",
         alpha=0.1,
         tail_alpha="auto",
+        tail_penalty="ridge",
         criterion="bic",
         goal=0.2,
         tail="quadratic",
@@ -147,6 +148,7 @@ def test_selection_path_has_the_documented_keys_in_order(refine):
         "width_scores",
         "tail_alpha",
         "tail_alphas_tried",
+        "tail_transform",
         "tail_degree",
         "tail_scores",
         *refined,
@@ -233,7 +235,9 @@ def test_fits_a_smooth_function_and_refinement_helps(seed):
 def test_output_weights_equal_lstsq_on_selected_columns():
     X, y, _ = _smooth(300)
     for tail, n_tail in (("linear", 3), ("quadratic", 9)):
-        model = RBFNetRegressor(refine=None, alpha=0.0, tail=tail, random_state=0).fit(X, y)
+        model = RBFNetRegressor(
+            refine=None, alpha=0.0, tail_alpha=0.0, tail=tail, random_state=0
+        ).fit(X, y)
         Z = (X - model.x_mean_) / model.x_scale_
         A = np.column_stack(
             [
@@ -256,7 +260,12 @@ def test_tail_penalty_is_the_stated_ridge_problem(alpha, tail_alpha):
     # independently, as a least-squares problem on the design stacked over penalty rows.
     X, y, _ = _smooth(400, seed=3)
     model = RBFNetRegressor(
-        refine=None, alpha=alpha, tail_alpha=tail_alpha, tail="quadratic", random_state=0
+        refine=None,
+        alpha=alpha,
+        tail_alpha=tail_alpha,
+        tail_penalty="ridge",
+        tail="quadratic",
+        random_state=0,
     ).fit(X, y)
     Z = (X - model.x_mean_) / model.x_scale_
     y_mean, y_std = y.mean(), y.std()
@@ -280,12 +289,74 @@ def test_tail_penalty_is_the_stated_ridge_problem(alpha, tail_alpha):
     assert_allclose(model.intercept_, weights[0] + y_mean, rtol=1e-9)
 
 
+@pytest.mark.parametrize("tail_alpha", [1e-5, 1e-2])
+def test_spread_tail_penalty_is_the_stated_generalised_ridge(tail_alpha):
+    # tail_penalty="spread": the tail weights w pay tail_alpha * w' C^-1 w, C the covariance
+    # of the tail features over the selection rows (all rows here: "bic" holds none out).
+    # Solved here independently, with penalty rows sqrt(tail_alpha n) C^(-1/2).
+    X, y, _ = _smooth(400, seed=3)
+    X = np.column_stack([X, X[:, 0] + 1e-3 * np.sin(40 * X[:, 1])])  # a near-copy
+    model = RBFNetRegressor(
+        refine=None, criterion="bic", alpha=1e-3, tail_alpha=tail_alpha, random_state=0
+    ).fit(X, y)
+    Z = (X - model.x_mean_) / model.x_scale_
+    y_mean, y_std = y.mean(), y.std()
+    spread, directions = np.linalg.eigh(np.cov(Z.T, bias=True))
+    assert spread.min() < 1e-5 * spread.max()  # the near-copy makes a thin direction
+    root = (directions / np.sqrt(spread)).T  # ||root w||^2 = w' C^-1 w
+    Phi = gaussian_design(Z, model.centers_, model.widths_)
+    n, n_tail, k = 400, Z.shape[1], Phi.shape[1]
+    A = np.vstack(
+        [
+            np.column_stack([np.ones(n), Z, Phi]),
+            np.column_stack(
+                [np.zeros(n_tail), np.sqrt(tail_alpha * n) * root, np.zeros((n_tail, k))]
+            ),
+            np.column_stack([np.zeros((k, 1 + n_tail)), np.sqrt(1e-3 * n) * np.eye(k)]),
+        ]
+    )
+    b = np.concatenate([(y - y_mean) / y_std, np.zeros(n_tail + k)])
+    weights = np.linalg.lstsq(A, b, rcond=None)[0] * y_std
+    M = model.selection_path_["tail_transform"]
+    assert_allclose(M @ M.T, np.cov(Z.T, bias=True), rtol=1e-9, atol=1e-12)
+    assert_allclose(model.tail_coef_, weights[1 : 1 + n_tail], rtol=1e-6, atol=1e-9)
+    assert_allclose(model.coef_, weights[1 + n_tail :], rtol=1e-6, atol=1e-8)
+    assert_allclose(model.intercept_, weights[0] + y_mean, rtol=1e-9)
+
+
+def test_spread_tail_penalty_keeps_a_near_copy_of_a_feature_from_moving_the_prediction():
+    # Two features that move together over the calibration (a temperature and its lag): a
+    # free tail sets their difference's weight by noise, so shifting one of them by five
+    # times their calibrated difference can move the prediction far; the default penalty
+    # shrinks that direction away and the prediction moves as the drift's slope says
+    # (2 * 5e-4 spread over both features: about 5e-4), on every seed. Over 40 seeds the
+    # free tail moved more than ten times as far on 31 (``noise-driven``: a rate).
+    moves = {"free": [], "default": []}
+    for seed in range(20):
+        rng = np.random.default_rng(seed)
+        t = np.linspace(-1, 1, 600)
+        X = np.column_stack([t, t + 1e-4 * rng.standard_normal(600)])
+        y = 2.0 * t + 0.1 * rng.standard_normal(600)
+        shifted = X.copy()
+        shifted[:, 1] += 5e-4
+        for name, tail_alpha in (("free", 0.0), ("default", 1e-5)):
+            model = RBFNetRegressor(refine=None, tail_alpha=tail_alpha, random_state=0)
+            model.fit(X, y)
+            moves[name].append(np.abs(model.predict(shifted) - model.predict(X)).mean())
+    free, default = np.array(moves["free"]), np.array(moves["default"])
+    assert np.all(default < 6e-4), default
+    assert np.mean(free > 10 * default) >= 0.5, free / default
+
+
 def test_tail_penalty_shrinks_the_tail_and_zero_is_the_free_tail():
     X, y, _ = _smooth(400, seed=4)
     params = {"refine": None, "criterion": None, "n_centers": 10, "random_state": 0}
-    free = RBFNetRegressor(**params).fit(X, y)
+    # Without a strength the penalty's shape is moot: both shapes are the free tail.
+    free = RBFNetRegressor(tail_alpha=0.0, tail_penalty="ridge", **params).fit(X, y)
     explicit = RBFNetRegressor(tail_alpha=0.0, **params).fit(X, y)
     assert_array_equal(free.predict(X), explicit.predict(X))
+    assert explicit.selection_path_["tail_transform"] is None
+    params["tail_penalty"] = "ridge"
     norms = [
         np.linalg.norm(RBFNetRegressor(tail_alpha=ta, **params).fit(X, y).tail_coef_)
         for ta in (0.0, 1e-3, 1e-1, 10.0, 1e4)
@@ -311,6 +382,8 @@ def test_tail_penalty_rejects_bad_values(bad):
     X, y, _ = _smooth(50)
     with pytest.raises(ValueError, match="tail_alpha"):
         RBFNetRegressor(tail_alpha=bad).fit(X, y)
+    with pytest.raises(ValueError, match="tail_penalty"):
+        RBFNetRegressor(tail_penalty="lasso").fit(X, y)
 
 
 def test_selection_path_is_recorded():
@@ -410,9 +483,15 @@ def test_linear_target_gives_exact_affine_model_and_extrapolates():
     rng = np.random.default_rng(0)
     X = rng.uniform(0, 1, size=(200, 2))
     y = 3.0 * X[:, 0] - 2.0 * X[:, 1] + 1.0
-    model = RBFNetRegressor(refine=None, random_state=0).fit(X, y)
     X_far = np.array([[10.0, -5.0], [-3.0, 4.0]])
-    assert_allclose(model.predict(X_far), 3.0 * X_far[:, 0] - 2.0 * X_far[:, 1] + 1.0, atol=1e-6)
+    expected = 3.0 * X_far[:, 0] - 2.0 * X_far[:, 1] + 1.0
+    # A free tail is exact; the default penalty shrinks each direction of the (well-spread)
+    # inputs by the factor lambda^2 / (lambda^2 + tail_alpha), lambda ~ 1: a 1e-4 relative error.
+    model = RBFNetRegressor(refine=None, tail_alpha=0.0, random_state=0).fit(X, y)
+    assert_allclose(model.predict(X_far), expected, atol=1e-6)
+    default = RBFNetRegressor(refine=None, random_state=0).fit(X, y)
+    assert_allclose(default.predict(X_far), expected, rtol=1e-3)
+    assert not np.allclose(default.predict(X_far), expected, rtol=1e-7)
 
 
 def test_tail_extrapolates_linearly_far_from_the_data():
@@ -567,7 +646,7 @@ def test_fewer_rows_than_centres_warns():
 
 
 def test_two_rows_fit():
-    model = RBFNetRegressor(refine=None).fit([[0.0], [1.0]], [1.0, 3.0])
+    model = RBFNetRegressor(refine=None, tail_alpha=0.0).fit([[0.0], [1.0]], [1.0, 3.0])
     assert_allclose(model.predict([[0.5], [2.0]]), [2.0, 5.0], atol=1e-8)
 
 
@@ -647,7 +726,8 @@ def _quadratic_and_linear_targets(n=500, seed=0):
 
 def test_quadratic_tail_fits_a_quadratic_target_exactly_without_centres():
     X, y, _ = _quadratic_and_linear_targets()
-    model = RBFNetRegressor(tail="quadratic", random_state=0).fit(X, y)
+    # A free tail: the default penalty would (rightly) trade exactness for stability.
+    model = RBFNetRegressor(tail="quadratic", tail_alpha=0.0, random_state=0).fit(X, y)
     assert model.tail_degree_ == 2
     assert model.centers_.shape[0] == 0
     assert model.tail_coef_.shape == (9,)

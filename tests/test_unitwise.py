@@ -255,8 +255,8 @@ def test_own_wins_follows_the_summed_errors():
 def test_own_score_refits_the_output_layer_without_each_held_out_run(lot):
     """The own model's held-out error: its basis kept, its output layer re-solved on the
     other runs as the network solves it (ridge alpha per row on the Gaussian weights, the
-    tail and intercept free here), the held-out run predicted (checked by lstsq on the
-    augmented system)."""
+    tail's penalty of its shape on the tail, the intercept free), the held-out run predicted
+    (checked by lstsq on the augmented system)."""
     rows = _unit_rows(lot, 0)
     X, y = lot.data[rows].drop(columns="unit"), lot.target.to_numpy()[rows]
     model = make_compensation_pipeline(
@@ -270,13 +270,20 @@ def test_own_score_refits_the_output_layer_without_each_held_out_run(lot):
     folds = shrinkage.cv_folds(runs)
     assert len(folds) == 3
     Phi = layer_design(final, _layer_inputs(model, X))
+    # The default tail penalty, "spread": tail_alpha * ||M^-1 w||^2 on the tail weights w.
+    tail_alpha = final.selection_path_["tail_alpha"]
+    M = final.selection_path_["tail_transform"]
+    assert tail_alpha > 0
+    assert M is not None
+    n_tail = M.shape[0]
     sse = 0.0
     for test in folds:
         n_train = np.count_nonzero(~test)
-        ridge = np.zeros((6, Phi.shape[1]))
-        ridge[:, :6] = np.sqrt(n_train * 1e-3) * np.eye(6)
+        ridge = np.zeros((6 + n_tail, Phi.shape[1]))
+        ridge[:6, :6] = np.sqrt(n_train * 1e-3) * np.eye(6)
+        ridge[6:, 6 : 6 + n_tail] = np.sqrt(n_train * tail_alpha) * np.linalg.inv(M)
         A = np.vstack([Phi[~test], ridge])
-        b = np.r_[y[~test], np.zeros(6)]
+        b = np.r_[y[~test], np.zeros(6 + n_tail)]
         weights = np.linalg.lstsq(A, b, rcond=None)[0]
         sse += float(np.sum(np.square(y[test] - Phi[test] @ weights)))
     score = _own_score(model, X, y[:, None], folds)
@@ -300,25 +307,42 @@ def test_partial_with_identical_units_gives_the_lot_model(lot):
     np.testing.assert_allclose(partial.predict(X), full.predict(X), rtol=1e-7, atol=1e-9)
 
 
-def test_partial_lets_a_unit_unlike_the_lot_keep_its_own_weights(lot):
+@pytest.mark.parametrize("seed", range(25))
+def test_partial_lets_a_unit_unlike_the_lot_keep_its_own_weights(seed):
     """One unit's drift reversed: the lot's weights are wrong for it, its own are right.
 
-    Checked once on lot seeds 3-12 (holds on each).
+    On every lot seed of 0-24 (the fixture's lot shape, seed 3 among them): partial pooling
+    leaves the reversed unit within 10 % of its own model's error and that under a tenth of
+    the lot's. The unit keeps its own model altogether (``shrinkage_`` None) on every seed
+    but 21 (asserted), where the evidence picks the strength 0.001 and the error is within
+    0.2 % of its own model's (0.001418 against 0.001416): a threshold of the evidence, not a
+    unit pulled towards the lot. Checked once on lot seeds 0-49 (the same: all but 21).
     """
+    lot = make_thermal_campaign(
+        n_units=4,
+        n_runs=3,
+        azimuths=[0.0],
+        sampling_period=300.0,
+        lot_spread=0.15,
+        random_state=seed,
+    )
     X, y = lot.data, lot.target.to_numpy().copy()
     odd = _unit_rows(lot, 2)
     y[odd] = -3.0 * y[odd]
     model = UnitwiseRegressor(_linear(), pooling="partial").fit(X, y)
     none = UnitwiseRegressor(_linear(), pooling="none").fit(X, y)
     full = UnitwiseRegressor(_linear(), pooling="full").fit(X, y)
-    # the evidence puts it far from the lot: its own model altogether
-    assert model.shrinkage_[2] is None
-    np.testing.assert_array_equal(model.predict(X[odd]), none.predict(X[odd]))
     msd = {
         name: np.mean((y[odd] - m.predict(X[odd])) ** 2)
         for name, m in (("partial", model), ("none", none), ("full", full))
     }
     assert msd["partial"] <= 1.1 * msd["none"] < 0.1 * msd["full"]
+    if seed == 21:
+        assert model.shrinkage_[2] == pytest.approx(0.001)
+        return
+    # the evidence puts it far from the lot: its own model altogether
+    assert model.shrinkage_[2] is None
+    np.testing.assert_array_equal(model.predict(X[odd]), none.predict(X[odd]))
 
 
 @pytest.mark.parametrize("reversed_unit", [False, True], ids=["similar", "one-reversed"])

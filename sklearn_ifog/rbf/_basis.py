@@ -18,6 +18,8 @@ from typing import NamedTuple
 import numpy as np
 import scipy.linalg
 
+from sklearn_ifog.rbf._tail_penalty import transformed
+
 # Rows per block of a prediction: 2**14 rows times a few dozen centres stays within a few
 # megabytes, in cache (about 10% faster than 2**16 rows on 1e6 rows and 40 centres, with
 # the blocks' arrays reused).
@@ -532,6 +534,7 @@ def solve_output_weights_chunked(
     sample_weight=None,
     alpha=0.0,
     tail_alpha=0.0,
+    tail_transform=None,
     chunk_rows=None,
 ):
     """Weighted ridge solve of the output layer over all rows, in row blocks.
@@ -566,6 +569,10 @@ def solve_output_weights_chunked(
         :func:`solve_output_weights`).
     tail_alpha : float, default=0.0
         Ridge penalty on the tail weights (absolute); the intercept is never penalised.
+    tail_transform : ndarray of shape (n_tail, n_tail), default=None
+        The tail penalty's shape (:func:`~sklearn_ifog.rbf._tail_penalty.tail_transform`):
+        the ridge falls on ``w'`` where the tail weights are ``w = tail_transform @ w'``.
+        None: on the tail weights themselves.
     chunk_rows : int, default=None
         Rows per block; ``None`` gives blocks of about ``QR_BLOCK_ENTRIES`` entries (at
         least 256 rows), small enough to stay in cache while they are factorised.
@@ -612,7 +619,7 @@ def solve_output_weights_chunked(
             block = destination(stop - start)
             block[:, 0] = 1.0
             if degree:
-                block[:, 1 : 1 + n_tail] = tail_features(Z[start:stop], degree)
+                block[:, 1 : 1 + n_tail] = transformed(tail_features(Z[start:stop], degree), M)
             block[:, 1 + n_tail : n_params] = _design_from_weights(
                 Z[start:stop], weights, buffers=design_buffers
             )
@@ -621,6 +628,8 @@ def solve_output_weights_chunked(
                 block *= root_w[start:stop, None]
             yield block
 
+    # The penalty's shape is a reparametrisation of the tail; without a penalty it is moot.
+    M = tail_transform if (tail_alpha > 0 and degree) else None
     # The ridge penalty of every column (never on the intercept, nor on the targets).
     penalty = np.zeros(n_columns)
     if tail_alpha > 0:
@@ -636,7 +645,8 @@ def solve_output_weights_chunked(
     R11[:rows] = R[:rows, :n_params]
     R12[:rows] = R[:rows, n_params:]
     W = guarded_lstsq(R11, R12)
-    return W[1 + n_tail :].T.copy(), W[1 : 1 + n_tail].T.copy(), W[0].copy()
+    tail_weights = W[1 : 1 + n_tail] if M is None else M @ W[1 : 1 + n_tail]
+    return W[1 + n_tail :].T.copy(), tail_weights.T.copy(), W[0].copy()
 
 
 def _gram_factor(blocks, chunk_rows, n_columns, n_params, penalty):

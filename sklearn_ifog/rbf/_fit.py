@@ -11,6 +11,7 @@ from sklearn_ifog.rbf._basis import (
     Network,
     solve_output_weights_chunked,
     standardisation,
+    tail_features,
 )
 from sklearn_ifog.rbf._ols import within_one_standard_error
 from sklearn_ifog.rbf._refine import refine_network
@@ -173,6 +174,7 @@ def fit_network(X, Y, sample_weight, options, *, groups=None):
             sample_weight=sw,
             alpha=options.alpha * sw.sum(),
             tail_alpha=selection.record.tail_alpha * sw.sum(),
+            tail_transform=selection.record.tail_transform,
         )
     tail_coef = tail_coef * y_scale[:, None]
     if selection.tail_degree == 0:
@@ -201,15 +203,25 @@ def _refine_selected(selection, Z, Ys, sw, sel_rows, val_rows, options):
     """
     network = selection.network
     sw_sel = sw[sel_rows]
+    Y_sel, Y_val, start = Ys[sel_rows], Ys[val_rows], network
+    if selection.record.tail_alpha > 0 and network.tail_coef.size:
+        # The refiners know a penalty on the Gaussian weights only: a penalised tail is held
+        # at its selected weights while the units move (the targets carry it), so that the
+        # refinement cannot buy its fit along directions the penalty shrinks; the solve on
+        # all rows then fits every output weight together, penalty and all.
+        degree = selection.tail_degree
+        Y_sel = Y_sel - tail_features(Z[sel_rows], degree) @ network.tail_coef.T
+        Y_val = Y_val - tail_features(Z[val_rows], degree) @ network.tail_coef.T
+        start = network._replace(tail_coef=np.zeros((network.tail_coef.shape[0], 0)))
     result = refine_network(
         Z[sel_rows],
-        Ys[sel_rows],
-        network,
+        Y_sel,
+        start,
         method=options.refine,
         sample_weight=sw_sel,
         alpha=options.alpha * sw_sel.sum(),
         Z_val=Z[val_rows],
-        Y_val=Ys[val_rows],
+        Y_val=Y_val,
         sample_weight_val=sw[val_rows],
         max_iter=options.max_iter,
         tol=options.tol,
@@ -227,7 +239,7 @@ def _refine_selected(selection, Z, Ys, sw, sel_rows, val_rows, options):
     # Early stopping picked the refined iterate on the held-out rows themselves, so
     # it must beat the OLS network there by more than their noise to be kept.
     rejected = refined and not beats_beyond_noise(
-        result.network, network, Z[val_rows], Ys[val_rows], sw[val_rows]
+        result.network, start, Z[val_rows], Y_val, sw[val_rows]
     )
     if not result.converged and not rejected:
         warnings.warn(

@@ -29,6 +29,8 @@ class FitOptions:
         Relative ridge penalty on the Gaussian weights.
     tail_alpha : "auto" or float
         Relative ridge penalty on the tail weights.
+    tail_penalty : {"spread", "ridge"}
+        The tail penalty's shape.
     criterion : {"cv", "holdout", "gcv", "bic", "aicc"} or None
         How the number of centres and the width are chosen.
     goal : float or None
@@ -60,6 +62,7 @@ class FitOptions:
     ...     refine=None,
     ...     alpha=1e-4,
     ...     tail_alpha=0.0,
+    ...     tail_penalty="spread",
     ...     criterion="holdout",
     ...     goal=None,
     ...     tail="linear",
@@ -81,6 +84,7 @@ class FitOptions:
     refine: str | None
     alpha: float
     tail_alpha: object
+    tail_penalty: str
     criterion: str | None
     goal: float | None
     tail: object

@@ -32,6 +32,7 @@ from sklearn_ifog.rbf._ols import (
     width_grid,
     within_one_standard_error,
 )
+from sklearn_ifog.rbf._tail_penalty import tail_transform, transformed
 
 # Largest number of centres when ``n_centers="auto"``; the criterion picks along the path.
 AUTO_MAX_CENTERS = 40
@@ -103,6 +104,7 @@ class SelectionRecord(NamedTuple):
     width_scores: np.ndarray
     tail_alpha: float
     tail_alphas_tried: np.ndarray
+    tail_transform: object  # ndarray (n_tail, n_tail) or None: _tail_penalty.tail_transform
 
 
 class _Trial(NamedTuple):
@@ -171,8 +173,8 @@ def selection_path(selection, *, refined, refine_rejected=None):
     >>> selection = select_network(
     ...     Z, Y, sw, train, val, np.ones(1), rng, degrees=(1,), options=options
     ... )
-    >>> list(selection_path(selection, refined=False))[-4:]
-    ['tail_alphas_tried', 'tail_degree', 'tail_scores', 'refined']
+    >>> list(selection_path(selection, refined=False))[-5:]
+    ['tail_alphas_tried', 'tail_transform', 'tail_degree', 'tail_scores', 'refined']
     """
     path = selection.record._asdict()
     path["tail_degree"] = selection.tail_degree
@@ -452,14 +454,20 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
     validation = None
     if has_val:
         Z_val, sw_val = Z[val_rows], sw[val_rows]
-        T_val = tail_features(Z_val, degree) if degree else None
-        validation = (squared_distances(Z_val, candidates), T_val, Ys[val_rows], sw_val)
+        validation = (squared_distances(Z_val, candidates), Ys[val_rows], sw_val)
     fixed_size = options.criterion is None and options.goal is None
     tail_alphas = tail_alphas_tried(options.tail_alpha, degree)
+    T_sel = tail_features(Z_sel, degree) if degree else None
+    # The penalty's shape, as a reparametrisation of the tail (a free tail keeps its own).
+    M = tail_transform(T_sel, sw_sel, options.tail_penalty) if any(tail_alphas) else None
+    if validation is not None:
+        D2_val, Y_val, sw_val = validation
+        T_val = transformed(tail_features(Z_val, degree), M) if degree else None
+        validation = (D2_val, T_val, Y_val, sw_val)
     paths = _width_paths(
         squared_distances(Z_sel, candidates),
         Y_sel,
-        tail_features(Z_sel, degree) if degree else None,
+        transformed(T_sel, M),
         sw_sel,
         options.alpha * sw_sel.sum(),
         max_centers,
@@ -482,6 +490,7 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
             degree,
             options,
             groups,
+            tail_basis=M,
         )
     if losses is not None:
         choice = _choose_by_losses(losses, sw_losses, fixed_size, paths)
@@ -516,7 +525,7 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
         centers=candidates[path.selected[:k]],
         widths=np.full(k, chosen.width),
         coef=W[1 + n_tail :].T,
-        tail_coef=W[1 : 1 + n_tail].T,
+        tail_coef=(W[1 : 1 + n_tail] if M is None else M @ W[1 : 1 + n_tail]).T,
         intercept=W[0],
     )
     val_mse = (
@@ -537,6 +546,7 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
         width_scores=np.asarray(width_scores),
         tail_alpha=chosen.tail_alpha,
         tail_alphas_tried=np.asarray(tail_alphas),
+        tail_transform=M,
     )
     return network, record, score
 
@@ -687,6 +697,7 @@ def _cross_validated_losses(
     degree,
     options,
     groups=None,
+    tail_basis=None,
 ):
     """Held-out squared errors of every (width, tail penalty, prefix) over contiguous folds.
 
@@ -713,8 +724,8 @@ def _cross_validated_losses(
         rows_out = subsample(rows_out, options.max_samples // n_folds, rng)
         Z_in, Y_in, sw_in = Z[rows_in], Ys[rows_in], sw[rows_in]
         alpha_in = options.alpha * sw_in.sum()
-        T_in = tail_features(Z_in, degree) if degree else None
-        T_out = tail_features(Z[rows_out], degree) if degree else None
+        T_in = transformed(tail_features(Z_in, degree), tail_basis) if degree else None
+        T_out = transformed(tail_features(Z[rows_out], degree), tail_basis) if degree else None
         D2_in = squared_distances(Z_in, candidates)
         D2_out = squared_distances(Z[rows_out], candidates)
         for i, width in enumerate(widths_tried):
