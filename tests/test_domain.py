@@ -595,8 +595,12 @@ def _real_table():
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_real_recording_warm_to_cold_never_worse_than_uncompensated(seed):
     """The shipped recording, calibrated on its 12 warmer bursts and used on the 13 colder
-    ones: the default is no worse than removing the calibration's mean drift, on every axis,
-    where ``outside="none"`` is thousands of times worse (``bench_extrapolation.py``).
+    ones: the default is no worse than removing the calibration's mean drift, on every axis.
+    The network alone (``outside="none"``) needs no rescue on x and y since its tail is
+    penalised along the features' thin directions (issue 41; with a free tail it was
+    thousands of times worse, ``bench_extrapolation.py``): below a fifth of uncompensated
+    there. On z, where the gyro barely drifts, it is still worse than uncompensated, and
+    the domain is what keeps the default safe.
 
     Checked once on model seeds 0-9 (holds on each); the suite runs 0-2."""
     table = _real_table()
@@ -614,5 +618,8 @@ def test_real_recording_warm_to_cold_never_worse_than_uncompensated(seed):
             free = np.mean((y[~warm] - model.predict(X[~warm])) ** 2)
         uncompensated = np.mean((y[~warm] - y[warm].mean()) ** 2)
         assert default <= uncompensated, axis
-        assert free > 10 * uncompensated, axis
+        if axis == "gyro_z":
+            assert free > uncompensated, axis
+        else:
+            assert free < 0.2 * uncompensated, axis
         assert model.outside_calibration(X[~warm]).all()
