@@ -257,6 +257,14 @@ def test_a_section_without_citation_and_code_are_not_checked(tree):
     assert checked == 0
 
 
+def test_a_commit_hash_is_not_a_figure_and_a_times_sign_is_kept():
+    found = checker.figures("At commit 5e1bbda it took 1.5x, 2.0 % and ``3.25``; 7e3fa2b.")
+    assert [(figure, percent) for _, _, figure, percent in found] == [
+        ("1.5", False),
+        ("2.0", True),
+    ]
+
+
 def _git(root, *args):
     return subprocess.run(
         ["git", "-C", str(root), *args], capture_output=True, text=True, check=True

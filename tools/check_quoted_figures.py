@@ -92,7 +92,7 @@ RESULTS = ROOT / "benchmarks" / "results"
 
 FIGURE = re.compile(
     r"(?<![\w.\-/])(?P<number>\d+\.\d+(?:[eE][-+]?\d+)?|\d+[eE][-+]?\d+)"
-    r"(?P<unit>\s?%)?(?![\w.]*\d)(?!\.\d)"
+    r"(?P<unit>\s?%)?(?![\w.]*\d)(?!\.\d)(?![A-Za-wyz_])"
 )
 COUNT = re.compile(r"(?<![\w.\-/])(?P<n>\d+)\s+of\s+(?P<m>\d+)(?![\w]|\.\d)")
 RESULT_NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
