@@ -43,8 +43,11 @@ only on average over all rows. Three things differ from row-wise conformal predi
    ``python benchmarks/bench_conformal.py --quick`` (one campaign;
    ``benchmarks/results/conformal_quick.md``) covers 0.938-0.995 of the rows outside the
    domain on its four splits, calibrate-warm / predict-cold included (0.956, at 2.45 times
-   the width inside), where the constant band
-   (``adaptive=False``, without them) and MAPIE's cover 0.405-0.947 of the same rows.
+   the width inside; ``conformal_quick.md`` rows "lumped seed 0 | * | ours" columns
+   "coverage outside" and "width outside / inside"). The constant band (``adaptive=False``,
+   without them) and MAPIE's cover 0.405-0.947 of the same rows (``conformal_quick.md`` rows
+   "lumped seed 0 | * | ours_flat", "lumped seed 0 | * | mapie_rows" and "lumped seed 0 | * |
+   mapie_runs" column "coverage outside").
    Without the slope term that split was covered 0.674 (``conformal.md`` row "lumped seed 0
    | warm->cold | ours" at commit a3eca12).
 
@@ -59,8 +62,10 @@ The check's variants leave out the band's terms outside the calibration domain (
 none of them alone holds the runs calibrated warm and tested 7 to 14 degC colder on the glass
 transition: the default difficulty's lowest coverage there is 0.638 and 0.695 on the two
 seed sets (0.626 and 0.679 without the widening), at a mean width 1.15 and 1.13 times the
-oracle's (see the user guide for the table). With those terms the estimator covers that
-split at least 0.942 on seeds 0-2 (``python benchmarks/bench_conformal.py``). The held-out
+oracle's (``conformal_difficulty.md`` rows "distance" and "distance, no jackknife"; the
+user guide has the table). With those terms the estimator covers that split at least
+0.942 on seeds 0-2 (``python benchmarks/bench_conformal.py`` row "ours" column
+"out-of-range coverage" under "seed(s) 0, 1, 2"). The held-out
 folds that still fall below 0.85 (2 of 36, and 2 of 24 on seeds 3-4,
 ``conformal_difficulty.md``) are whole runs, or a whole heading's
 runs, offset by about one calibration r.m.s. error (a turn-on bias, a thermal history the
@@ -661,10 +666,10 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         Level in (0, 1) of the conformal quantile taken over the runs' scores: a new run
         like the calibration runs holds its drift inside the band at least ``coverage`` of
         its time with probability at least ``confidence`` (the band widens as
-        ``confidence`` grows). With ``coverage=0.9``, 0.6 gave mean held-out coverages of
-        0.900-0.947 on the campaigns it was chosen on (seeds 0-2) and 0.870-0.950 on held-out
-        ones (seeds 8-10) in ``python benchmarks/bench_conformal.py``
-        (``benchmarks/results/conformal.md``).
+        ``confidence`` grows). With ``coverage=0.9``, ``confidence=0.6`` gives mean held-out
+        coverages of 0.900-0.948 on the campaigns it was chosen on (seeds 0-2) and
+        0.877-0.949 on held-out ones (seeds 8-10) in ``python benchmarks/bench_conformal.py``
+        (``benchmarks/results/conformal.md`` rows "ours" column "mean coverage").
     adaptive : bool, default=True
         Whether scores are normalised by the difficulty model and the band widened where
         the fold models part and outside the calibration domain; False gives a band of the
@@ -721,7 +726,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         Beyond the calibrated temperatures the band widens, in quadrature, by this slope
         times the degrees beyond (at the coverage of fit; in proportion at another).
     fold_variance_reference_ : float
-        The 0.95 quantile, over the calibration rows, of the variance of the fold models'
+        The ``0.95`` quantile, over the calibration rows, of the variance of the fold models'
         predictions (only when ``adaptive``): where the fold models part by more, the
         band widens by their jackknife variance (:func:`extrapolation_variance`).
     n_features_in_ : int

@@ -12,7 +12,8 @@ A *citation* names one committed result, in the prose itself:
 - either one, followed by a *selector* that narrows it to some lines of its ``.md``:
   ``row "<text>"``, ``line "<text>"`` or ``verdict "<text>"`` (plural forms, and several
   quoted texts joined by ``,``, ``and`` or ``or``, are the same). A table row is selected by
-  its leading cells, written with `` | `` between them (``*`` stands for any one cell);
+  its leading cells, whole, written with `` | `` between them (``*`` stands for any one
+  cell; "distance" is not "distance c=0.7");
   any other line by its opening words: ``conformal.md`` row "layered seed 2 | warm->cycle |
   ours" is that split's row of ``ours`` (not ``ours_flat``; "seed 1" is not "seed 10"),
   rows "* | warm->cold | ours" every campaign's, and verdict "FAIL: layered seed 8" the
@@ -196,8 +197,10 @@ class Result:
                 if line.strip():
                     context_lines.append(_words(line))
             label = _table_words(line).removeprefix("- ")
+            # a table row's label is whole cells ("distance" is not "distance c=0.7")
+            end = r"(?= \||$)" if line.startswith("|") else r"(?!\w)"
             for pattern, columns, context in patterns:
-                if not pattern.match(label) or (
+                if not re.match(pattern.pattern + end, label) or (
                     context is not None and not any(context.search(x) for x in context_lines)
                 ):
                     continue
@@ -219,7 +222,7 @@ def _selector_pattern(text):
     """A selector's leading cells (``*``: any one cell), as a regex anchored at a line's start."""
     cells = _table_words(text).split(" | ")
     cells = [r"[^|]*?" if cell == "*" else re.escape(cell) for cell in cells]
-    return re.compile(r" \| ".join(cells) + r"(?!\w)")
+    return re.compile(r" \| ".join(cells))
 
 
 def _cells(line):
