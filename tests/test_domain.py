@@ -268,32 +268,67 @@ def test_plane_fallback_keeps_a_rate_term_the_runs_repeat(seed):
         np.testing.assert_array_equal(same.predict(cold), line.predict(cold))
 
 
+def _heating_runs_soaking_warm(rng, n_runs=4, n_rows=150):
+    """Runs that ramp from 10 to 40 degC at a rate drawn per run (degC/min), then soak at 40."""
+    t, rate, runs = [], [], []
+    for run in range(n_runs):
+        ramp_rate = rng.uniform(0.3, 1.0)
+        soak = n_rows // 3
+        t.append(np.r_[np.linspace(10.0, 40.0, n_rows - soak), np.full(soak, 40.0)])
+        rate.append(np.r_[np.full(n_rows - soak, ramp_rate), np.zeros(soak)])
+        runs.append(np.full(n_rows, run))
+    return np.concatenate(t), np.concatenate(rate), np.concatenate(runs)
+
+
 def test_plane_fallback_is_held_flat_beyond_the_end_it_did_not_extrapolate():
-    """Drift that bends below 13 degC: the plane does not carry to the cold extreme, so
-    below the calibrated temperatures it is held at its value at the edge."""
-    rng = np.random.default_rng(0)
-    t, rate, runs = _heating_runs(rng, n_runs=4)
-    y = 0.05 * t + 0.8 * rate + 0.1 * np.maximum(13.0 - t, 0.0) ** 2
-    y += rng.normal(scale=0.02, size=t.size)
-    plane = fit_fallback(t, y[:, None], 0, rate=rate, rate_column=1, runs=runs)
-    assert fallback_name(plane) == "plane"
-    assert plane.hold_below[0]
-    assert not plane.hold_above[0]
-    rows = np.array([[-10.0, 0.0], [0.0, 0.0], [10.0, 0.0], [50.0, 0.0], [60.0, 0.0]])
-    predicted = plane.predict(rows)[:, 0]
-    assert predicted[0] == predicted[1] == pytest.approx(predicted[2], abs=1e-12)
-    assert predicted[4] - predicted[3] == pytest.approx(10.0 * plane.slope[0])
+    """Drift that bends below 20 degC: the plane does not carry to the cold extreme, so
+    below the calibrated temperatures it is held at its value at the edge (and carried on
+    above them).
+
+    Over seeds 0-99, asserted here: every plane is held flat below and not above, and a
+    plane is kept on at least 95 of them (97 measured; a constant on the others, 197 of
+    seeds 0-199). The runs soak at their warm end: with the soak at the cold end (the
+    construction before), the coldest fifth held out to test the extrapolation lies inside
+    the soak, at the very temperature of kept rows, so the plane "carries" there and was held
+    flat on 7 of seeds 0-199 only (a limit of ``extremes_held_out``, issue 42)."""
+    planes = 0
+    for seed in range(100):
+        rng = np.random.default_rng(seed)
+        t, rate, runs = _heating_runs_soaking_warm(rng)
+        y = 0.05 * t + 0.8 * rate + 0.2 * np.maximum(20.0 - t, 0.0) ** 2
+        y += rng.normal(scale=0.02, size=t.size)
+        plane = fit_fallback(t, y[:, None], 0, rate=rate, rate_column=1, runs=runs)
+        if fallback_name(plane) != "plane":
+            assert fallback_name(plane) == "constant", seed
+            continue
+        planes += 1
+        assert plane.hold_below[0], seed
+        assert not plane.hold_above[0], seed
+        rows = np.array([[-10.0, 0.0], [0.0, 0.0], [10.0, 0.0], [50.0, 0.0], [60.0, 0.0]])
+        predicted = plane.predict(rows)[:, 0]
+        assert predicted[:2] == pytest.approx([predicted[2]] * 2, abs=1e-12), seed
+        assert predicted[4] - predicted[3] == pytest.approx(10.0 * plane.slope[0]), seed
+    assert planes >= 95
 
 
 def test_plane_fallback_ignores_a_drift_the_runs_do_not_repeat():
     """Each run's bias wanders with time differently: carried from the other runs, a plane
-    does worse than their mean, and the fallback stays a constant."""
-    rng = np.random.default_rng(1)
-    t, rate, runs = _heating_runs(rng, n_runs=4)
-    wander = np.concatenate([np.cumsum(rng.normal(scale=0.3, size=150)) for _ in range(4)])
-    assert held_out_runs(t, rate, wander[:, None], runs)[0] > REPEATED_RATIO
-    fallback = fit_fallback(t, wander[:, None], 0, rate=rate, rate_column=1, runs=runs)
-    assert fallback_name(fallback) == "constant"
+    does worse than their mean, and the fallback stays a constant.
+
+    A rate over seeds 0-199, not one draw: a random walk of four runs sometimes follows
+    their temperatures by chance. Measured: the held-out ratio above REPEATED_RATIO on 193
+    of 200, the fallback a constant on 184 (a plane on seeds 7, 16, 26, 33, 34, 44, 49, 69,
+    87, 97, 112, 118, 150, 153, 158 and 174); asserted: at least 95 % and 90 %."""
+    above, constant = 0, 0
+    for seed in range(200):
+        rng = np.random.default_rng(seed)
+        t, rate, runs = _heating_runs(rng, n_runs=4)
+        wander = np.concatenate([np.cumsum(rng.normal(scale=0.3, size=150)) for _ in range(4)])
+        above += bool(held_out_runs(t, rate, wander[:, None], runs)[0] > REPEATED_RATIO)
+        fallback = fit_fallback(t, wander[:, None], 0, rate=rate, rate_column=1, runs=runs)
+        constant += fallback_name(fallback) == "constant"
+    assert above >= 0.95 * 200
+    assert constant >= 0.90 * 200
 
 
 def _run_offsets_hide_a_plane(seed):
