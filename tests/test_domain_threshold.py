@@ -123,8 +123,15 @@ def test_without_a_temperature_and_a_rate_column_the_margin_stays(temperature, r
 def test_new_runs_of_a_calibrated_profile_are_flagged_at_about_alpha():
     """Over 20 seeds of three calibration runs and four new ones of the same profile: the
     share of a new run's rows (within the calibrated temperatures and rates) flagged stays
-    near alpha, a rate over the seeds, while the margin alone flags more than twice as
-    many; the held-out runs raise the threshold above the margin on most seeds."""
+    near alpha, a rate over the seeds, while the margin alone flags more; the held-out runs
+    raise the threshold above the margin on most seeds.
+
+    The bounds are rates that hold on every block of 20 seeds checked (issue 42): over
+    calibration seeds 0-399 in blocks of 20 (new runs from seed 100000 + seed), the mean
+    share flagged was 0.009-0.081 (0.039 over all 400), the share of seeds at most 3 alpha
+    0.80-1.00 (0.90), the threshold raised on 0.85-1.00 (0.95), and the margin alone
+    flagged 1.36-5.2 times as many (1.83 over all; the earlier "more than twice" held on 8
+    of the 20 blocks only). On this test's seeds: 0.027, 0.95, 0.95 and 2.7 times."""
     alpha, shares, margin_shares, raised = 0.05, [], [], []
     for seed in range(20):
         X, runs = _runs(seed, n_runs=3)
@@ -137,10 +144,10 @@ def test_new_runs_of_a_calibrated_profile_are_flagged_at_about_alpha():
         shares.append(np.mean(domain.predict(rows) == -1))
         margin_shares.append(np.mean(domain.distance(rows) > domain.margin))
         raised.append(domain.threshold_ > domain.margin)
-    assert np.mean(raised) >= 0.5
+    assert np.mean(raised) >= 0.8
     assert np.mean(shares) <= 2 * alpha
-    assert np.mean(np.array(shares) <= 3 * alpha) >= 0.9
-    assert np.mean(margin_shares) > 2 * np.mean(shares)
+    assert np.mean(np.array(shares) <= 3 * alpha) >= 0.8
+    assert np.mean(margin_shares) > 1.3 * np.mean(shares)
 
 
 def test_true_extrapolation_is_still_caught_beyond_rates_and_temperatures():
