@@ -173,7 +173,11 @@ def test_true_extrapolation_is_still_caught_beyond_rates_and_temperatures():
 def test_distance_is_continuous_where_a_rate_leaves_its_range():
     """The boost comes in over a short ramp: the distance has no step at the calibrated
     rate's edge (its change shrinks with the step), and holds the row to the margin once
-    the ramp is passed."""
+    the ramp is passed.
+
+    Holds on every seed of 0-199 (``_runs(seed, n_runs=3)``, checked once, issue 42) whose
+    held-out runs raise the threshold, so that there is a boost: 191 of them (not 30, 87,
+    104, 131, 158, 179, 182, 185, 187); the test runs seed 2."""
     X, runs = _runs(2, n_runs=3)
     domain = CalibrationDomain(temperature=0, rate=1).fit(X, groups=runs)
     assert domain.boost_ > 0
