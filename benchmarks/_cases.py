@@ -117,7 +117,9 @@ SEEDS = {
         "chose": "the network's defaults on 0-2 (bench_thermal_state.py) and the calibration "
         "domain's margin and blend width on 0-7 (bench_extrapolation.py --tune); --quick "
         "runs seed 0. 8-10 judged until issue 42 and are bench_extrapolation's retired "
-        "gyros; 4231-4233: fresh, regenerated once by issue 42 (bench_rbf.md)",
+        "gyros; 4231-4233: fresh in issue 42, not yet run (the committed bench_rbf.md is "
+        "still on the retired 8-10; issue 42 ran out of time): run once at the next issue's "
+        "end",
     },
     "rbf_scale_check": {
         "physics": (),
@@ -169,7 +171,8 @@ SEEDS = {
         "chose": "ThermalFeatures' default terms, lags and smoothing (the default run and "
         "--quick use the tuning seeds; --seeds 4241 4242 4243 --tag heldout judges). 8-10 "
         "judged until issue 42 and are bench_extrapolation's retired gyros; 4241-4243: "
-        "fresh, regenerated once by issue 42 (thermal_state_heldout.md)",
+        "fresh in issue 42, not yet run (the committed thermal_state_heldout.md is still on "
+        "the retired 8-10; issue 42 ran out of time): run once at the next issue's end",
     },
     "bench_thermal_accuracy": {
         "physics": ("layered",),
