@@ -184,7 +184,11 @@ def test_refinement_reduces_training_loss_from_a_poor_start(method):
     """Every method at least halves the training loss of a poor start.
 
     Checked once on problem seeds 0-9, each with start seed one more (holds on each; "gd"
-    ends at 0.14 to 0.50 of the start loss, 0.4997 on seed 9).
+    ends at 0.14 to 0.50 of the start loss, 0.4997 on seed 9). Rerun on problem seeds 0-39
+    (issue 42): "varpro" and "lm" hold on each (at most 0.027 and 0.215 of the start loss,
+    the last iterate within 5 % of the best); "gd" halves the loss on 39 of 40 (0.515 at
+    worst) and its last mini-batch iterate is within 5 % of its best on 29 of 40 only, so
+    that check is for the two deterministic methods (the test runs seed 0).
     """
     Z, Y = smooth_problem()
     start = starting_network(Z, Y, width=0.3)
@@ -202,9 +206,10 @@ def test_refinement_reduces_training_loss_from_a_poor_start(method):
     assert result.improved
     assert final_loss < 0.5 * start_loss
     assert result.history["train_loss"][0] == pytest.approx(start_loss)
-    assert result.history["train_loss"][-1] == pytest.approx(
-        min(result.history["train_loss"]), rel=0.05
-    )
+    if method != "gd":
+        assert result.history["train_loss"][-1] == pytest.approx(
+            min(result.history["train_loss"]), rel=0.05
+        )
     assert len(result.history["train_loss"]) == result.n_iter + 1
     assert result.history["val_loss"] == []
 
