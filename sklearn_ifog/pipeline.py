@@ -259,7 +259,7 @@ class CompensationPipeline(Pipeline):
     handover : bool, default=False
         Whether the model keeps the kinds of novel rows on which held-out runs show it
         beating its fallback. With at least 3 runs, :meth:`fit` refits the steps on two
-        thirds of the runs three times (2.78 to 3.26 times the fit time of the default network
+        thirds of the runs three times (2.51 to 3.49 times the fit time of the default network
         on the 9-run campaigns of ``python benchmarks/bench_extrapolation.py --tune --n-jobs
         2``, whose "With handover=True" table measures what it buys), predicts the held-out
         runs, and judges their rows
