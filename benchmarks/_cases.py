@@ -52,7 +52,9 @@ PHYSICS = ("lumped", "layered", "layered_glass")
 #: - ``judged``: the verdicts, on gyros no script tunes on. A judged result is regenerated
 #:   once per issue, at its end (``chose`` says which issue regenerated what); a sweep prints
 #:   on tuning seeds only. The judged seeds of issue 42 are fresh: 4206-4292, numbers no
-#:   source, test, example or doc had used and no results file had printed.
+#:   source, test, example or doc had used and no results file had printed. Issue 42
+#:   regenerated its results on commit 1a162af, before issue 41 changed the default
+#:   network's tail (40ea5b8): issue 41 regenerates them once more, at its end.
 SEEDS = {
     "bench_extrapolation": {
         "physics": PHYSICS,
@@ -83,7 +85,7 @@ SEEDS = {
         "judged": (4281, 4282),
         "chose": "the conformal difficulty model (its tuning seeds are bench_conformal's); "
         "3-4 judged until issue 42 but are bench_extrapolation's tuning gyros: retired; "
-        "4281-4282: fresh, regenerated once by issue 42 (conformal_difficulty.md)",
+        "4281-4282: fresh, regenerated once by issue 42 on 1a162af (conformal_difficulty.md)",
     },
     "bench_streaming": {
         "physics": ("layered",),
@@ -93,7 +95,7 @@ SEEDS = {
         "chose": "nothing: --quick runs seed 0, and the latency and C studies time seed 0's "
         "model (timings and C against Python, no gyro's accuracy judged there); 0-4 judged "
         "the ageing study until issue 42 but are other scripts' tuning gyros: retired; "
-        "4261-4265: fresh, regenerated once by issue 42 (bench_streaming.md)",
+        "4261-4265: fresh, regenerated once by issue 42 on 1a162af (bench_streaming.md)",
     },
     "bench_export": {
         "physics": ("layered",),
@@ -182,7 +184,7 @@ SEEDS = {
         "chose": "the refine modes' comparison RBFNetRegressor's Notes cite (--refine-modes) "
         "and --quick run on seed 0; 0 judged until issue 42 (thermal_accuracy.md), 1 and 2 "
         "were printed (--campaign-seed, thermal_accuracy_campaign1/2.md): other scripts' "
-        "tuning gyros, retired; 4251: fresh, regenerated once by issue 42",
+        "tuning gyros, retired; 4251: fresh, regenerated once by issue 42 on 1a162af",
     },
     "paper_claim_check": {
         "physics": PHYSICS,
@@ -192,7 +194,7 @@ SEEDS = {
         "chose": "nothing: the judged seeds check the paper's claim and run its recipe; "
         "--quick runs seed 0 and --seeds N seeds 0..N-1 (tuning and retired gyros, for "
         "exploration). 0-7 judged until issue 42 but are other scripts' tuning gyros: "
-        "retired; 4271-4278: fresh, regenerated once by issue 42 (paper_claim.md)",
+        "retired; 4271-4278: fresh, regenerated once by issue 42 on 1a162af (paper_claim.md)",
     },
     "unitwise_selection": {
         "physics": ("lumped", "layered_glass"),
@@ -210,8 +212,8 @@ SEEDS = {
         "retired": (4291,),
         "judged": (4292,),
         "chose": "nothing: timings. --quick times lots of seed 0 (a tuning gyro, judged until "
-        "issue 42); 4292: fresh, regenerated once by issue 42 (scale.md); 4291 was timed "
-        "once by a --quick run while issue 42 moved the register: retired",
+        "issue 42); 4292: fresh, regenerated once by issue 42 on 1a162af (scale.md); 4291 "
+        "was timed once by a --quick run while issue 42 moved the register: retired",
     },
 }
 
