@@ -60,7 +60,8 @@ def tail_transform(T, sample_weight, penalty):
     >>> tail_transform(T, np.ones(50), "ridge") is None
     True
     """
-    if penalty == "ridge" or T is None or T.shape[1] == 0:
+    if penalty == "ridge" or T is None or T.shape[1] == 0 or not np.sum(sample_weight) > 0:
+        # No spread to measure (no tail, or rows without weight): the plain ridge.
         return None
     covariance = np.atleast_2d(np.cov(T, rowvar=False, aweights=sample_weight, bias=True))
     spread, directions = np.linalg.eigh(covariance)
