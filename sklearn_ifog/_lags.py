@@ -332,7 +332,7 @@ def _validate(values, time, run_starts, time_constants, hold, initial):
             f"values must have shape (n_samples,) or (n_samples, n_columns), got {values.shape}."
         )
     if not np.all(np.isfinite(values)):
-        row = int(np.flatnonzero(~np.isfinite(values.reshape(values.shape[0], -1)).any(1))[0])
+        row = int(np.flatnonzero((~np.isfinite(values.reshape(values.shape[0], -1))).any(1))[0])
         raise ValueError(f"values must be finite; row {row} holds NaN or inf.")
     n_samples = values.shape[0]
     time = np.asarray(time, dtype=np.float64)

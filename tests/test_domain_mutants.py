@@ -1,0 +1,460 @@
+"""Behaviour of the calibration domain that mutation testing found unguarded (issue 42, point 5).
+
+Each test here kills mutants of :mod:`sklearn_ifog.domain` that survived the domain's other
+tests (``tools/mutation.sh domain``); the docstrings say which.
+"""
+
+import numpy as np
+import pytest
+
+from sklearn_ifog.domain import (
+    CalibrationDomain,
+    Fallback,
+    apply_policy,
+    fallback_name,
+    fallback_weight,
+    fit_fallback,
+)
+
+
+def _heating_runs(rng, n_runs=4, n_rows=150):
+    """Runs that soak at 10 degC then ramp to 40 at a rate drawn per run (degC/min)."""
+    t, rate, runs = [], [], []
+    for run in range(n_runs):
+        soak = n_rows // 3
+        t.append(np.r_[np.full(soak, 10.0), np.linspace(10.0, 40.0, n_rows - soak)])
+        rate.append(np.r_[np.zeros(soak), np.full(n_rows - soak, rng.uniform(0.3, 1.0))])
+        runs.append(np.full(n_rows, run))
+    return np.concatenate(t), np.concatenate(rate), np.concatenate(runs)
+
+
+def test_plane_fallback_is_held_flat_above_the_warm_end_it_did_not_extrapolate():
+    """The warm mirror of ``test_plane_fallback_is_held_flat_beyond_the_end_it_did_not_
+    extrapolate``: drift that bends down above 34 degC, so the plane does not carry to the
+    warm extreme and is held at its value at ``high`` above it, while it goes on below
+    ``low``. Kills ``hold_above=None`` (and ``~carries[1]`` read as ``carries[1]`` or
+    ``~carries[0]``) in :func:`fit_fallback`. Holds on seeds 0-49 (checked once); the test
+    runs 0-19."""
+    for seed in range(20):
+        rng = np.random.default_rng(seed)
+        t, rate, runs = _heating_runs(rng)
+        y = 0.05 * t + 0.8 * rate - 0.1 * np.maximum(t - 34.0, 0.0) ** 2
+        y += rng.normal(scale=0.02, size=t.size)
+        plane = fit_fallback(t, y[:, None], 0, rate=rate, rate_column=1, runs=runs)
+        assert fallback_name(plane) == "plane", seed
+        assert plane.hold_above.tolist() == [True], seed
+        assert plane.hold_below.tolist() == [False], seed
+        rows = np.array([[0.0, 0.0], [5.0, 0.0], [40.0, 0.0], [50.0, 0.0], [70.0, 0.0]])
+        predicted = plane.predict(rows)[:, 0]
+        # Flat above 40 degC, at the line's value there ...
+        np.testing.assert_allclose(predicted[3:], predicted[2], rtol=1e-12, err_msg=str(seed))
+        expected = plane.intercept[0] + 40.0 * plane.slope[0]
+        assert predicted[2] == pytest.approx(expected, abs=1e-12), seed
+        # ... and the line goes on below 10 degC.
+        assert predicted[1] - predicted[0] == pytest.approx(5.0 * plane.slope[0]), seed
+        assert plane.slope[0] > 0.0, seed
+
+
+def _smoothstep(s):
+    s = np.clip(s, 0.0, 1.0)
+    return s * s * (3.0 - 2.0 * s)
+
+
+def test_the_blend_takes_over_within_one_standard_deviation_beyond_the_threshold():
+    """``BLEND_WIDTH`` is 1: half-way (0.5 beyond the threshold) the blend is the mean of
+    the model and its fallback, from 1 beyond on it is the fallback alone. The domain's
+    other tests read the width from ``BLEND_WIDTH`` itself, so ``BLEND_WIDTH = 10`` passed
+    them; this one kills it (and every change of the default width)."""
+    margin = 1.5
+    distance = margin + np.array([0.0, 0.25, 0.5, 0.75, 1.0, 3.0])
+    np.testing.assert_allclose(
+        fallback_weight(distance, margin), [0.0, 0.15625, 0.5, 0.84375, 1.0, 1.0], atol=1e-15
+    )
+    # Through the policy, on a domain of one feature (10-40 degC, sd of the 31 rows).
+    t = np.linspace(10.0, 40.0, 31)
+    domain = CalibrationDomain(margin=margin, temperature=0).fit(t[:, None])
+    assert domain.threshold_ == margin
+    beyond = np.array([0.0, 0.5, 1.0, 2.0])
+    rows = 40.0 + (margin + beyond)[:, None] * t.std()
+    distance = domain.distance(rows)
+    np.testing.assert_allclose(distance, margin + beyond, rtol=1e-12)
+    fallback = Fallback(np.array([1.0]), np.array([0.0]), 0)
+    blended = apply_policy(
+        "blend",
+        np.full((4, 1), 7.0),
+        rows,
+        distance,
+        domain.predict(rows) == -1,
+        domain=domain,
+        fallback=fallback,
+        evaluate=None,
+    )
+    weight = _smoothstep(beyond)
+    np.testing.assert_allclose(blended[:, 0], 7.0 * (1 - weight) + weight, rtol=1e-12)
+    np.testing.assert_allclose(blended[1:, 0], [4.0, 1.0, 1.0], rtol=1e-12)
+    assert blended[0, 0] == 7.0  # at the threshold itself: the model
+
+
+def test_the_blend_width_argument_stretches_the_ramp():
+    """Kills ``(distance - margin) * width`` (the same as ``/`` at the default width 1)."""
+    weight = fallback_weight([2.0, 2.5, 3.0, 3.5], margin=1.5, width=2.0)
+    np.testing.assert_allclose(weight, _smoothstep(np.array([0.25, 0.5, 0.75, 1.0])))
+
+
+def _calibration(n_runs=3, n_rows=60, seed=0):
+    """Rows of T (10-40 degC) and a rate (0.1-0.3) from ``n_runs`` runs."""
+    rng = np.random.default_rng(seed)
+    n = n_runs * n_rows
+    X = np.column_stack([rng.uniform(10.0, 40.0, n), rng.uniform(0.1, 0.3, n)])
+    return X, np.repeat(np.arange(n_runs), n_rows)
+
+
+def test_extend_only_widens_and_moves_the_boost_and_offset_with_the_threshold():
+    """Kills the mutants of :meth:`CalibrationDomain.extend` (only one handover test reached
+    it, through its temperature-low branch)."""
+    X, groups = _calibration()
+    domain = CalibrationDomain(temperature=0, rate=1).fit(X, groups=groups)
+    threshold, margin = domain.threshold_, domain.margin
+    rate_low, rate_high = domain.rate_low_.copy(), domain.rate_high_.copy()
+    boost_low, boost_high = domain.boost_low_.copy(), domain.boost_high_.copy()
+    # Nothing narrows: a lower threshold and ranges inside the calibrated ones change nothing.
+    domain.extend(
+        threshold=threshold - 0.5,
+        rate_low=rate_low + 0.05,
+        rate_high=rate_high - 0.05,
+        temperature_low=boost_low + 5.0,
+        temperature_high=boost_high - 5.0,
+    )
+    assert (domain.threshold_, domain.offset_) == (threshold, -threshold)
+    for now, before in [
+        (domain.rate_low_, rate_low),
+        (domain.rate_high_, rate_high),
+        (domain.boost_low_, boost_low),
+        (domain.boost_high_, boost_high),
+    ]:
+        np.testing.assert_array_equal(now, before)
+    # Widening: every range moves out to what it is given, the boost and offset follow.
+    domain.extend(threshold=threshold + 1.0)
+    assert domain.threshold_ == threshold + 1.0
+    assert domain.boost_ == pytest.approx(threshold + 1.0 - margin)
+    assert domain.offset_ == -(threshold + 1.0)
+    domain.extend(rate_low=[0.05], rate_high=[0.45], temperature_low=[0.0])
+    domain.extend(temperature_high=[50.0])
+    np.testing.assert_array_equal(domain.rate_low_, [0.05])
+    np.testing.assert_array_equal(domain.rate_high_, [0.45])
+    np.testing.assert_array_equal(domain.boost_low_, [0.0])
+    np.testing.assert_array_equal(domain.boost_high_, [50.0])
+    # The widened rates are inside now; a temperature beyond the calibration is still out
+    # (the firmware rule), scored below every row inside.
+    rows = np.array([[25.0, 0.4], [25.0, 0.07], [25.0, 0.6], [45.0, 0.2]])
+    assert domain.predict(rows).tolist() == [1, 1, -1, -1]
+    np.testing.assert_allclose(
+        domain.decision_function(rows), domain.score_samples(rows) + domain.threshold_
+    )
+
+
+def test_extend_without_both_temperature_and_rate_columns_changes_nothing():
+    """Kills ``temperature_columns_ or rate_columns_`` in :meth:`CalibrationDomain.extend`."""
+    X, groups = _calibration()
+    for params in ({"temperature": 0}, {"rate": 1}, {}):
+        domain = CalibrationDomain(**params).fit(X, groups=groups)
+        before = (domain.threshold_, domain.boost_, domain.offset_)
+        assert domain.extend(threshold=9.0, rate_high=[9.0], temperature_high=[99.0]) is domain
+        assert (domain.threshold_, domain.boost_, domain.offset_) == before == (1.5, 0.0, -1.5)
+        np.testing.assert_array_equal(domain.boost_high_, X[:, domain.temperature_columns_].max(0))
+        np.testing.assert_array_equal(domain.rate_high_, X[:, domain.rate_columns_].max(axis=0))
+
+
+def test_decision_function_is_negative_exactly_outside():
+    """scikit-learn's outlier convention: ``decision_function = score_samples - offset_``,
+    below 0 where :meth:`~CalibrationDomain.predict` gives -1. Kills ``+ offset_``."""
+    X, groups = _calibration()
+    domain = CalibrationDomain(temperature=0, rate=1).fit(X, groups=groups)
+    rows = np.array([[25.0, 0.2], [10.0, 0.1], [25.0, 0.35], [25.0, 0.9], [41.0, 0.2]])
+    decision = domain.decision_function(rows)
+    np.testing.assert_allclose(decision, domain.score_samples(rows) + domain.threshold_)
+    np.testing.assert_array_equal(decision < 0, domain.predict(rows) == -1)
+    assert decision[0] == domain.threshold_  # a calibration-like row: distance 0
+
+
+def test_score_samples_beyond_the_calibrated_temperatures():
+    """Inside the temperatures the score is minus the distance (0 for the calibration's own
+    rows); beyond them it is ``-(threshold_ + excess / sd)`` while the distance is smaller.
+    Kills ``beyond >= 0`` and ``beyond * scale``."""
+    t = np.linspace(10.0, 40.0, 31)
+    domain = CalibrationDomain(margin=1.5, temperature=0).fit(t[:, None])
+    np.testing.assert_array_equal(domain.score_samples(t[:, None]), np.zeros(t.size))
+    rows = np.array([[40.5], [9.0]])  # beyond T, within the margin of the box
+    assert domain.distance(rows).max() < domain.threshold_
+    expected = -(domain.threshold_ + np.array([0.5, 1.0]) / t.std())
+    np.testing.assert_allclose(domain.score_samples(rows), expected, rtol=1e-12)
+
+
+def test_project_without_temperature_columns_is_the_widened_box():
+    """:meth:`CalibrationDomain.project` of a domain without ``temperature`` columns: rows
+    within ``threshold_`` stay, rows farther out land at distance ``threshold_`` (kills the
+    mutants of its first branch, which no test reached)."""
+    X, _ = _calibration()
+    domain = CalibrationDomain(margin=0.5).fit(X)
+    rows = np.array([[25.0, 0.2], [60.0, 0.2], [25.0, 0.6], [-10.0, 0.0]])
+    assert domain.distance(rows).tolist()[0] == 0.0
+    assert domain.distance(rows[1:]).min() > 0.5
+    projected = domain.project(rows)
+    np.testing.assert_array_equal(projected[0], rows[0])
+    np.testing.assert_allclose(domain.distance(projected[1:]), 0.5, rtol=1e-9)
+    # One feature: a clamp to [min - 0.5 sd, max + 0.5 sd].
+    t = np.linspace(10.0, 40.0, 31)
+    one = CalibrationDomain(margin=0.5).fit(t[:, None])
+    clamped = one.project(np.array([[60.0], [0.0], [20.0]])).ravel()
+    np.testing.assert_allclose(clamped, [40.0 + 0.5 * t.std(), 10.0 - 0.5 * t.std(), 20.0])
+
+
+def test_project_clamps_every_temperature_into_its_range_on_both_sides():
+    """Kills ``np.clip(..., low, None)``: a row warmer than the calibration is clamped to
+    its warmest temperature, as a colder one to its coldest."""
+    X, groups = _calibration()
+    domain = CalibrationDomain(temperature=0, rate=1).fit(X, groups=groups)
+    rows = np.array([[60.0, 0.2], [-20.0, 0.2], [25.0, 0.2]])
+    projected = domain.project(rows)
+    assert projected[:, 0].tolist() == [X[:, 0].max(), X[:, 0].min(), 25.0]
+    assert domain.predict(projected).tolist() == [1, 1, 1]
+
+
+def test_integer_rows_are_projected_as_floats():
+    """A row given as integers is not truncated: kills ``dtype=None`` in
+    :func:`~sklearn_ifog.domain.project_to_box` and :meth:`CalibrationDomain.project`."""
+    from sklearn_ifog.domain import fit_box, project_to_box
+
+    box = fit_box(np.linspace(0.0, 10.0, 11)[:, None])
+    sd = np.linspace(0.0, 10.0, 11).std()
+    projected = project_to_box(box, [[40], [-40], [5]], 0.5)
+    np.testing.assert_allclose(projected.ravel(), [10 + 0.5 * sd, -0.5 * sd, 5.0])
+    t = np.linspace(10.0, 40.0, 31)
+    domain = CalibrationDomain(margin=0.5).fit(np.column_stack([t, np.sin(t)]))
+    integer = domain.project(np.array([[60, 0], [25, 0]]))
+    assert integer.dtype == np.float64
+    np.testing.assert_allclose(integer, domain.project(np.array([[60.0, 0.0], [25.0, 0.0]])))
+
+
+def test_fallback_name_of_a_line_and_of_a_zero_rate_term():
+    """Kills the mutants of :func:`~sklearn_ifog.domain.fallback_name` (only its doctest
+    named a line)."""
+    line = Fallback(np.array([1.0]), np.array([0.5]), 0)
+    assert fallback_name(line) == "line"
+    assert fallback_name(line._replace(rate_slope=np.array([0.0]), rate_column=1)) == "line"
+    assert fallback_name(line._replace(rate_slope=np.array([1.0]), rate_column=1)) == "plane"
+    flat = Fallback(np.array([1.0, 2.0]), np.array([0.0, 0.0]), 0, rate_slope=np.zeros(2))
+    assert fallback_name(flat) == "constant"
+    # A rate slope without a rate column (or a column without a slope) adds no rate term.
+    rows = np.array([[10.0, 3.0], [20.0, -3.0]])
+    assert flat.predict(rows).tolist() == [[1.0, 2.0], [1.0, 2.0]]
+    assert flat._replace(rate_slope=None, rate_column=1).predict(rows).tolist() == [
+        [1.0, 2.0],
+        [1.0, 2.0],
+    ]
+
+
+def test_plane_of_a_constant_rate_is_the_line_and_fits_each_output():
+    """:func:`~sklearn_ifog.domain._plane`: a rate that does not vary gets a rate slope of
+    0 and the plane is the line in T; two outputs get their own intercepts. Kills the
+    mutants of its zero-scale guard and ``Y.mean(axis=None)`` in its intercept."""
+    from sklearn_ifog.domain import _line, _plane
+
+    t = np.linspace(10.0, 40.0, 50)
+    Y = np.column_stack([1.0 + 0.5 * t, -3.0 + 0.1 * t + np.sin(t)])
+    intercept, slope, rate_slope = _plane(t, np.full(t.size, 0.25), Y)
+    line_intercept, line_slope = _line(t, Y)
+    np.testing.assert_array_equal(rate_slope, [0.0, 0.0])
+    np.testing.assert_allclose(slope, line_slope, rtol=1e-10)
+    np.testing.assert_allclose(intercept, line_intercept, rtol=1e-10)
+    assert intercept[0] == pytest.approx(1.0)
+    assert slope[0] == pytest.approx(0.5)
+    # With a rate that varies: the exact plane of each output.
+    rate = np.cos(t)
+    Y = np.column_stack([1.0 + 0.5 * t + 2.0 * rate, -3.0 + 0.1 * t - rate])
+    intercept, slope, rate_slope = _plane(t, rate, Y)
+    np.testing.assert_allclose(intercept, [1.0, -3.0], atol=1e-10)
+    np.testing.assert_allclose(slope, [0.5, 0.1], atol=1e-12)
+    np.testing.assert_allclose(rate_slope, [2.0, -1.0], atol=1e-10)
+
+
+def test_line_of_a_small_temperature_spread_and_of_one_temperature():
+    """:func:`~sklearn_ifog.domain._line`: a spread of millikelvin still has its slope (kills
+    ``denominator > 1``); a single temperature has slope 0, not NaN (kills the mutants of
+    that guard: ``>= 0``, ``or True``, ``0 / Y[0]``, ``1 * Y[0]``)."""
+    from sklearn_ifog.domain import _line
+
+    t = np.linspace(0.0, 0.01, 5)
+    intercept, slope = _line(t, np.column_stack([2.0 + 3.0 * t, -t]))
+    np.testing.assert_allclose(slope, [3.0, -1.0], rtol=1e-9)
+    np.testing.assert_allclose(intercept, [2.0, 0.0], atol=1e-12)
+    intercept, slope = _line(
+        np.full(4, 25.0), np.array([[1.0, 5.0], [2.0, 5.0], [3.0, 5.0], [2.0, 5.0]])
+    )
+    assert slope.tolist() == [0.0, 0.0]
+    assert intercept.tolist() == [2.0, 5.0]
+
+
+def test_a_calibration_mostly_at_one_soak_keeps_a_finite_fallback():
+    """80 % of the rows at one soak temperature, 20 % at another: holding out the warm fifth
+    leaves one temperature, where the line is the constant (slope 0, no NaN)."""
+    from sklearn_ifog.domain import extremes_held_out
+
+    t = np.r_[np.full(80, 10.0), np.full(20, 30.0)]
+    y = np.r_[np.linspace(0.0, 1.0, 80), np.linspace(5.0, 6.0, 20)][:, None]
+    losses = extremes_held_out(t, y)
+    assert np.all(np.isfinite(losses))
+    # Warm end: the line fitted on the 80 soak rows is their mean, like the constant.
+    np.testing.assert_array_equal(losses[1, 1], losses[1, 0])
+    np.testing.assert_allclose(losses[1, 0][:, 0], np.square(y[80:, 0] - 0.5))
+    fallback = fit_fallback(t, y, column=0)
+    assert np.all(np.isfinite(fallback.predict(np.array([[0.0], [20.0], [50.0]]))))
+
+
+def test_extremes_held_out_sizes_ties_and_rate():
+    """:func:`~sklearn_ifog.domain.extremes_held_out`: 48 rows hold out fifths of 10, 47 rows
+    are too few (kills ``n_held <= 10``); a temperature span of exactly 1 degree is a span
+    (kills ``ptp == 1``), a single temperature is not; ties are held out in row order (the
+    earliest rows of a soak; numpy's default sort keeps these ties in order too, so the
+    ``kind="stable"`` mutants survive); with ``rate`` the model is the
+    plane in T and dT (kills ``rate = None``)."""
+    from sklearn_ifog.domain import extremes_held_out
+
+    line = lambda t: (2.0 * t)[:, None]  # noqa: E731
+    assert extremes_held_out(np.linspace(0.0, 1.0, 48), line(np.linspace(0.0, 1.0, 48))).shape == (
+        2,
+        2,
+        10,
+        1,
+    )
+    assert extremes_held_out(np.linspace(0.0, 30.0, 47), line(np.linspace(0.0, 30.0, 47))) is None
+    assert extremes_held_out(np.full(100, 20.0), np.arange(100.0)[:, None]) is None
+    # Ties: a soak of 40 rows at 10 degC then a ramp; the cold fifth (20 rows) is the soak's
+    # first 20 rows, whose targets (the row index) are 0-19.
+    t = np.r_[np.full(40, 10.0), np.linspace(10.5, 40.0, 60)]
+    y = np.arange(100.0)[:, None]
+    losses = extremes_held_out(t, y)
+    kept_mean = y[20:, 0].mean()
+    np.testing.assert_allclose(losses[0, 0][:, 0], np.square(np.arange(20.0) - kept_mean))
+    # A drift in T and dT: the plane extrapolates it exactly, the line in T does not.
+    rng = np.random.default_rng(0)
+    t = np.linspace(10.0, 40.0, 100)
+    rate = rng.uniform(-1.0, 1.0, 100)
+    y = (0.1 * t + 2.0 * rate)[:, None]
+    assert extremes_held_out(t, y, rate)[:, 1].max() < 1e-20
+    assert extremes_held_out(t, y)[:, 1].max() > 0.1
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_each_output_is_judged_on_its_own_errors(seed):
+    """:func:`fit_fallback` compares each output's line with that output's constant: an
+    output a thousand times larger must not lend its errors to a small one. A small exact
+    slope beside large noise keeps its slope (kills ``end[1].mean(axis=None)``); a weak
+    slope that explains less than three quarters at the extremes stays a constant beside a
+    large real slope (kills ``end[0].mean(axis=None)``). Both hold on seeds 0-49 (checked
+    once); the test runs 0-4."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(10.0, 22.0, 400)
+    small = 0.01 * t + rng.normal(scale=0.001, size=t.size)
+    big_noise = rng.normal(scale=1000.0, size=t.size)
+    fallback = fit_fallback(t, np.column_stack([small, big_noise]), column=0)
+    assert fallback.slope[0] == pytest.approx(0.01, rel=0.05)
+    assert fallback.slope[1] == 0.0
+    real = 1000.0 * t + rng.normal(scale=20.0, size=t.size)
+    weak = 0.1 * t + rng.normal(scale=0.5, size=t.size)
+    fallback = fit_fallback(t, np.column_stack([real, weak]), column=0)
+    assert fallback.slope[0] == pytest.approx(1000.0, rel=0.01)
+    assert fallback.slope[1] == 0.0
+    assert fallback.intercept[1] == pytest.approx(weak.mean())
+
+
+def test_a_fallback_with_too_few_rows_is_the_mean_in_its_column():
+    """Too few rows to test a slope: the constant, still naming its temperature column
+    (kills ``Fallback(None, ...)`` and ``Fallback(..., None)`` on that path)."""
+    Y = np.column_stack([np.arange(30.0), np.full(30, -2.0)])
+    fallback = fit_fallback(np.arange(30.0), Y, column=3)
+    assert fallback.column == 3
+    assert fallback.predict(np.zeros((2, 4))).tolist() == [[14.5, -2.0], [14.5, -2.0]]
+
+
+def test_runs_without_a_rate_give_the_line_in_t():
+    """``runs`` alone (no rate): the line-in-T rule (kills ``rate is None and runs is
+    None``)."""
+    rng = np.random.default_rng(0)
+    t, rate, runs = _heating_runs(rng)
+    y = (0.05 * t + 0.8 * rate + rng.normal(scale=0.05, size=t.size))[:, None]
+    line = fit_fallback(t, y, 0)
+    alone = fit_fallback(t, y, 0, runs=runs)
+    assert fallback_name(alone) == fallback_name(line) == "line"
+    np.testing.assert_array_equal(alone.slope, line.slope)
+    np.testing.assert_array_equal(alone.intercept, line.intercept)
+    assert alone.rate_slope is None
+
+
+def test_a_plane_is_trusted_at_a_ratio_of_exactly_repeated_ratio():
+    """``repeated_ratio`` is the *largest* ratio trusted: at exactly the plane's own
+    held-out ratio it is kept, just below it not (kills ``ratio < repeated_ratio``)."""
+    from sklearn_ifog.domain import held_out_runs
+
+    rng = np.random.default_rng(0)
+    t, rate, runs = _heating_runs(rng)
+    y = (0.05 * t + 0.8 * rate + rng.normal(scale=0.05, size=t.size))[:, None]
+    ratio = held_out_runs(t, rate, y, runs)[0]
+    assert 0.0 < ratio < 0.75
+    kw = dict(rate=rate, rate_column=1, runs=runs, carried_scale=np.inf)
+    assert fallback_name(fit_fallback(t, y, 0, repeated_ratio=ratio, **kw)) == "plane"
+    below = np.nextafter(ratio, 0.0)
+    assert fallback_name(fit_fallback(t, y, 0, repeated_ratio=below, **kw)) != "plane"
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_the_plane_is_decided_output_by_output(seed):
+    """Several outputs: each gets the plane only where its own runs repeat it and its own
+    extremes carry it, its rate slope 0 and the line's intercept and slope otherwise; the
+    plane's intercept is the least-squares plane's. An output a thousand times larger does
+    not lend its errors to a small one (kills ``trusted | carries``, ``carries.any(axis=
+    None)``, a rate slope of 1 off the plane, ``np.where(None, intercept, ...)`` and
+    ``end[1].mean(axis=None)`` in :func:`fit_fallback`). Holds on seeds 0-29 (checked
+    once); the test runs 0-4."""
+    from sklearn_ifog.domain import _plane
+
+    rng = np.random.default_rng(seed)
+    t, rate, runs = _heating_runs(rng)
+    plane = 0.05 * t + 0.8 * rate
+    exact = plane + rng.normal(scale=0.02, size=t.size)
+    noisy = plane + rng.normal(scale=0.3, size=t.size)  # a held-out-run ratio near 0.15
+    kw = dict(rate=rate, rate_column=1, runs=runs)
+    Y = np.column_stack([exact, noisy])
+    fallback = fit_fallback(t, Y, 0, repeated_ratio=0.05, carried_scale=np.inf, **kw)
+    line = fit_fallback(t, Y, 0)
+    intercept, slope, rate_slope = _plane(t, rate, Y)
+    assert fallback.rate_slope[0] == rate_slope[0] == pytest.approx(0.8, rel=0.05)
+    assert (fallback.intercept[0], fallback.slope[0]) == (intercept[0], slope[0])
+    assert fallback.rate_slope[1] == 0.0
+    assert (fallback.intercept[1], fallback.slope[1]) == (line.intercept[1], line.slope[1])
+    # A small output bending above 34 degC beside a large exact plane: held above, kept.
+    bend = plane - 0.1 * np.maximum(t - 34.0, 0.0) ** 2 + rng.normal(scale=0.02, size=t.size)
+    fallback = fit_fallback(t, np.column_stack([bend, 1000.0 * exact]), 0, **kw)
+    assert fallback.hold_above.tolist() == [True, False]
+    assert fallback.hold_below.tolist() == [False, False]
+    assert np.all(fallback.rate_slope > 0.5)
+
+
+def test_fallback_predict_holds_only_the_outputs_it_holds():
+    """Two outputs, the first held below ``low``, the second not: inside the calibrated
+    temperatures both are their lines, below only the first is flat (kills ``slope /
+    hold_below`` and ``min(t - low, 1.0)`` in :meth:`Fallback.predict`)."""
+    fallback = Fallback(
+        np.array([1.0, 2.0]),
+        np.array([0.5, -1.0]),
+        0,
+        low=20.0,
+        high=40.0,
+        hold_below=np.array([True, False]),
+        hold_above=np.array([False, True]),
+    )
+    rows = np.array([[10.0], [20.0], [30.0], [40.0], [50.0]])
+    np.testing.assert_array_equal(
+        fallback.predict(rows),
+        [[11.0, -8.0], [11.0, -18.0], [16.0, -28.0], [21.0, -38.0], [26.0, -38.0]],
+    )
