@@ -119,9 +119,8 @@ SEEDS = {
         "chose": "the network's defaults on 0-2 (bench_thermal_state.py) and the calibration "
         "domain's margin and blend width on 0-7 (bench_extrapolation.py --tune); --quick "
         "runs seed 0. 8-10 judged until issue 42 and are bench_extrapolation's retired "
-        "gyros; 4231-4233: fresh in issue 42, not yet run (the committed bench_rbf.md is "
-        "still on the retired 8-10; issue 42 ran out of time): run once at the next issue's "
-        "end",
+        "gyros; 4231-4233: fresh, regenerated once by issue 42 on a3dae62, after issue 41's "
+        "tail penalty (bench_rbf.md)",
     },
     "rbf_scale_check": {
         "physics": (),
