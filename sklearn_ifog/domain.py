@@ -96,12 +96,13 @@ _REAL_SLOPE_RATIO = 0.25
 #: otherwise stay within the margin while its network extrapolates to rates it never saw.
 #: Chosen on the tuning seeds 0-7 of ``benchmarks/bench_extrapolation.py --tune`` (its
 #: sweep): the largest weight that keeps the shared-profile rows inside the calibrated
-#: temperatures flagged at most 2 % there; judged on seeds 8-12.
+#: temperatures flagged at most 2 % there; judged on seeds 8-12 (since retired, see
+#: ``benchmarks/_cases.SEEDS``).
 RATE_WEIGHT = 2.0
 #: Largest held-out-run error ratio of the plane in T and dT (:func:`held_out_runs`, its
 #: squared error over a constant's) at which :func:`fit_fallback` trusts it: chosen on the
 #: tuning seeds 0-7 of ``benchmarks/bench_extrapolation.py --tune`` (its sweep of 0.5-1.0),
-#: judged on seeds 8-12.
+#: judged on seeds 8-12 (since retired, see ``benchmarks/_cases.SEEDS``).
 REPEATED_RATIO = 0.75
 #: Smallest held-out-run scale of the plane in T and dT (:func:`held_out_runs` with
 #: ``return_scale=True``: the least-squares factor by which the held-out runs' drift, about
@@ -110,7 +111,8 @@ REPEATED_RATIO = 0.75
 #: plane whose predictions the held-out runs bear out in full (a scale near 1) is a thermal
 #: relation drowned in run-to-run noise; one that overshoots them (a smaller scale)
 #: extrapolates worse than a constant. Chosen on the tuning seeds 0-7 of
-#: ``benchmarks/bench_extrapolation.py --tune`` (its sweep), judged on seeds 8-12.
+#: ``benchmarks/bench_extrapolation.py --tune`` (its sweep), judged on seeds 8-12 (since
+#: retired, see ``benchmarks/_cases.SEEDS``).
 CARRIED_SCALE = 0.9
 #: The boost (``Box.boost``) is added in full from a novelty of this many standard
 #: deviations of the rate or the temperature beyond its calibrated range: a short ramp,

@@ -72,8 +72,8 @@ LINEAR_OUTPUT = LINEAR_REGRESSORS
 # ``chosen_far_spread2`` / ``3`` / ``4``, the far-unit rule applied to every unit) on the
 # test runs of the lots of seeds 0-4, with the calibration domain: spreads 2, 3 and 4 all
 # leave no cell above 1.05 there, and 3 has the lowest worst cell (1.00 on both seed sets,
-# against 1.03 and 1.05). ``benchmarks/bench_unitwise.py`` scores it on seeds 5-7, which
-# played no part in the choice.
+# against 1.03 and 1.05). ``benchmarks/bench_unitwise.py`` scored it on seeds 5-7, which
+# played no part in the choice (since retired; its judged seeds: ``benchmarks/_cases.SEEDS``).
 OWN_MODEL_SPREAD = 3.0
 
 # A unit whose model is fitted on its rows alone (pooling="none", or a unit that keeps its
@@ -402,9 +402,10 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     d7ba442, seeds 5-7). The rule and its
     spread were chosen on seeds 0-4 (``benchmarks/unitwise_selection.py``, rules
     ``chosen_far_spread2`` / ``3`` / ``4`` and the previous ``chosen_far_multi_run``);
-    ``benchmarks/bench_unitwise.py`` scores them on seeds 5-7. The distance is counted in
-    noise standard deviations, not in design: units of one design whose scatter is large
-    against their noise are far from the lot in this sense and keep their own models
+    ``benchmarks/bench_unitwise.py`` scored them on seeds 5-7 (since retired). The distance
+    is counted in noise standard deviations, not in design: units of one design whose
+    scatter is large against their noise are far from the lot in this sense and keep their
+    own models
     (``tests/test_unitwise.py`` measures which lots do). A unit with fewer rows than its
     own model needs (see ``pooling="none"``) keeps the shrunk weights.
 
@@ -425,8 +426,8 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     per held-out run (one fit of ``estimator`` per run of every unit, about 20 x the cost of
     ``"none"`` for units of 20 runs) and scaled its error by ``(r - 1) / r``; scoring the
     output layer costs one fit per unit (``benchmarks/bench_scale.py``), and
-    ``benchmarks/bench_unitwise.py`` scores the choice on seeds 5-7. A linear final
-    regressor's own fit is the strength-0 end of the same ridge path, so it is not a
+    ``benchmarks/bench_unitwise.py`` scored the choice on seeds 5-7 (since retired). A
+    linear final regressor's own fit is the strength-0 end of the same ridge path, so it is not a
     separate candidate. Held-out blocks of a single run are not used at all: within one
     run they favoured the lot (a held-out block is a stretch of the thermal test the rest
     of the run does not show) where test runs favoured the unit.
