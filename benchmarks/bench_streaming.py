@@ -67,7 +67,7 @@ from _cases import (  # isort: skip
     streaming_c_samples,
 )
 from _results import add_out_argument, command_line, publish  # isort: skip
-from _verdict import target_line  # isort: skip
+from _verdict import info_line, target_line  # isort: skip
 
 FORGETTING = 0.999
 STRICT = ["-std=c99", "-Wall", "-Wextra", "-Werror"]
@@ -314,6 +314,10 @@ def c_study(model, min_seconds):
     return results
 
 
+# The targets on timings (their names' beginnings): judged in full runs only.
+TIMING_TARGETS = ("step latency", "update of 1,000 rows")
+
+
 def _targets(step_times, chunk_times, ageing, c_results):
     lr = step_times["LinearRegression.predict, one row"]
     targets = [
@@ -497,12 +501,16 @@ def main(argv=None):
         "targets": targets,
         "information": info,
     }
+    # Timings over a few blocks of a quick run on a shared machine are not a verdict: the
+    # quick run prints them as information, the full run judges them.
+    timed = [t for t in targets if args.quick and t["target"].startswith(TIMING_TARGETS)]
+    judged = [t for t in targets if t not in timed]
     verdicts = [
-        target_line(
-            target["pass"],
-            f"{target['target']}: {target['value']:.4g} (bound {target['bound']:g})",
-        )
-        for target in targets
+        target_line(t["pass"], f"{t['target']}: {t['value']:.4g} (bound {t['bound']:g})")
+        for t in judged
+    ] + [
+        info_line(t["pass"], f"{t['target']}: {t['value']:.4g} (bound {t['bound']:g})")
+        for t in timed
     ]
     publish(
         args.out,
@@ -514,7 +522,7 @@ def main(argv=None):
         seconds=time.perf_counter() - start,
         verdicts=verdicts,
     )
-    return 0 if all(target["pass"] for target in targets) else 1
+    return 0 if all(target["pass"] for target in judged) else 1
 
 
 if __name__ == "__main__":
