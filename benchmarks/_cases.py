@@ -148,6 +148,14 @@ SEEDS = {
         "chose": "nothing by itself: a diagnostic (no verdicts) on bench_thermal_state's "
         "tuning seeds, where the network's defaults were chosen; --quick runs seed 0",
     },
+    "lot_domain_check": {
+        "physics": ("lumped", "layered_glass"),
+        "tuning": (0, 1, 2),
+        "retired": (),
+        "judged": (),
+        "chose": "nothing: an investigation of issue 41's lot target on bench_unitwise's "
+        "tuning lots (--quick: seed 0, lumped)",
+    },
     "tail_penalty_check": {
         "physics": (),
         "tuning": (),

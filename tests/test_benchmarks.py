@@ -107,6 +107,11 @@ QUICK_RUNS = {
         ["rbf_variance_quick.md", "rbf_variance_quick.json"],
         False,
     ),
+    "lot_domain_check": (
+        ["--quick", "--out", "{out}"],
+        ["lot_domain_quick.md", "lot_domain_quick.json"],
+        False,
+    ),
     "tail_penalty_check": (
         ["--quick", "--out", "{out}"],
         ["tail_penalty_quick.md", "tail_penalty_quick.json"],
