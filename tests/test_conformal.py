@@ -90,21 +90,39 @@ def _sparse_tails(seed, n_runs=20, per_run=60):
     return x[:, None], y, np.repeat(np.arange(n_runs), per_run)
 
 
-@pytest.mark.parametrize("seed", range(5))
-def test_adaptive_band_is_wider_away_from_the_calibrated_conditions(seed):
-    """Checked once on seeds 0-9 (holds on each); the suite runs 0-4."""
+def _adaptive_widths(seed):
+    """The adaptive and the flat band's widths at x = 0, 2.5 and 5 on `_sparse_tails(seed)`."""
     X, y, runs = _sparse_tails(seed)
-    model = ConformalRegressor(LinearRegression()).fit(X, y, groups=runs)
     grid = np.array([[0.0], [2.5], [5.0]])
-    width = np.diff(model.predict_interval(grid), axis=1).ravel()
-    # The difficulty grows with the distance to the nearest calibration rows (sparse in
-    # the tails, where the noise is larger); the band follows its square root, so the
-    # ratios are damped but clear, and it keeps growing outside the calibrated range.
-    assert width[1] > 1.15 * width[0]
-    assert width[2] > width[1]
-    flat = ConformalRegressor(LinearRegression(), adaptive=False).fit(X, y, groups=runs)
-    flat_width = np.diff(flat.predict_interval(grid), axis=1).ravel()
-    np.testing.assert_allclose(flat_width, flat_width[0], rtol=0.2)
+    widths = []
+    for adaptive in (True, False):
+        model = ConformalRegressor(LinearRegression(), adaptive=adaptive).fit(X, y, groups=runs)
+        widths.append(np.diff(model.predict_interval(grid), axis=1).ravel())
+    return widths
+
+
+def test_adaptive_band_is_wider_away_from_the_calibrated_conditions():
+    """The difficulty grows with the distance to the nearest calibration rows (sparse in the
+    tails, where the noise is larger); the band follows its square root, so the ratios are
+    damped but clear, and it keeps growing outside the calibrated range. The flat band does
+    not move.
+
+    Measured on 570 seeds (0-29 + 1000 k, k = 0-18): the band at 2.5 is wider than at 0 by
+    more than 1.15x on 97.7 % (at most 3 of any 30; the least ratio 1.103, seed 4007),
+    wider at 5 than at 2.5 by 1.58x or more on all, the flat band within 6 % of its width
+    at 0 on all. The earlier check (1.15x on each of seeds 0-4) failed on seed 16002
+    (width 1.124 at 2.5 against 0.989 at 0: 1.137x). Asserted on seeds 0-29: 1.15x on at
+    least 90 %, and on every seed a ratio above 1.05, growth to 5 and a flat band within
+    10 %.
+    """
+    ratios = []
+    for seed in range(30):
+        width, flat_width = _adaptive_widths(seed)
+        assert width[1] > 1.05 * width[0], seed
+        assert width[2] > width[1], seed
+        np.testing.assert_allclose(flat_width, flat_width[0], rtol=0.1)
+        ratios.append(width[1] / width[0])
+    assert np.mean(np.array(ratios) > 1.15) >= 0.9
 
 
 def test_extrapolation_variance_is_the_jackknife_excess():
@@ -116,14 +134,9 @@ def test_extrapolation_variance_is_the_jackknife_excess():
     np.testing.assert_allclose(extrapolation_variance(predictions, 1.0), [0.0, 0.0, 10.0 / 3.0])
 
 
-@pytest.mark.parametrize("seed", range(3))
-def test_band_widens_where_the_fold_models_part(seed):
-    """Out of the calibrated range the fold models' jackknife variance joins the band in
-    quadrature; inside it, where they agree as on the calibration rows, the band is the
-    CV+ band alone.
-
-    Checked once on seeds 0-9 (holds on each); the suite runs 0-2.
-    """
+def _band_parts(seed):
+    """Fit on 12 runs of a line on [0, 1] (seed `seed`); check the band's composition at
+    x = 0.5, 4 and 8 exactly and return the jackknife excess variance there."""
     rng = np.random.RandomState(seed)
     x = rng.uniform(0.0, 1.0, size=(12, 50))
     y = (2.0 * x + 0.1 * rng.normal(size=x.shape) + 0.05 * rng.normal(size=(12, 1))).ravel()
@@ -136,8 +149,6 @@ def test_band_widens_where_the_fold_models_part(seed):
     grid = np.array([[0.5], [4.0], [8.0]])
     predictions = np.stack([m.predict(grid) for m in model.estimators_])
     extra = extrapolation_variance(predictions, model.fold_variance_reference_)
-    assert extra[0] == 0.0
-    assert 0.0 < extra[1] < extra[2]
     cv_plus = plus_interval(
         predictions, model._scale(grid), model.group_scores_, model.group_fold_, 0.6
     )
@@ -145,10 +156,33 @@ def test_band_widens_where_the_fold_models_part(seed):
     middle = cv_plus.mean(axis=1)
     bounds = model.predict_interval(grid)
     np.testing.assert_allclose(bounds, np.column_stack([middle - half, middle + half]))
-    np.testing.assert_allclose(bounds[0], cv_plus[0])
     # another coverage re-reads the scores and the normal quantile of that coverage
     wide = model.predict_interval(grid, coverage=0.99)
     assert np.all(np.diff(wide, axis=1) > np.diff(bounds, axis=1))
+    return extra, bounds[0], cv_plus[0]
+
+
+def test_band_widens_where_the_fold_models_part():
+    """Out of the calibrated range the fold models' jackknife variance joins the band in
+    quadrature; inside it, where they agree as on the calibration rows, the band is the
+    CV+ band alone.
+
+    The composition holds exactly on every seed. Whether the fold models part at x = 4 is
+    a property of the draw: four fold lines that come out nearly parallel (their spread
+    set by the runs' offsets, not their slopes) agree at 4 as well as on the calibration
+    rows, and the excess is rightly 0 there (seed 23: fold variance 5.5e-5 at 4 against a
+    reference of 2.6e-4; 7.6e-4 at 8). Measured on 950 seeds (0-49 + 1000 k, k = 0-18):
+    the composition and excess 0 at 0.5 on all, 0 < excess(4) < excess(8) on 95.6 % (at
+    most 5 of any 50 fail, as on 8000-8049; excess(4) > excess(8) on none). The earlier
+    check on seeds 0-2 alone failed on 11001. Asserted on seeds 0-49: on at least 90 %.
+    """
+    parted = []
+    for seed in range(50):
+        extra, inside, cv_plus_inside = _band_parts(seed)
+        assert extra[0] == 0.0, seed
+        np.testing.assert_allclose(inside, cv_plus_inside)
+        parted.append(0.0 < extra[1] < extra[2])
+    assert np.mean(parted) >= 0.9
 
 
 def test_knn_distance_values_and_cross_fitting():
@@ -170,18 +204,28 @@ def test_knn_distance_values_and_cross_fitting():
     assert model.distance_scale_ != pytest.approx(np.std(knn_distance(features, features)))
 
 
-def test_held_out_run_coverage_every_seed():
-    """On 10 seeds, new runs from the same process: pooled coverage near nominal."""
-    coverages = []
-    for seed in range(10):
-        X, y, runs = _heteroscedastic(seed, n_runs=30)
-        train = runs < 20
-        model = ConformalRegressor(LinearRegression(), cv=5).fit(
-            X[train], y[train], groups=runs[train]
-        )
-        coverages.append(interval_coverage(y[~train], model.predict_interval(X[~train])))
-    assert np.mean(coverages) >= 0.85
-    assert min(coverages) >= 0.7
+def _held_out_coverage(seed):
+    """Coverage of 10 new runs of `_heteroscedastic(seed)` by a band fit on 20 others."""
+    X, y, runs = _heteroscedastic(seed, n_runs=30)
+    train = runs < 20
+    model = ConformalRegressor(LinearRegression(), cv=5).fit(
+        X[train], y[train], groups=runs[train]
+    )
+    return interval_coverage(y[~train], model.predict_interval(X[~train]))
+
+
+def test_held_out_run_coverage_over_seeds():
+    """New runs from the same process: pooled coverage near nominal (0.9), and a seed far
+    below it rare.
+
+    Measured on 950 seeds (0-49 + 1000 k, k = 0-18): mean 0.896 (0.878-0.906 per set of
+    50); a seed below 0.75 at 1.2 % (at most 2 of any 50; the worst 0.632, in 1000-1049).
+    The earlier check (each of seeds 0-9 at 0.7 or more) failed on 5000-5009 (0.667) and
+    11000-11009 (0.690). Asserted on seeds 0-49: mean at least 0.87, at least 0.75 on 94 %.
+    """
+    coverages = np.array([_held_out_coverage(seed) for seed in range(50)])
+    assert np.mean(coverages) >= 0.87
+    assert np.mean(coverages >= 0.75) >= 0.94
 
 
 def _runs_with_offsets(rng, n_runs, per_run=40):
