@@ -371,6 +371,9 @@ def test_tail_penalty_auto_is_chosen_from_the_grid_and_recorded():
     tried = model.selection_path_["tail_alphas_tried"]
     assert_array_equal(tried, [0.0, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1])
     assert model.selection_path_["tail_alpha"] in tried
+    # The penalty's shape is recorded exactly when a strength was chosen (the default shape).
+    chosen_penalised = model.selection_path_["tail_alpha"] > 0
+    assert chosen_penalised == (model.selection_path_["tail_transform"] is not None)
     assert model.selection_path_["width_scores"].shape == (4,)
     # without a tail there is nothing to penalise
     no_tail = RBFNetRegressor(refine=None, tail=False, tail_alpha="auto", random_state=0)

@@ -546,7 +546,8 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
         width_scores=np.asarray(width_scores),
         tail_alpha=chosen.tail_alpha,
         tail_alphas_tried=np.asarray(tail_alphas),
-        tail_transform=M,
+        # The penalty's shape, for the solves that follow; none when the strength is 0.
+        tail_transform=M if chosen.tail_alpha > 0 else None,
     )
     return network, record, score
 
