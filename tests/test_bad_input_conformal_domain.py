@@ -5,6 +5,7 @@ import warnings
 
 import numpy as np
 import pytest
+from _campaigns import rate_drift_table
 from sklearn.linear_model import LinearRegression
 
 from sklearn_ifog import ConformalRegressor, make_compensation_pipeline
@@ -16,7 +17,6 @@ from sklearn_ifog.conformal import (
     run_quantile_scores,
     thermal_slope,
 )
-from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.domain import (
     CalibrationDomain,
     OutsideCalibrationWarning,
@@ -25,26 +25,11 @@ from sklearn_ifog.domain import (
 )
 
 
-def _table(seed, temperature_range):
-    X = make_thermal_campaign(
-        n_units=1,
-        n_runs=4,
-        azimuths=[0.0, 90.0],
-        sampling_period=300.0,
-        temperature_range=temperature_range,
-        physics="lumped",
-        random_state=seed,
-    ).data
-    rate = X.groupby("run")["temperature"].diff().fillna(0.0).to_numpy() / 5.0
-    noise = np.random.default_rng(seed).normal(0.0, 0.003, X.shape[0])
-    return X, 0.1 + 0.003 * X["temperature"].to_numpy() + 0.05 * rate + noise
-
-
 @pytest.fixture(scope="module")
 def band_inputs():
     """A blending model calibrated warm, and the inputs of its band on colder runs."""
-    X_warm, y_warm = _table(0, (10.0, 40.0))
-    X_cold, _ = _table(100, (-10.0, 40.0))
+    X_warm, y_warm = rate_drift_table(0, (10.0, 40.0))
+    X_cold, _ = rate_drift_table(100, (-10.0, 40.0))
     pipeline = make_compensation_pipeline(LinearRegression(), outside="blend")
     model = ConformalRegressor(pipeline, coverage=0.9).fit(X_warm, y_warm)
     with warnings.catch_warnings():

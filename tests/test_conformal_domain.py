@@ -5,36 +5,13 @@ import warnings
 
 import numpy as np
 import pytest
+from _campaigns import rate_drift_table
 from sklearn.linear_model import LinearRegression
 
 from sklearn_ifog import ConformalRegressor, make_compensation_pipeline
 from sklearn_ifog.conformal import conformal_quantile, run_quantile_scores
-from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.domain import OutsideCalibrationWarning, fallback_weight, temperature_excess
 from sklearn_ifog.pipeline import CompensationPipeline
-
-# The Shupe-like rate term of the synthetic drift, deg/h per degC/min: what a line in T (the
-# fallback) cannot follow.
-RATE_GAIN = 0.05
-
-
-def _thermal_table(seed, temperature_range):
-    """A campaign's thermal columns with a known drift: a line in T, a term in the rate of
-    change (degC/min), white noise. The regressor's features hold all of it, the fallback
-    only the line, so beyond the calibrated temperatures the fallback's error is its rate
-    term, as on the calibration runs."""
-    X = make_thermal_campaign(
-        n_units=1,
-        n_runs=4,
-        azimuths=[0.0, 90.0],
-        sampling_period=300.0,
-        temperature_range=temperature_range,
-        physics="lumped",
-        random_state=seed,
-    ).data
-    rate = X.groupby("run")["temperature"].diff().fillna(0.0).to_numpy() / 5.0  # per minute
-    noise = np.random.default_rng(seed).normal(0.0, 0.003, X.shape[0])
-    return X, 0.1 + 0.003 * X["temperature"].to_numpy() + RATE_GAIN * rate + noise
 
 
 def _conformal(outside="blend", **params):
@@ -45,8 +22,8 @@ def _conformal(outside="blend", **params):
 @pytest.fixture(scope="module")
 def warm_cold():
     """Calibrated on 10 to 40 degC, tested on -10 to 40 degC (other runs)."""
-    X_warm, y_warm = _thermal_table(0, (10.0, 40.0))
-    X_cold, y_cold = _thermal_table(100, (-10.0, 40.0))
+    X_warm, y_warm = rate_drift_table(0, (10.0, 40.0))
+    X_cold, y_cold = rate_drift_table(100, (-10.0, 40.0))
     return X_warm, y_warm, X_cold, y_cold
 
 
@@ -258,8 +235,8 @@ def test_coverage_on_rows_outside_the_domain_every_seed(seed):
     in T does go on beyond the calibration (which the calibration cannot know): most of the
     widening outside is the slope term. The test runs seeds 0-4.
     """
-    X_warm, y_warm = _thermal_table(seed, (10.0, 40.0))
-    X_cold, y_cold = _thermal_table(seed + 100, (-10.0, 40.0))
+    X_warm, y_warm = rate_drift_table(seed, (10.0, 40.0))
+    X_cold, y_cold = rate_drift_table(seed + 100, (-10.0, 40.0))
     model = _conformal().fit(X_warm, y_warm)
     outside = model.estimator_.outside_calibration(X_cold)
     assert outside.sum() >= 100
