@@ -295,16 +295,38 @@ def check_varies(X, names=None):
     ...
     ValueError: Cannot fit a calibration domain: feature 'T' is constant (1.0) ...
     """
-    constant = np.flatnonzero(np.ptp(X, axis=0) == 0)
+    constant = np.flatnonzero(_no_spread(X))
     if constant.size:
         column = int(constant[0])
         name = f"column {column}" if names is None else repr(str(names[column]))
-        raise ValueError(
-            f"Cannot fit a calibration domain: feature {name} is constant "
-            f"({float(X[0, column])!r}) over the {X.shape[0]} calibration rows. A "
-            "calibration must cover a range of temperatures (and rates) to say where it "
-            "holds; calibrate on runs that change temperature."
+        spread = float(np.ptp(X[:, column]))
+        how = (
+            f"is constant ({float(X[0, column])!r})"
+            if spread == 0
+            else f"varies by {spread:.3g} only, too little to standardise by"
         )
+        raise ValueError(
+            f"Cannot fit a calibration domain: feature {name} {how} over the {X.shape[0]} "
+            "calibration rows. A calibration must cover a range of temperatures (and rates) "
+            "to say where it holds; calibrate on runs that change temperature."
+        )
+
+
+# A spread within this many units of round-off of a column's largest value is no spread:
+# standardising by it would divide by zero or by noise of the arithmetic.
+_ROUND_OFF_SPREAD = 1e3
+
+
+def _no_spread(X):
+    """Columns of ``X`` without a spread to standardise by: constant, a standard deviation
+    that underflows to 0 (values near 1e-160), or a range at the round-off of the values."""
+    spread = np.ptp(X, axis=0)
+    magnitude = np.abs(X).max(axis=0, initial=0.0)
+    return (
+        (spread == 0)
+        | ~(X.std(axis=0) > 0)
+        | (spread <= _ROUND_OFF_SPREAD * np.finfo(np.float64).eps * magnitude)
+    )
 
 
 def _coordinates(box, X):
@@ -566,7 +588,7 @@ def held_out_distances(X, folds, rate_columns=(), temperature_columns=()):
     for fold in np.unique(folds):
         held = folds == fold
         kept = X[~held]
-        if kept.shape[0] < 2 or np.any(np.ptp(kept, axis=0) == 0):
+        if kept.shape[0] < 2 or np.any(_no_spread(kept)):
             continue
         rows = X[held]
         ranged = temperature_columns + [int(column) for column in rate_columns]

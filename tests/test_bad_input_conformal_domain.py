@@ -275,6 +275,32 @@ def test_distinct_temperature_and_rate_columns_are_kept(rows):
     assert domain.rate_columns_ == [1]
 
 
+@pytest.mark.parametrize(
+    ("column", "message"),
+    [
+        # The standard deviation of values near 1e-182 underflows to 0: standardising by it
+        # made NaN coordinates and a LinAlgError deep in the SVD (found by Hypothesis).
+        (1e-182 * np.sin(np.linspace(0.0, 9.0, 120)), "varies by 2e-182 only"),
+        # A spread of a few units of round-off of 25 degC is noise of the arithmetic.
+        (25.0 + 1e-14 * np.sin(np.linspace(0.0, 9.0, 120)), "varies by 2.13e-14 only"),
+        (np.full(120, 3.0), r"is constant \(3.0\)"),
+    ],
+)
+def test_a_feature_without_a_usable_spread_is_named(column, message):
+    X = np.column_stack([np.linspace(10.0, 40.0, 120), column])
+    with pytest.raises(ValueError, match=f"feature column 1 {message}"):
+        CalibrationDomain(temperature=0).fit(X)
+
+
+def test_a_small_spread_of_small_values_is_a_spread():
+    """Values near 1e-150 with their own spread standardise fine: the rule is relative."""
+    t = np.linspace(10.0, 40.0, 120)
+    domain = CalibrationDomain(temperature=0).fit(np.column_stack([t, 1e-150 * np.sin(t)]))
+    assert np.all(domain.distance(np.column_stack([t, 1e-150 * np.sin(t)])) == 0.0)
+    assert np.isfinite(domain.scale_).all()
+    assert domain.scale_[1] > 0
+
+
 @pytest.fixture
 def extendable():
     t = np.linspace(10.0, 40.0, 150)
