@@ -180,8 +180,8 @@ SEEDS = {
         "chose": "ThermalFeatures' default terms, lags and smoothing (the default run and "
         "--quick use the tuning seeds; --seeds 4241 4242 4243 --tag heldout judges). 8-10 "
         "judged until issue 42 and are bench_extrapolation's retired gyros; 4241-4243: "
-        "fresh in issue 42, not yet run (the committed thermal_state_heldout.md is still on "
-        "the retired 8-10; issue 42 ran out of time): run once at the next issue's end",
+        "fresh in issue 42, run once at its end (thermal_state_heldout.md, on 9d029e1, after "
+        "issue 41's tail penalty)",
     },
     "bench_thermal_accuracy": {
         "physics": ("layered",),
