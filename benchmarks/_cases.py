@@ -156,6 +156,14 @@ SEEDS = {
         "chose": "nothing: an investigation of issue 41's lot target on bench_unitwise's "
         "tuning lots (--quick: seed 0, lumped)",
     },
+    "blend_kinds_check": {
+        "physics": PHYSICS,
+        "tuning": tuple(range(8)),
+        "retired": (),
+        "judged": (),
+        "chose": "nothing: a diagnostic of issue 41's cost and safety targets on "
+        "bench_extrapolation's tuning gyros (--quick: seed 0, layered_glass)",
+    },
     "tail_penalty_check": {
         "physics": (),
         "tuning": (),

@@ -112,6 +112,11 @@ QUICK_RUNS = {
         ["lot_domain_quick.md", "lot_domain_quick.json"],
         False,
     ),
+    "blend_kinds_check": (
+        ["--quick", "--out", "{out}"],
+        ["blend_kinds_quick.md", "blend_kinds_quick.json"],
+        False,
+    ),
     "tail_penalty_check": (
         ["--quick", "--out", "{out}"],
         ["tail_penalty_quick.md", "tail_penalty_quick.json"],
