@@ -28,6 +28,7 @@ import warnings
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from sklearn.linear_model import LinearRegression
 
 from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
 from sklearn_ifog.datasets import make_thermal_campaign
@@ -89,12 +90,23 @@ warnings.simplefilter("ignore", OutsideCalibrationWarning)
 # without refitting. ``"none"`` is the network's own extrapolation, ``"clip"`` the network at
 # the nearest point of the domain, ``"blend"`` (the default) moves smoothly from the network
 # to the fallback as a row lies farther out. Their MSD on the new run, (deg/h)², next to no
-# thermal compensation (the calibration's mean drift removed):
+# thermal compensation (the calibration's mean drift removed) and to what gyro firmware does
+# (PX4, ArduPilot): a line in T fitted on the calibration and evaluated at the temperature
+# held to the calibrated ``[TMIN, TMAX]`` (``held line in T``):
 POLICIES = ("none", "clip", "blend")
 
 
-def compensate(model, X_new, y_new, y_calibration, scored=None):
-    """Every policy's prediction, and the MSD of each (and uncompensated) on ``scored``."""
+def held_line(X_calibration, y_calibration, X_new):
+    """The firmware peer: a line in T, its temperature clamped to the calibrated range."""
+    t_cal = X_calibration[["temperature"]].to_numpy()
+    line = LinearRegression().fit(t_cal, y_calibration)
+    held = X_new[["temperature"]].to_numpy().clip(t_cal.min(), t_cal.max())
+    return line.predict(held)
+
+
+def compensate(model, X_new, y_new, X_calibration, y_calibration, scored=None):
+    """Every policy's prediction, and the MSD of each, of uncompensated and of the held line
+    in T on ``scored``."""
     default = model.outside
     predictions = {}
     for policy in POLICIES:
@@ -103,6 +115,8 @@ def compensate(model, X_new, y_new, y_calibration, scored=None):
     scored = np.ones(len(y_new), dtype=bool) if scored is None else scored
     y_scored = np.asarray(y_new)[scored]
     msd = {"uncompensated": mean_squared_deviation(y_scored, 0 * y_scored + y_calibration.mean())}
+    firmware = held_line(X_calibration, y_calibration, X_new)
+    msd["held line in T"] = mean_squared_deviation(y_scored, firmware[scored])
     for policy, prediction in predictions.items():
         msd[policy] = mean_squared_deviation(y_scored, prediction[scored])
     return predictions, pd.Series(msd)
@@ -113,7 +127,7 @@ def msd_table(msd):
     return table.to_string(float_format="{:.3g}".format)
 
 
-predictions, msd = compensate(model, X_new, y_new, y)
+predictions, msd = compensate(model, X_new, y_new, X, y)
 print(msd_table(msd))
 
 
@@ -205,8 +219,8 @@ for seed in range(8):
     )
     unit_model = make_compensation_pipeline(RBFNetRegressor(random_state=0))
     unit_model.fit(cal.data, cal.target)
-    _, unit_msd = compensate(unit_model, run.data, run.target, cal.target)
-    ratios[seed] = unit_msd[list(POLICIES)] / unit_msd["uncompensated"]
+    _, unit_msd = compensate(unit_model, run.data, run.target, cal.data, cal.target)
+    ratios[seed] = unit_msd[[*POLICIES, "held line in T"]] / unit_msd["uncompensated"]
 ratios = pd.DataFrame(ratios).T.rename_axis("unit (seed)")
 print(ratios.to_string(float_format="{:.2f}".format))
 print("units worse than uncompensated:")
@@ -240,7 +254,9 @@ X_real, y_real = seconds[["run", "time", "temperature"]], seconds["gyro_x"]
 train = (seconds["burst"] <= 11).to_numpy()
 real_model = make_compensation_pipeline(RBFNetRegressor(random_state=0))
 real_model.fit(X_real[train], y_real[train])
-real_predictions, real_msd = compensate(real_model, X_real, y_real, y_real[train], scored=~train)
+real_predictions, real_msd = compensate(
+    real_model, X_real, y_real, X_real[train], y_real[train], scored=~train
+)
 real_outside = real_model.outside_calibration(X_real)
 print("fallback:", real_model.fallback_)
 print(f"compensated rows outside the domain: {real_outside[~train].mean():.0%}")
@@ -277,6 +293,11 @@ fig.tight_layout()
 # * ``"clip"`` holds the network at the edge of the domain: it keeps the network's
 #   calibrated shape, but a drift that keeps changing beyond the edge is not followed, and
 #   nothing bounds it by the uncompensated figure; compare its column with the others;
+# * the ``held line in T`` is the firmware's answer to the same question: it never
+#   extrapolates a slope, so it is safe where the drift bends beyond the calibration and
+#   gives up the slope where the drift goes on; the default's fallback holds its line flat
+#   beyond an extreme only where the calibration's held-out extremes ask for it. Compare
+#   the two columns unit by unit: neither wins everywhere;
 # * a temperature range check alone sees only the cold rows; the decorrelated domain also
 #   flags the warm rows of a cold start and of a cooling run, thermal states the calibration
 #   never showed.
