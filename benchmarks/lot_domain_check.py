@@ -18,6 +18,12 @@ on the glass transition. This script measures both on ``bench_unitwise``'s "simi
 for the network with its default tail penalty and with a free tail (``tail_alpha=0``, the
 default before issue 41). Tuning seeds only (``SEEDS["lot_domain_check"]``, bench_unitwise's
 tuning lots): an investigation, not a verdict; the judged lot is ``bench_unitwise.py``'s.
+
+A second table says where partial pooling's result comes from, around the bare pipeline:
+the same lot with ``pooling="none"`` (every unit its own model) and ``"full"`` (the lot's
+model), the strength ``lam`` the single-run units share, ``n lam`` against the far-unit limit
+``1 / OWN_MODEL_SPREAD²`` (at or below it every unit keeps its own model), and the units that
+kept their own models.
 """
 
 import argparse
@@ -37,6 +43,8 @@ from sklearn_ifog import (
     UnitwiseRegressor,
     make_compensation_pipeline,
 )
+from sklearn_ifog._shrinkage import pick_strength
+from sklearn_ifog.unitwise import OWN_MODEL_SPREAD
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _cases import SEEDS, UNITWISE_N_TEST, UNITWISE_N_UNITS, unitwise_lot
@@ -67,13 +75,30 @@ def case(physics, seed, tail):
     train = frame["run"].isin([runs[u][0] for u in runs]).to_numpy()
     record = {"physics": physics, "seed": seed, "tail": tail}
     for name, pipeline in pipelines(seed, tail).items():
-        model = UnitwiseRegressor(pipeline, pooling="partial")
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            model.fit(X[train], y[train])
-            prediction = np.asarray(model.predict(X[test]), dtype=np.float64)
-        record[name] = float(np.mean(np.square(y[test] - prediction)))
+        model, record[name] = _pooled(pipeline, "partial", X, y, train, test)
+        if name == "bare pipeline":
+            # the strength the single-run units share (shrinkage_ is None for a unit that
+            # then kept its own model): the largest evidence of their summed log-evidences
+            single = [u for u, folds in model.n_folds_.items() if folds == 0]
+            total = sum(model.shrinkage_evidence_[u] for u in single)
+            record["shared strength"] = pick_strength(-total, model.shrinkage_grid_)
+            record["rows per unit"] = int(train.sum()) / UNITWISE_N_UNITS
+            record["own models"] = sum(s is None for s in model.shrinkage_.values())
+    bare = pipelines(seed, tail)["bare pipeline"]
+    for pooling in ("none", "full"):
+        record[f"bare, {pooling}"] = _pooled(bare, pooling, X, y, train, test)[1]
     return record
+
+
+def _pooled(pipeline, pooling, X, y, train, test):
+    """``UnitwiseRegressor(pipeline, pooling)`` fitted on the ``train`` rows: the model and
+    its test MSD."""
+    model = UnitwiseRegressor(pipeline, pooling=pooling)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model.fit(X[train], y[train])
+        prediction = np.asarray(model.predict(X[test]), dtype=np.float64)
+    return model, float(np.mean(np.square(y[test] - prediction)))
 
 
 def markdown(records, command, seconds):
@@ -94,6 +119,26 @@ def markdown(records, command, seconds):
         out.append(
             f"| {r['physics']} | {r['seed']} | {r['tail']} | {r['default pipeline']:.4g} | "
             f"{r['bare pipeline']:.4g} | {ratio:.3f} |"
+        )
+    limit = OWN_MODEL_SPREAD**-2
+    out += [
+        "",
+        "Where partial pooling's result comes from, around the bare pipeline: test MSD of "
+        "every unit its own model (`none`), of the lot's model (`full`) and of `partial`; the "
+        "strength lam the single-run units share, n lam (n: rows per unit) against the "
+        f"far-unit limit 1 / OWN_MODEL_SPREAD² = {limit:.3f}, and the units (of "
+        f"{UNITWISE_N_UNITS}) that kept their own models.",
+        "",
+        "| physics | seed | tail | none | full | partial | lam | n lam | own models |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in records:
+        lam = r["shared strength"]
+        n_lam = f"{lam * r['rows per unit']:.3f}"
+        out.append(
+            f"| {r['physics']} | {r['seed']} | {r['tail']} | {r['bare, none']:.4g} | "
+            f"{r['bare, full']:.4g} | {r['bare pipeline']:.4g} | "
+            f"{lam:.3g} | {n_lam} | {r['own models']} |"
         )
     return "\n".join(out)
 
