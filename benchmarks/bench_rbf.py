@@ -27,7 +27,7 @@ function):
 
 - ``smooth``: the issue's ``y = sin 3x₀ + x₁x₂ + 0.5 cos 2x₂ + N(0, 0.05²)``, x uniform in
   [-1, 1]³; N = 1e3, 1e4, 1e5, 1e6 training rows, 1e4 test rows.
-- ``friedman1``: :func:`sklearn.datasets.make_friedman1` with 5 features (noise 1.0);
+- ``friedman1``: :func:`sklearn.datasets.make_friedman1` with 5 features (noise ``1.0``);
   N = 1e3, 1e4, 1e5; test targets from the same function with ``noise=0``.
 - ``thermal``: :func:`sklearn_ifog.datasets.make_thermal_campaign` (3 units, 4 azimuths, 3 runs
   each, one sample a minute, the default "layered" physics), seeds 4231, 4232 and 4233

@@ -24,7 +24,7 @@ Everything is measured in one run, against peers of the same run (issue 13):
    judged seeds of ``_cases.SEEDS["bench_streaming"]``; 60 s samples, "cycle" chamber profile:
    a calibration programme spans the operating range, low-high-low):
    6 calibration runs of the new unit; then the unit ages
-   (:func:`sklearn_ifog.datasets.age_campaign`: bias +0.05 deg/h, thermal sensitivity
+   (:func:`sklearn_ifog.datasets.age_campaign`: bias ``+0.05`` deg/h, thermal sensitivity
    +20 %) and records one recalibration run with a known reference (the unit at rest, its
    true rate known) and 6 later runs on which MSD = mean((rate - drift - reference)²) is
    measured. "Refit": a model fitted from scratch on the aged unit's own calibration runs
@@ -33,11 +33,12 @@ Everything is measured in one run, against peers of the same run (issue 13):
    recalibration run with its reference, then the later runs without. The same with no
    ageing (the no-harm target).
 
-Targets (exit status 1 when one fails): step latency <= 0.15 x LinearRegression.predict on
-one row (default pipeline); chunked update of 1,000 rows <= 1.5 x batch predict; on the aged
-unit, MSD with ``adapt="output"`` <= 0.5 x unadapted and <= 1.3 x refit, on every seed; with
-no ageing, adapted MSD <= 1.05 x unadapted on every seed; C with adaptation equal to Python
-to 1e-11 (relative to the largest drift; the bound of ``tests/test_export.py``).
+Targets (exit status 1 when one fails): step latency <= ``0.15`` x LinearRegression.predict
+on one row (default pipeline); chunked update of 1,000 rows <= ``1.5`` x batch predict; on the
+aged unit, MSD with ``adapt="output"`` <= ``0.5`` x unadapted and <= ``1.3`` x refit, on every
+seed; with no ageing, adapted MSD <= ``1.05`` x unadapted on every seed; C with adaptation
+equal to Python to 1e-11 (relative to the largest drift; the bound of
+``tests/test_export.py``).
 ``adapt="bias"`` is reported against the same bounds for information.
 """
 

@@ -1,7 +1,7 @@
 """A production lot: the test error of one model per gyro, pooling "none", "full" and "partial".
 
-Run (the committed results took 1.3 minutes with ``--jobs 2``, which runs the cases in two
-processes, on a shared two-core machine)::
+Run (the committed results, ``unitwise.md`` line "Command:", took 3.1 minutes with
+``--jobs 2``, which runs the cases in two processes, on a shared two-core machine)::
 
     nice -n 10 .venv/bin/python benchmarks/bench_unitwise.py --jobs 2
 
@@ -43,7 +43,7 @@ it ``=lin``, the target lines name it, and it is no separate evidence for the ne
 Targets (the verdict; exit status 1 if one fails):
 
 1. for every physics, lot, calibration size and model of the verdict, "partial" is at most
-   1.05 times the better of "none" and "full" (seed means);
+   ``1.05`` times the better of "none" and "full" (seed means);
 2. on the similar lot calibrated on one run per unit, "partial" reaches the MSD of "none"
    calibrated on two runs (chamber time halved): reported as a comparison line
    (``_verdict.compare``: reached only on a WIN; a TIE, within 2 %, is not reached), as the

@@ -9,14 +9,14 @@ function of issue 3 (``y = sin 3x0 + x1 x2 + 0.5 cos 2x2 + noise 0.05``, x unifo
 ``[-1, 1]^3``; ``rbf_scale_smooth`` in ``benchmarks/_cases.py``).
 
 Targets (issue 26, "production scale"; PASS/FAIL lines printed last, exit 1 when one
-fails): RBF fit time at 1e5 rows at most half MLP(20)'s; RBF test MSE at 1e5 at most 0.3x
-MLP(20)'s; RBF fit time at 1e6 at most 2.5x poly3 Ridge's; log-log slope of the RBF fit time
-from 1e5 to 1e6 at most 0.6 (issue 3's, kept); batch predict of 1e6 rows at most 1.5x the
-bare-numpy floor; one-row predict at most a one-row ``LinearRegression.predict`` (the median
-of five rounds, each timing the two in turn, so both see the same load); peak resident memory
-of the RBF fit at 1e6 rows at most 500 MB. Also printed (not a target): the fit time of the
-network and of the polynomial Ridge against rows (1e4, 1e5 and 1e6), with the exponent of a
-least-squares line through their logs.
+fails): RBF fit time at 1e5 rows at most half MLP(20)'s; RBF test MSE at 1e5 at most ``0.3x``
+MLP(20)'s; RBF fit time at 1e6 at most ``2.5x`` poly3 Ridge's; log-log slope of the RBF fit
+time from 1e5 to 1e6 at most ``0.6`` (issue 3's, kept); batch predict of 1e6 rows at most
+``1.5x`` the bare-numpy floor; one-row predict at most a one-row ``LinearRegression.predict``
+(the median of five rounds, each timing the two in turn, so both see the same load); peak
+resident memory of the RBF fit at 1e6 rows at most 500 MB. Also printed (not a target): the
+fit time of the network and of the polynomial Ridge against rows (1e4, 1e5 and 1e6), with the
+exponent of a least-squares line through their logs.
 
 Writes ``benchmarks/results/rbf_scale.md`` and ``rbf_scale.json`` (the one result format of
 ``benchmarks/_results.py``); ``--out DIR`` writes elsewhere.

@@ -61,18 +61,18 @@ features and their magnitudes, and with the distance model without the jackknife
 The check's variants leave out the band's terms outside the calibration domain (above), so
 none of them alone holds the runs calibrated warm and tested 7 to 14 degC colder on the glass
 transition: the default difficulty's lowest coverage there is 0.653 and 0.702 on the two
-seed sets (0.644 and 0.685 without the widening), at a mean width 1.14 and 1.12 times the
-oracle's (``conformal_difficulty.md`` rows "distance" and "distance, no jackknife"; the
-user guide has the table). With those terms the estimator covers that split at least
-0.942 on seeds 0-2 (``python benchmarks/bench_conformal.py`` row "ours" column
-"out-of-range coverage" under "seed(s) 0, 1, 2"). The held-out
-folds that still fall below 0.85 (2 of 36, and 6 of 24 on seeds 4281-4282,
-``conformal_difficulty.md``) are whole runs, or a whole heading's
-runs, offset by about one calibration r.m.s. error (a turn-on bias, a thermal history the
-model fits badly): nothing visible at prediction time ranks them (the same script's
-fold-level correlations), so no difficulty model can widen the band for them alone; only a
-wider band everywhere (a higher ``confidence``) covers them, at a cost in width that the
-script also measures.
+seed sets, and 0.644 and 0.685 without the widening (``conformal_difficulty.md`` rows
+"distance" and "distance, no jackknife" column "out-of-range coverage"). Its mean width is
+1.14 and 1.12 times the oracle's (``conformal_difficulty.md`` row "distance" column "width /
+oracle (mean)"; the user guide has the table). With those terms the estimator covers that
+split at least 0.942 on seeds 0-2 (``python benchmarks/bench_conformal.py`` row "ours" column
+"out-of-range coverage" under "seed(s) 0, 1, 2"). The held-out folds that still fall below
+``0.85`` (2 of 36, and 6 of 24 on seeds 4281-4282, ``conformal_difficulty.md`` row
+"distance" column "folds below") are whole runs, or a whole heading's runs, offset by about
+one calibration r.m.s. error (a turn-on bias, a thermal history the model fits badly):
+nothing visible at prediction time ranks them (the same script's fold-level correlations),
+so no difficulty model can widen the band for them alone; only a wider band everywhere (a
+higher ``confidence``) covers them, at a cost in width that the script also measures.
 
 Why not MAPIE: MAPIE 1.x takes the conformal quantile over rows (there is no per-group
 aggregation of scores before the quantile), and its adaptive score

@@ -261,8 +261,9 @@ class CompensationPipeline(Pipeline):
         beating its fallback. With at least 3 runs, :meth:`fit` refits the steps on two
         thirds of the runs three times (2.51 to 3.49 times the fit time of the default network
         on the 9-run campaigns of ``python benchmarks/bench_extrapolation.py --tune --n-jobs
-        2``, whose "With handover=True" table measures what it buys), predicts the held-out
-        runs, and judges their rows
+        2`` rows "lumped s0" and "layered_glass s7" column "fit time", whose "With
+        handover=True" table measures what it buys), predicts the held-out runs, and judges
+        their rows
         beyond that fit's domain per kind (temperatures below or above, rates below or
         above, thermal state): where the model beat the fallback by more than one standard
         error, ``domain_`` widens as far as the evidence reached

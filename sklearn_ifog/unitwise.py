@@ -398,9 +398,10 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     outside its own calibration domain (``"none"``'s behaviour). The rule holds for
     single-run units too, from the strength they share: on lots of independent units
     calibrated on one run each, the shrunk weights were 1.21 to 4.51 times worse than
-    ``"none"`` before it (``python benchmarks/bench_unitwise.py --jobs 2`` at commit
-    d7ba442, seeds 5-7). The rule and its
-    spread were chosen on seeds 0-4 (``benchmarks/unitwise_selection.py``, rules
+    ``"none"`` before it (``python benchmarks/bench_unitwise.py --jobs 2`` rows "lumped |
+    independent | linear | 1" and "layered_glass | independent | rbf | 1" column
+    "partial/best" at commit d7ba442, seeds 5-7). The rule and its spread were chosen on
+    seeds 0-4 (``benchmarks/unitwise_selection.py``, rules
     ``chosen_far_spread2`` / ``3`` / ``4`` and the previous ``chosen_far_multi_run``);
     ``benchmarks/bench_unitwise.py`` scored them on seeds 5-7 (since retired). The distance
     is counted in noise standard deviations, not in design: units of one design whose

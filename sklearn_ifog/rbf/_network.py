@@ -226,33 +226,42 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
     (``tail_penalty="spread"``; scipy's ``RBFInterpolator`` leaves its polynomial free, which
     on collinear inputs sets the thin directions' weights by noise); the number of Gaussian
     units, chosen by held-out error, is the complexity control. The strength 1e-4 was
-    chosen on ``python benchmarks/bench_thermal_state.py --models RBFNet "RBFNet
-    (tail_alpha=0)" "RBFNet (tail_alpha=1e-05)" "RBFNet (tail_alpha=0.001)" Ridge --n-jobs
-    2 --tag tail_sweep`` (``thermal_state_tail_sweep.md``, the tuning seeds) as the
-    strongest that costs the simulator's campaigns nothing against the free tail. On the
+    chosen on the tuning seeds as the strongest that costs the simulator's campaigns nothing
+    against the free tail (``thermal_state_tail_sweep.md``: ``bench_thermal_state.py`` on
+    the models ``RBFNet``, ``"RBFNet (tail_alpha=0)"``, ``"RBFNet (tail_alpha=1e-05)"``,
+    ``"RBFNet (tail_alpha=0.001)"`` and ``Ridge``, with ``--tag tail_sweep``). On the
     shipped recording's interleaved bursts the free tail left 38.6 times the error of a
-    line in T where the default leaves 0.699 (``python benchmarks/tail_penalty_check.py``,
-    gyro x, even to odd bursts). A quadratic tail on the eight default features has 44
-    columns, most of them products the physics does not have, which fit slowly
-    varying gyro noise and bend outside the calibrated range. The defaults were chosen on
+    line in T where the default leaves 0.699 (``python benchmarks/tail_penalty_check.py``
+    rows "free tail, 0" and "spread, 0.0001 (default)" column "even->odd bursts, gyro_x").
+    A quadratic tail on the eight default features has 44 columns, most of them products
+    the physics does not have, which fit slowly varying gyro noise and bend outside the
+    calibrated range. The defaults were chosen on
     ``python benchmarks/bench_thermal_state.py --n-jobs 2`` (results in
     ``benchmarks/results/thermal_state.md``: three seeds of the simulator's lumped, layered
-    and layered-with-glass-transition physics at 10 s and 60 s, leave one azimuth out): on
+    and layered-with-glass-transition physics at 10 s and 60 s, leave one azimuth out). On
     the default features the network's MSD over the noise floor, pooled, is 1.003-1.080 with
-    the linear tail and 1.084-1.362 with the quadratic one (a degree-2 polynomial Ridge:
-    1.047-1.271). A plain linear Ridge on the same features (1.001-1.076) is not beaten: on
-    the thermal residual (predicted minus true drift, free of the gyro noise) the network
-    wins 5 of the 18 campaigns, ties 8 and loses 5. There the held-out error rarely
-    justifies a Gaussian unit (they are kept in 1 to 8 of 12 folds, most on the glass
-    transition at 60 s). On features without the squares, such as the
-    paper's (T, dT, T·dT), the units carry them (kept in 11 or 12 of 12 folds there). Where
-    the held-out excess comes from (``python benchmarks/rbf_variance_check.py --n-jobs 2``,
+    the linear tail (``thermal_state.md`` rows "RBFNet" column "state MSD/floor"). With the
+    quadratic one it is 1.084-1.362 (``thermal_state.md`` rows "RBFNet (quadratic tail)"
+    column "state MSD/floor"). A degree-2 polynomial Ridge gives 1.047-1.271
+    (``thermal_state.md`` rows "poly2 Ridge" column "state MSD/floor"). A plain linear Ridge
+    on the same features (1.001-1.076, ``thermal_state.md`` rows "Ridge" column "state
+    MSD/floor") is not beaten. On the thermal residual (predicted minus true drift, free of
+    the gyro noise) the network wins 4 of the 18 campaigns against it, ties 9 and loses 5
+    (``thermal_state.md`` verdicts "WIN: RBFNet vs Ridge,", "TIE: RBFNet vs Ridge," and
+    "LOSS: RBFNet vs Ridge,"). There the held-out error rarely justifies a Gaussian unit
+    (they are kept in 1 to 8 of 12 folds, most on the glass transition at 60 s;
+    ``thermal_state.md`` lines "Folds with Gaussian units in use"). On features without the
+    squares, such as the paper's (T, dT, T·dT), the units carry them (kept in 11 or 12 of 12
+    folds there). Where the held-out excess comes from
+    (``python benchmarks/rbf_variance_check.py --n-jobs 2``,
     ``benchmarks/results/rbf_variance.md``): a linear model on the default features fitted
-    to the training runs' *true* drift leaves 0.001-0.0754 of the floor on the held-out
-    azimuths, fitted to their noisy rates 0.0051-0.106, and a degree-2 polynomial of the
-    features fitted to the noisy rates 0.0515-0.26. Most of the excess is estimation
-    variance, and only the glass transition at 60 s leaves a bias (0.0754) for Gaussian
-    units to remove.
+    to the training runs' *true* drift leaves 0.0010-0.0754 of the floor on the held-out
+    azimuths (``rbf_variance.md`` rows "*" column "poly1, true drift"). Fitted to their
+    noisy rates it leaves 0.0051-0.106, and a degree-2 polynomial of the features fitted to
+    the noisy rates 0.0515-0.259 (``rbf_variance.md`` rows "*" columns "poly1 Ridge(0.001)"
+    and "poly2 Ridge(0.001)"). Most of the excess is estimation variance, and only the
+    glass transition at 60 s leaves a bias (0.0754, ``rbf_variance.md`` row "layered_glass,
+    60 s" column "poly1, true drift") for Gaussian units to remove.
 
     The default refinement is variable projection: it moves centres and widths with the
     output weights solved exactly at every step, so it converges in few iterations. On a
@@ -264,14 +273,16 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
     sample period. A refinement is kept only when it beats the selected network on the
     held-out rows by more than one standard error of the paired difference, since early
     stopping chose it on those same rows: that guard took the default's pooled MSD over
-    the floor on the layered presets from 1.005-1.083 to 1.003-1.080
-    (``thermal_state.md``; before it at commit b2bcca9). ``fit(..., groups=runs)`` holds
-    whole runs out for the selection and the refinement;
+    the floor on the layered presets from 1.005-1.083 to 1.003-1.080 (``thermal_state.md``
+    row "RBFNet" column "state MSD/floor" under "layered," and row "RBFNet" column "state
+    MSD/floor" under "layered_glass"; before it at commit b2bcca9).
+    ``fit(..., groups=runs)`` holds whole runs out for the selection and the refinement;
     ``python benchmarks/rbf_run_folds_check.py --n-jobs 2`` measures it
     (``benchmarks/results/rbf_run_folds.md``): on the thermal-state campaigns it is
     better only on the glass transition at 60 s, so it is not the default, but it
     brings the refinement's worst held-out loss against the unrefined network on the
-    campaigns of ``tests/test_refine_holdout.py`` from 1.521 to 1.015 (varpro);
+    campaigns of ``tests/test_refine_holdout.py`` from 1.521 to 1.015 (varpro,
+    ``rbf_run_folds.md`` line "varpro:");
     ``tests/test_refine_holdout.py`` records campaigns where varpro and Levenberg–Marquardt
     end worse than the unrefined network on held-out runs (strict expected failures):
     refinement lowers the training objective, not always the error on other runs.
