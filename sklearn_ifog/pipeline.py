@@ -208,6 +208,28 @@ def _run_labels(features, X):
     return label_column(X, features.run, param="run")
 
 
+def _in_run_order(features, X, y, params):
+    """``X``, ``y`` and the per-row fit ``params`` with the runs in the order of their labels
+    (each run's rows in their own order), so that a fit does not depend on the order in
+    which the runs were passed: a network's held-out blocks and subsamples are drawn by row
+    position. Unchanged (the same objects) when the runs are already in that order or the
+    first step names no run column."""
+    runs = _run_labels(features, X)
+    if runs is None:
+        return X, y, params
+    codes = np.unique(runs, return_inverse=True)[1].ravel()
+    order = np.argsort(codes, kind="stable")
+    if np.array_equal(order, np.arange(codes.size)):
+        return X, y, params
+    params = {
+        name: _safe_indexing(value, order)
+        if hasattr(value, "__len__") and not isinstance(value, str) and len(value) == codes.size
+        else value
+        for name, value in params.items()
+    }
+    return _safe_indexing(X, order), _safe_indexing(y, order), params
+
+
 def _like(template, values):
     """``values`` in the container of ``template`` (a pandas DataFrame keeps its columns)."""
     if type(template).__module__.startswith("pandas"):
@@ -354,6 +376,10 @@ class CompensationPipeline(Pipeline):
     def fit(self, X, y=None, **params):
         """Fit the steps, then the calibration domain and the fallback.
 
+        With a run column (the first step's ``run``), the rows are fitted run by run in the
+        order of the run labels, each run's rows in the order given: the same runs passed in
+        another order give the same model, bit for bit.
+
         Parameters
         ----------
         X : iterable
@@ -378,6 +404,7 @@ class CompensationPipeline(Pipeline):
             raise ValueError(
                 "CompensationPipeline.fit needs the drift target y (rate - reference); got None."
             )
+        X, y, params = _in_run_order(self.steps[0][1], X, y, params)
         super().fit(X, y, **params)
         self.fit_domain(X, y)
         self.handover_ = self._weigh_handover(X, y, params) if self.handover else None

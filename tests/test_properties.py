@@ -425,32 +425,55 @@ def _reordered(frame, order):
 @_settings(4)
 @given(order=st.permutations(range(4)), probe=excursions(max_runs=1))
 def test_a_permutation_of_the_runs_does_not_change_a_fit(four_runs, order, probe):
-    """The same runs in another order: the same domain, threshold and fallback, and the same
-    predictions on an excursion (to 1e-9 of the largest), for a Ridge compensation pipeline.
+    """The same runs in another order: the same domain, threshold and fallback, network and
+    predictions on an excursion, bit for bit, for an RBF compensation pipeline.
 
-    The RBF network is not invariant (issue 42): ``RBFNetRegressor(n_centers=10,
-    max_candidates=60, refine=None, random_state=0)`` in the pipeline, fitted on these four
-    runs in the order 3, 2, 1, 0, keeps 1 centre where the order 0-3 keeps 8, and predicts
-    an excursion 2 % apart, with the runs routed as ``groups`` or not (5 % for 0, 1, 3, 2
-    without them: its held-out blocks are contiguous rows, as its docstring says)."""
+    Before the pipeline fitted the runs in the order of their labels (issue 42, found by this
+    property), ``RBFNetRegressor(n_centers=10, max_candidates=60, refine=None,
+    random_state=0)`` fitted on these four runs in the order 3, 2, 1, 0 kept 1 centre where
+    the order 0-3 kept 8, and predicted an excursion 2 % apart: its held-out blocks and
+    subsamples are drawn by row position."""
     assume(list(order) != [0, 1, 2, 3])
-    reference = make_compensation_pipeline(Ridge(1e-3), margin=1.0)
+    network = RBFNetRegressor(n_centers=10, max_candidates=60, refine=None, random_state=0)
+    reference = make_compensation_pipeline(network, margin=1.0)
     reference.fit(four_runs[COLUMNS], four_runs["drift"])
     permuted_frame = _reordered(four_runs, order)
     permuted = clone(reference).fit(permuted_frame[COLUMNS], permuted_frame["drift"])
-    assert permuted.domain_.threshold_ == pytest.approx(reference.domain_.threshold_, rel=1e-9)
+    assert permuted.domain_.threshold_ == reference.domain_.threshold_
     for field in ("intercept", "slope", "hold_below", "hold_above"):
-        np.testing.assert_allclose(
-            getattr(permuted.fallback_, field), getattr(reference.fallback_, field), atol=1e-9
+        np.testing.assert_array_equal(
+            getattr(permuted.fallback_, field), getattr(reference.fallback_, field)
         )
-    expected = _quiet(reference.predict, probe)
-    scale = np.max(np.abs(expected))
-    np.testing.assert_allclose(
-        _quiet(permuted.predict, probe), expected, rtol=1e-9, atol=1e-9 * scale
+    fitted, expected_network = permuted[-1], reference[-1]
+    np.testing.assert_array_equal(fitted.centers_, expected_network.centers_)
+    np.testing.assert_array_equal(
+        _quiet(permuted.predict, probe), _quiet(reference.predict, probe)
     )
     np.testing.assert_array_equal(
         permuted.outside_calibration(probe), reference.outside_calibration(probe)
     )
+
+
+def test_runs_already_in_order_are_fitted_as_passed(four_runs):
+    """Runs passed in the order of their labels are not copied or reordered (the fit of a
+    campaign in its own order is what it was before the pipeline ordered runs)."""
+    from sklearn_ifog.pipeline import _in_run_order
+
+    features = make_compensation_pipeline(Ridge())[0]
+    X, y = four_runs[COLUMNS], four_runs["drift"]
+    weights = np.ones(len(y))
+    X_same, y_same, same = _in_run_order(features, X, y, {"w": weights})
+    assert X_same is X
+    assert y_same is y
+    assert same["w"] is weights
+    shuffled = _reordered(four_runs, [2, 0, 3, 1])
+    X_order, y_order, params = _in_run_order(
+        features, shuffled[COLUMNS], shuffled["drift"], {"w": np.arange(len(y)), "n": 3}
+    )
+    np.testing.assert_array_equal(X_order.to_numpy(), X.to_numpy())
+    np.testing.assert_array_equal(y_order.to_numpy(), y.to_numpy())
+    assert params["n"] == 3
+    assert sorted(params["w"]) == list(range(len(y)))
 
 
 # --- clone and get_params ------------------------------------------------------------------
