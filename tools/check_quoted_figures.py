@@ -21,6 +21,9 @@ A *citation* names one committed result, in the prose itself:
   the quoted texts keeps only the cells under the header cells that start so, and
   ``under "<words>"`` keeps the rows whose table follows a line holding those words (its
   heading or caption): ``rows "RBFNet" column "state MSD/floor" under "layered, 60 s"``.
+  A header ``<name> (<part>; <part>)`` heads cells of parts joined by ``;``: ``column
+  "width / oracle (mean)"`` keeps the mean of ``1.06-1.29; 1.16`` under ``width / oracle
+  (range; mean)``.
   A selector that selects nothing, or that follows no citation, is reported. The text of a
   selector is a label, not a figure.
 
@@ -200,22 +203,47 @@ class Result:
             # a table row's label is whole cells ("distance" is not "distance c=0.7")
             end = r"(?= \||$)" if line.startswith("|") else r"(?!\w)"
             for pattern, columns, context in patterns:
-                if not re.match(pattern.pattern + end, label) or (
+                matched = re.match(pattern.pattern + end, label)
+                if not matched or (
                     context is not None and not any(context.search(x) for x in context_lines)
                 ):
                     continue
                 if columns is None:
-                    selected.append(line)
+                    # the words the selector names are its label, not a figure
+                    selected.append(label[matched.end() :])
                 else:
-                    # a column is named by the start of its header cell
-                    cells = _cells(line)
-                    selected += [
-                        cells[i]
-                        for i, name in enumerate(header or [])
-                        if i < len(cells) and any(name.startswith(c) for c in columns)
-                    ]
+                    selected += _column_cells(_cells(line), header or [], columns)
                 break
         return selected
+
+
+def _column_cells(cells, header, columns):
+    """The cells (or parts of cells) of a table row under the ``columns`` named.
+
+    A column is named by the start of its header cell. A header cell written
+    ``<name> (<part>; <part>)`` heads cells of as many parts joined by ``;`` (``width /
+    oracle (range; mean)`` over ``1.06-1.29; 1.16``): ``<name> (<part>)`` names one part.
+    """
+    found = []
+    for i, name in enumerate(header):
+        if i >= len(cells):
+            break
+        if any(name.startswith(c) for c in columns):
+            found.append(cells[i])
+            continue
+        compound = re.fullmatch(r"(?P<base>.+?) \((?P<parts>[^()]+;[^()]+)\)", name)
+        if compound is None:
+            continue
+        parts = [part.strip() for part in compound["parts"].split(";")]
+        values = [value.strip() for value in cells[i].split(";")]
+        if len(values) != len(parts):
+            continue
+        found += [
+            value
+            for part, value in zip(parts, values, strict=True)
+            if any(f"{compound['base']} ({part})".startswith(c) for c in columns)
+        ]
+    return found
 
 
 def _selector_pattern(text):
@@ -475,9 +503,17 @@ def _blank_literals(text):
     )
 
 
+# A numpydoc parameter line, ``margin : float, default=1.5``: a specification, not prose.
+PARAMETER_LINE = re.compile(
+    r"^[ \t]*[A-Za-z_*][\w*]*(?:[ \t]*,[ \t]*[A-Za-z_*][\w*]*)*[ \t]+:[ \t].*$", re.M
+)
+
+
 def _prose(text):
-    """``text`` with its inline literals and selectors blanked (positions stay)."""
+    """``text`` with its inline literals, numpydoc parameter lines and selectors blanked
+    (positions stay)."""
     prose = _blank_literals(text)
+    prose = PARAMETER_LINE.sub(lambda m: " " * len(m.group()), prose)
     # a row's label names it ("clamp 1.5"): it is not a figure
     return re.sub(_SELECTOR, lambda m: re.sub(r"[^\n]", " ", m.group()), prose)
 
@@ -742,6 +778,8 @@ def block_quotes(relative, first, text, results):
                     scope.append((f"{stem}@{commit}", past, citation.selectors))
             if citation.stem is None and not commits:
                 problems.append(f"{where}: {figure} cites {citation}")
+        if _names_a_label(figure, scope):
+            continue
         quote = Quote(where, figure, percent, scope)
         for label, result, selectors in scope:
             lines = result.select(selectors)
@@ -751,6 +789,20 @@ def block_quotes(relative, first, text, results):
             quote.values |= result.values(selectors)
         quotes.append(quote)
     return quotes, problems, history
+
+
+def _names_a_label(figure, scope):
+    """Whether ``figure`` is written in a selector of its citations (``row "clamp 1.5"``,
+    ``row "scale >= 0.85"``): the prose then names that row, it quotes no measurement."""
+    if not FIGURE.fullmatch(figure):
+        return False  # a count, N of M
+    texts = [
+        text
+        for _, _, selectors in scope
+        for cells, columns, context in selectors or ()
+        for text in (cells, *(columns or ()), context or "")
+    ]
+    return any(float(n) == float(figure) for text in texts for n in RESULT_NUMBER.findall(text))
 
 
 def collect(root=ROOT):
