@@ -221,13 +221,23 @@ def _in_run_order(features, X, y, params):
     order = np.argsort(codes, kind="stable")
     if np.array_equal(order, np.arange(codes.size)):
         return X, y, params
-    params = {
-        name: _safe_indexing(value, order)
-        if hasattr(value, "__len__") and not isinstance(value, str) and len(value) == codes.size
+    return (
+        _safe_indexing(X, order),
+        _safe_indexing(y, order),
+        _params_of_rows(params, order, codes.size),
+    )
+
+
+def _params_of_rows(params, rows, n_samples):
+    """The fit ``params`` for the rows ``rows`` (positions among ``n_samples``): every value
+    with one entry per row (sample weights, run groups) indexed by them, the others (a
+    string, a scalar) as they are."""
+    return {
+        name: _safe_indexing(value, rows)
+        if hasattr(value, "__len__") and not isinstance(value, str) and len(value) == n_samples
         else value
         for name, value in params.items()
     }
-    return _safe_indexing(X, order), _safe_indexing(y, order), params
 
 
 def _like(template, values):
@@ -429,12 +439,7 @@ class CompensationPipeline(Pipeline):
         for fold in range(HANDOVER_FOLDS):
             kept, held = np.flatnonzero(folds != fold), np.flatnonzero(folds == fold)
             model = clone(self)
-            rows = {
-                name: _safe_indexing(value, kept)
-                if hasattr(value, "__len__") and len(value) == labels.size
-                else value
-                for name, value in params.items()
-            }
+            rows = _params_of_rows(params, kept, labels.size)
             X_kept, X_held = _safe_indexing(X, kept), _safe_indexing(X, held)
             with warnings.catch_warnings():
                 # The main fit has already said what its steps warn of.
