@@ -46,7 +46,7 @@ from joblib import Parallel, delayed
 from sklearn.linear_model import LinearRegression
 
 from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
-from sklearn_ifog.domain import BLEND_WIDTH
+from sklearn_ifog.domain import BLEND_WIDTH, fallback_weight
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _cases import (
@@ -104,8 +104,8 @@ def _predictions(model, X):
         "excess": domain.distance(features) - domain.threshold_,
         "outside": model.outside_calibration(X),
         "beyond T": beyond_t,
-        "beyond rates": beyond_rates & ~beyond_t,
-        "rate beyond": beyond_rates,
+        "new rates": beyond_rates & ~beyond_t,
+        "rates beyond": beyond_rates,
     }
 
 
@@ -148,7 +148,7 @@ def heating_case(physics, seed, sampling_period, n_runs):
         groups = {
             "outside T": ((t < low) | (t > high)).to_numpy().ravel(),
         }
-        groups["new rates"] = rows["rate beyond"] & ~groups["outside T"]
+        groups["new rates"] = rows["rates beyond"] & ~groups["outside T"]
         profiles[profile] = {
             **rows,
             "y": y,
@@ -161,11 +161,6 @@ def heating_case(physics, seed, sampling_period, n_runs):
     return profiles
 
 
-def _smoothstep(s):
-    s = np.clip(s, 0.0, 1.0)
-    return s * s * (3.0 - 2.0 * s)
-
-
 def reweigh(rows, rule):
     """The prediction of every row under ``rule`` (a row of ``RULES``)."""
     _, kind, widths = rule
@@ -173,13 +168,14 @@ def reweigh(rows, rule):
         return rows["clip"]
     masks = (
         rows["beyond T"],
-        rows["beyond rates"],
-        ~rows["beyond T"] & ~rows["beyond rates"],
+        rows["new rates"],
+        ~rows["beyond T"] & ~rows["new rates"],
     )
     weight = np.zeros_like(rows["excess"])
     for mask, width in zip(masks, widths, strict=True):
         if width is not None:
-            weight[mask] = _smoothstep(rows["excess"][mask] / width)
+            # the package's blend weight, over the excess beyond the threshold
+            weight[mask] = fallback_weight(rows["excess"][mask], 0.0, width)
     weight[~rows["outside"]] = 0.0
     target = rows["fallback"]
     if kind == "clip inside T":
