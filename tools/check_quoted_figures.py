@@ -25,7 +25,10 @@ A *citation* names one committed result, in the prose itself:
   "width / oracle (mean)"`` keeps the mean of ``1.06-1.29; 1.16`` under ``width / oracle
   (range; mean)``.
   A selector that selects nothing, or that follows no citation, is reported. The text of a
-  selector is a label, not a figure.
+  selector is a label, not a figure: a number it holds is not a value of the selected lines
+  (``line "Hindsight constant band (every fold at 0.85)"`` leaves the numbers after it),
+  and a figure of the prose equal to it names the row (``the clamp 1.5``, cited ``row
+  "clamp 1.5"``) and is not checked.
 
 Which citation a figure is checked against
 ------------------------------------------
