@@ -125,7 +125,8 @@ def markdown(records, command, seconds):
         "",
         "Where partial pooling's result comes from, around the bare pipeline: test MSD of "
         "every unit its own model (`none`), of the lot's model (`full`) and of `partial`; the "
-        "strength lam the single-run units share, n lam (n: rows per unit) against the "
+        "strength lam the single-run units share, n lam (n: the mean calibration rows per "
+        "unit; the rule reads each unit's own) against the "
         f"far-unit limit 1 / OWN_MODEL_SPREAD² = {limit:.3f}, and the units (of "
         f"{UNITWISE_N_UNITS}) that kept their own models.",
         "",
