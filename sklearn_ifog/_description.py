@@ -30,7 +30,7 @@ from sklearn_ifog._output_layer import layer_kind, read_layer, supported_names
 from sklearn_ifog.features import ThermalFeatures
 
 SCHEMA_NAME = "sklearn-ifog-pipeline"
-SCHEMA_VERSION = 5
+SCHEMA_VERSION = 6
 
 
 def _floats(values):

@@ -61,6 +61,7 @@ __all__ = [
     "held_out_runs",
     "outside_domain",
     "project_to_box",
+    "pull_back_to_ranges",
     "temperature_excess",
 ]
 
@@ -430,6 +431,62 @@ def project_to_box(box, X, margin):
     P_far = inside[far] + (P[far] - inside[far]) * (margin / distance[far])[:, None]
     projected[far] = (P_far @ box.axes) * box.scale + box.center
     return projected
+
+
+def pull_back_to_ranges(box, X, columns, low, high):
+    """Move every row with a column beyond its range towards the box's centre, into range.
+
+    A row with a value of ``columns`` outside ``[low, high]`` moves along the segment to the
+    box's ``center`` (the calibration's mean, inside every calibrated range) until its last
+    such value reaches its range: ``center + s (x - center)`` with ``s`` the smallest
+    ``(bound - center_c) / (x_c - center_c)`` over the columns ``c`` beyond, ``bound`` the
+    end of the range crossed. Then those columns are clipped to their ranges, a change of a
+    rounding error. Rows within every range stay as they are.
+
+    It ends the ``"clip"`` policy (:meth:`CalibrationDomain.project`): after a last
+    projection onto the widened box, the row lies within it, and the box distance only
+    shrinks towards the centre (the box holds the centre), so the result lies in the box and
+    in every temperature range.
+
+    Parameters
+    ----------
+    box : Box
+        The fitted box (:func:`fit_box`); only its ``center`` is read.
+    X : array-like of shape (n_samples, n_features)
+        Feature rows.
+    columns : sequence of int
+        The columns with a range (the temperature features).
+    low, high : array-like of shape (len(columns),)
+        Their ranges; each must hold the centre's value.
+
+    Returns
+    -------
+    pulled : ndarray of shape (n_samples, n_features)
+        A copy of ``X`` with the rows beyond a range moved into it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> box = fit_box(np.array([[0.0, 0.0], [10.0, 2.0], [4.0, 4.0]]))
+    >>> pull_back_to_ranges(box, [[5.0, 1.0], [16.0, 2.0]], [0], [0.0], [10.0]).tolist()
+    [[5.0, 1.0], [10.0, 2.0]]
+    """
+    X = np.asarray(X, dtype=np.float64)
+    columns = list(columns)
+    pulled = X.copy()  # rows within every range stay exactly as they are
+    if not columns:
+        return pulled
+    low, high = np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64)
+    values, middle = X[:, columns], box.center[columns]
+    bound = np.where(values > high, high, np.where(values < low, low, np.nan))
+    beyond = ~np.isnan(bound).all(axis=1)
+    if not beyond.any():
+        return pulled
+    with np.errstate(invalid="ignore"):
+        share = np.nanmin((bound[beyond] - middle) / (values[beyond] - middle), axis=1)
+    pulled[beyond] = box.center + share[:, None] * (X[beyond] - box.center)
+    pulled[np.ix_(beyond, columns)] = np.clip(pulled[np.ix_(beyond, columns)], low, high)
+    return pulled
 
 
 def temperature_excess(X, columns, low, high):
@@ -1663,8 +1720,10 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         """The nearest point of the domain to every row (the ``"clip"`` policy).
 
         Onto the box widened by ``threshold_`` (:func:`project_to_box`) and every temperature
-        clamped to its calibrated range, alternately (eight rounds, ending on the clamp), so
-        that the result lies in both up to a small fraction of ``margin``.
+        clamped to its calibrated range, alternately (eight rounds), then onto the widened
+        box once more and, where a temperature is then beyond its range, along the segment to
+        the calibration's mean until it is not (:func:`pull_back_to_ranges`): the result lies
+        in both, up to round-off, near the nearest such point.
 
         Parameters
         ----------
@@ -1682,13 +1741,18 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
             return project_to_box(self.box_, X, self.threshold_)
         low, high = self.data_min_[columns], self.data_max_[columns]
         # Alternating projections onto the widened box and the temperature ranges: both are
-        # convex, so the rows converge into their intersection; ending on the clamp keeps
-        # every temperature exactly inside its range.
+        # convex, so the rows converge into their intersection, but slowly where the two
+        # meet at a narrow angle. A clamped temperature can leave a term it defines (a
+        # gradient) far off a degenerate axis, so the rounds end on the box; the segment to
+        # the mean, which the widened box holds, then brings the temperatures back into
+        # range, a short way: their excess is small where the box's, on thin axes, was not.
         projected = X.copy()
+        box = self.box_
         for _ in range(PROJECTION_ROUNDS):
-            projected = project_to_box(self.box_, projected, self.threshold_)
+            projected = project_to_box(box, projected, self.threshold_)
             projected[:, columns] = np.clip(projected[:, columns], low, high)
-        return projected
+        projected = project_to_box(box, projected, self.threshold_)
+        return pull_back_to_ranges(box, projected, columns, low, high)
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

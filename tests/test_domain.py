@@ -32,6 +32,7 @@ from sklearn_ifog.domain import (
     fit_fallback,
     held_out_runs,
     project_to_box,
+    pull_back_to_ranges,
 )
 
 SMALL = dict(n_units=1, n_runs=2, azimuths=(0.0,), sampling_period=120.0, random_state=0)
@@ -115,10 +116,68 @@ def test_excess_and_projection():
     assert excess[0, 1] == pytest.approx(2.0)  # above the largest second feature
     projected = domain.project(far)
     assert np.all(domain.temperature_excess(projected) == 0.0)
-    assert np.all(domain.distance(projected) <= 1.01 * domain.margin)
+    assert np.all(domain.distance(projected) <= (1.0 + 1e-9) * domain.margin)
     # Projection leaves inside rows alone and is idempotent.
     np.testing.assert_array_equal(domain.project(X), X)
     np.testing.assert_allclose(domain.project(projected), projected, rtol=0, atol=1e-9)
+
+
+def _two_sensor_rows(n=600, seed=0):
+    """Two coil temperatures, their rates and the gradient term ``T2 - T1`` (an exact
+    difference: a degenerate axis of the box), over three heating and cooling runs."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0.0, 3.0 * np.pi, n)
+    t1 = 20.0 + 15.0 * np.sin(t) + 0.1 * rng.standard_normal(n)
+    t2 = t1 + 1.5 * np.cos(0.7 * t) + 0.1 * rng.standard_normal(n)
+    rate1, rate2 = np.gradient(t1), np.gradient(t2)
+    return np.column_stack([t1, rate1, t2, rate2, t2 - t1]), np.repeat([0, 1, 2], n // 3)
+
+
+def test_clip_lies_in_the_widened_box_and_the_ranges_with_a_degenerate_axis():
+    """With a gradient term, the temperature clamp of the alternating projections leaves
+    ``T2 - T1`` off the degenerate axis: rounds ending on the clamp left rows hundreds of
+    thresholds outside the box. The projection ends on the box and comes back into the
+    temperature ranges along the segment to the mean: inside both, to round-off."""
+    X, groups = _two_sensor_rows()
+    domain = CalibrationDomain(temperature=[0, 2], rate=[1, 3]).fit(X, groups=groups)
+    rng = np.random.default_rng(1)
+    rows = X[rng.integers(0, len(X), 300)] + rng.normal(0.0, 1.0, (300, 5)) * X.std(axis=0)
+    rows[:, 4] = rows[:, 2] - rows[:, 0]  # rows as ThermalFeatures makes them
+    assert 0.5 < np.mean(domain.predict(rows) == -1) < 1.0  # most rows outside, not all
+    projected = domain.project(rows)
+    box = fit_box(X)  # the box alone, without the rate term
+    assert box_distance(box, projected).max() <= (1.0 + 1e-9) * domain.threshold_
+    assert np.all(domain.temperature_excess(projected) == 0.0)
+    # The rows the rounds left outside the box move little: the projection stays near.
+    rounds = rows.copy()
+    for _ in range(8):
+        rounds = project_to_box(box, rounds, domain.threshold_)
+        rounds[:, [0, 2]] = np.clip(rounds[:, [0, 2]], X[:, [0, 2]].min(0), X[:, [0, 2]].max(0))
+    assert box_distance(box, rounds).max() > 10.0 * domain.threshold_
+    np.testing.assert_allclose(projected, rounds, rtol=0, atol=0.05 * X.std(axis=0).min())
+
+
+def test_pull_back_to_ranges_moves_along_the_segment_to_the_centre():
+    X = np.array([[0.0, 0.0, 5.0], [10.0, 2.0, 1.0], [4.0, 4.0, 3.0]])
+    box = fit_box(X)  # centre (14/3, 2, 3)
+    rows = np.array([[5.0, 1.0, 3.0], [16.0, 2.0, 3.0], [-3.0, 2.0, 9.0], [12.0, 0.0, 11.0]])
+    pulled = pull_back_to_ranges(box, rows, [0, 2], [0.0, 1.0], [10.0, 5.0])
+    np.testing.assert_array_equal(pulled[0], rows[0])  # within every range: untouched
+    # One column beyond: it lands on its bound, the row on the segment to the centre.
+    share = (10.0 - 14.0 / 3.0) / (16.0 - 14.0 / 3.0)
+    np.testing.assert_allclose(pulled[1], box.center + share * (rows[1] - box.center))
+    assert pulled[1, 0] == 10.0
+    # Two beyond: the one that needs the shorter share sets it (here the third, to 5).
+    shares = [(0.0 - 14.0 / 3.0) / (-3.0 - 14.0 / 3.0), (5.0 - 3.0) / (9.0 - 3.0)]
+    assert min(shares) == shares[1]
+    np.testing.assert_allclose(pulled[2], box.center + shares[1] * (rows[2] - box.center))
+    assert pulled[2, 2] == 5.0
+    assert 0.0 < pulled[2, 0] < 10.0
+    shares = [(10.0 - 14.0 / 3.0) / (12.0 - 14.0 / 3.0), (5.0 - 3.0) / (11.0 - 3.0)]
+    np.testing.assert_allclose(pulled[3], box.center + min(shares) * (rows[3] - box.center))
+    assert np.all((pulled[:, [0, 2]] >= [0.0, 1.0]) & (pulled[:, [0, 2]] <= [10.0, 5.0]))
+    # No columns: nothing to pull.
+    np.testing.assert_array_equal(pull_back_to_ranges(box, rows, [], [], []), rows)
 
 
 def test_project_to_box_one_feature_is_a_clamp():

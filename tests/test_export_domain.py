@@ -306,7 +306,7 @@ def _assert_close(actual, expected, rtol=RTOL):
 def test_schema_carries_the_exact_domain(calibration, tmp_path):
     model = _fit("two-sensors-two-outputs", "clip", calibration)
     document = json.loads(to_json(model, tmp_path / "model.json").read_text())
-    assert document["schema_version"] == SCHEMA_VERSION == 5
+    assert document["schema_version"] == SCHEMA_VERSION == 6
     domain = document["domain"]
     box = model.domain_.box_
     for key in ("center", "scale", "axes", "axis_scale", "lower", "upper"):
@@ -463,6 +463,24 @@ def _evaluate_domain(domain, features, network, evaluate):
             x[far] = (q @ axes) * scale + center
             if columns:
                 x[:, columns] = np.clip(x[:, columns], low, high)
+        if columns:
+            # Then the box once more, and back along the segment to the centre until every
+            # temperature is within its range: found here by bisection, not in closed form.
+            point, clamped, gap = box(x)
+            far = gap > margin
+            q = clamped[far] + (point[far] - clamped[far]) * (margin / gap[far])[:, None]
+            x[far] = (q @ axes) * scale + center
+
+            def within(rows):
+                return np.all((rows[:, columns] >= low) & (rows[:, columns] <= high), axis=1)
+
+            beyond = ~within(x)
+            inner, outer = np.zeros(beyond.sum()), np.ones(beyond.sum())
+            for _ in range(64):
+                middle = (inner + outer) / 2
+                inside = within(center + middle[:, None] * (x[beyond] - center))
+                inner, outer = np.where(inside, middle, inner), np.where(inside, outer, middle)
+            x[beyond] = center + inner[:, None] * (x[beyond] - center)
         result[outside] = evaluate(x).reshape(len(x), -1)
     return result, d, outside
 

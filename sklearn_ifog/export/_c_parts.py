@@ -45,6 +45,7 @@ from sklearn_ifog.export._templates._domain import (
     DOMAIN_PRECISION,
     DOMAIN_PROJECT,
     DOMAIN_PROTOTYPES,
+    DOMAIN_PULL_BACK,
     DOMAIN_RATES,
     DOMAIN_RESET,
     POLICY_NOTE,
@@ -232,6 +233,8 @@ def _domain_functions(writer, domain, prefix):
         row_distance = f"{prefix}_with_rates(row, box)"
     if policy == "clip":
         parts.append(DOMAIN_PROJECT.substitute(names))
+        if domain["temperature_columns"]:
+            parts.append(DOMAIN_PULL_BACK.substitute(names))
         rounds = CLIP_ROUNDS if domain["temperature_columns"] else CLIP_ONCE
         clip_block = rounds.substitute(names)
     parts.append(

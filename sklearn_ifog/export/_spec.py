@@ -8,13 +8,14 @@ streaming path reads the same description) and are re-exported here with the sch
 Every float goes through ``float(...)`` of a float64, so ``json`` (which writes ``repr``)
 and the C generator (``repr`` / ``%.9g``) keep round-trip precision.
 
-Schema (version 4; version 3 had no rate term in the domain (``"rate_columns"``...),
-version 2 no ``"domain"``, version 1 an EMA ``smoothing`` in samples
-and its ``alpha``)::
+Schema (version 6; version 5 ended "clip" on the temperature clamp, where the row could
+stay outside the widened box; version 4 had the margin where version 5 has the calibrated
+threshold, and no boost; version 3 no rate term in the domain (``"rate_columns"``...),
+version 2 no ``"domain"``, version 1 an EMA ``smoothing`` in samples and its ``alpha``)::
 
     {
       "schema": "sklearn-ifog-pipeline",
-      "schema_version": 5,
+      "schema_version": 6,
       "generator": "sklearn-ifog <version>",
       "features": {
         "op": "thermal_features",
@@ -121,7 +122,12 @@ prediction ``y``; rows outside follow ``outside``:
   b)``, it becomes
   ``(axes^T @ q) * scale + center``. Without temperature columns the projected row is
   ``P(x)``; with them, ``projection_rounds`` times: ``x = P(x)``, then every temperature
-  column clamped to its range.
+  column clamped to its range; then ``x = P(x)`` once more and, when a temperature column
+  ``c`` lies beyond its range, ``x = center + s (x - center)`` with ``s`` the smallest
+  ``(bound_c - center_c) / (x_c - center_c)`` over those columns (``bound_c`` the end of the
+  range it crossed), then every temperature column clamped to its range (a rounding
+  error's change). The result lies within ``margin`` of the box (the segment to ``center``
+  stays in the widened box) and in every temperature range.
 - ``"none"``: ``y``.
 
 The feature rules are those of :class:`sklearn_ifog.ThermalFeatures`. Per sensor and per

@@ -201,9 +201,60 @@ CLIP_ONCE = Template(
 )
 
 
+# With temperature columns, "clip" ends on the box widened by the margin, then moves a row
+# with a temperature beyond its range along the segment to the box's centre (the
+# calibration's mean: inside the box and every range) until every temperature is within
+# it, as ``pull_back_to_ranges`` does; then clamps them (a rounding error's change).
+DOMAIN_PULL_BACK = Template(
+    """
+/* "clip" with temperature columns: a row with a temperature beyond its calibrated range
+ * moves towards the box's centre until every temperature lies within its range. */
+static void ${prefix}_pull_back(double row[${PREFIX}_N_FEATURES])
+{
+    double share = 1.0;
+    int j;
+    int t;
+    for (t = 0; t < ${PREFIX}_N_TEMPERATURES; ++t) {
+        const int column = ${prefix}_temperature_columns[t];
+        const double middle = ${prefix}_domain_center[column];
+        double bound;
+        double ratio;
+        if (row[column] > ${prefix}_temperature_high[t]) {
+            bound = ${prefix}_temperature_high[t];
+        } else if (row[column] < ${prefix}_temperature_low[t]) {
+            bound = ${prefix}_temperature_low[t];
+        } else {
+            continue;
+        }
+        ratio = (bound - middle) / (row[column] - middle);
+        if (ratio < share) {
+            share = ratio;
+        }
+    }
+    if (share == 1.0) {
+        return;
+    }
+    for (j = 0; j < ${PREFIX}_N_FEATURES; ++j) {
+        row[j] = ${prefix}_domain_center[j] + share * (row[j] - ${prefix}_domain_center[j]);
+    }
+    for (t = 0; t < ${PREFIX}_N_TEMPERATURES; ++t) {
+        const int column = ${prefix}_temperature_columns[t];
+        if (row[column] < ${prefix}_temperature_low[t]) {
+            row[column] = ${prefix}_temperature_low[t];
+        } else if (row[column] > ${prefix}_temperature_high[t]) {
+            row[column] = ${prefix}_temperature_high[t];
+        }
+    }
+}
+"""
+)
+
+
 # With temperature columns, "clip" alternates the projection onto the box widened by the
 # margin and the clamp of every temperature to its range, ending on the clamp: both sets are
-# convex, so the row converges into their intersection.
+# convex, so the row converges into their intersection, slowly where they meet at a narrow
+# angle: the rounds end on the box, and the pull-back (DOMAIN_PULL_BACK) brings the
+# temperatures into range along the segment to the centre, within the box.
 CLIP_ROUNDS = Template(
     """\
     {
@@ -223,6 +274,13 @@ CLIP_ROUNDS = Template(
                 }
             }
         }
+        {
+            const double point = ${prefix}_box(evaluated, coordinates, inside);
+            if (point > ${PREFIX}_MARGIN) {
+                ${prefix}_project(coordinates, inside, point, evaluated);
+            }
+        }
+        ${prefix}_pull_back(evaluated);
     }
 """
 )
