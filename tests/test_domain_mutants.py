@@ -4,6 +4,9 @@ Each test here kills mutants of :mod:`sklearn_ifog.domain` that survived the dom
 tests (``tools/mutation.sh domain``); the docstrings say which.
 """
 
+import re
+import warnings
+
 import numpy as np
 import pytest
 
@@ -458,3 +461,430 @@ def test_fallback_predict_holds_only_the_outputs_it_holds():
         fallback.predict(rows),
         [[11.0, -8.0], [11.0, -18.0], [16.0, -28.0], [21.0, -38.0], [26.0, -38.0]],
     )
+
+
+# --- Survivors of the second domain run (held_out_*, fit_box, _no_spread, _columns, ...). ---
+
+
+def _raises_exactly(exception, message):
+    """``pytest.raises`` of ``exception`` with exactly ``message``."""
+    return pytest.raises(exception, match="^" + re.escape(message) + "$")
+
+
+def test_a_bool_in_a_column_list_is_refused_by_name():
+    """A bool among integer positions (``[0, True]``) is not read as column 1: TypeError
+    naming the parameter and the bool. Kills ``flags = None``, ``flags[1]`` and the
+    message mutants in :func:`~sklearn_ifog.domain._columns`, and ``np.asarray(value)``
+    without ``dtype=object`` there (``[0, True]`` would become the integers ``[0, 1]``)."""
+    X, _ = _calibration()
+    X = np.column_stack([X, np.sin(X[:, 0])])
+    message = (
+        "temperature must name columns of X by integer position, got the bool True "
+        "(a bool is not a column index)."
+    )
+    with _raises_exactly(TypeError, message):
+        CalibrationDomain(temperature=[0, True]).fit(X)
+    with pytest.raises(TypeError, match=r"^rate must name .* got the bool np.True_ \(a bool"):
+        CalibrationDomain(rate=[np.True_]).fit(X)
+    # Integer positions of any integer type are columns.
+    domain = CalibrationDomain(temperature=[np.int64(0)], rate=[2]).fit(X)
+    assert (domain.temperature_columns_, domain.rate_columns_) == ([0], [2])
+
+
+def test_a_column_named_twice_is_refused_with_its_count():
+    """A column named twice would count its excess twice: ValueError naming the column,
+    how often and the list. Kills ``repeated = None``, ``count(None)``, ``count(c) > 2``,
+    ``repeated[1]`` and the message mutants of :func:`~sklearn_ifog.domain._columns`."""
+    X, _ = _calibration()
+    X = np.column_stack([X, np.sin(X[:, 0])])
+    message = "temperature must name each column once, got column 1 2 times in [1, 0, 1]."
+    with _raises_exactly(ValueError, message):
+        CalibrationDomain(temperature=[1, 0, 1]).fit(X)
+    with pytest.raises(ValueError, match=r"^rate must name each column once, got column 2 3 "):
+        CalibrationDomain(rate=[2, 2, 2]).fit(X)
+
+
+def test_no_spread_is_judged_column_by_column_against_its_own_magnitude():
+    """:func:`~sklearn_ifog.domain._no_spread` flags a column without a spread to
+    standardise by, each against its own values, and warns of nothing:
+
+    - a column in tiny units (1e-15 beside degrees) has a spread (kills the magnitude over
+      every column, ``max(axis=None)`` and a missing ``axis``, and ``initial=1.0``);
+    - a 0/1 column varies by exactly 1 (kills ``spread == 1``);
+    - a column whose standard deviation underflows to 0 (values near 1e-170) has none though
+      its range is not 0 (kills ``std(axis=None)``, ``std >= 0`` and the first ``|`` read
+      as ``&``);
+    - a column that varies at the round-off of its values (1e6 + 1e-9 steps) has none
+      though its standard deviation is positive (kills ``ptp(axis=None)``, ``ptp`` without
+      ``axis``, ``eps / magnitude`` and the second ``|`` read as ``&``);
+    - the round-off rule is inclusive: a spread of exactly 1000 ulps of 1.0 is none (kills
+      ``spread < ...``);
+    - ``np.finfo(None)`` (a DeprecationWarning in numpy 2) is caught by the warning filter.
+    """
+    from sklearn_ifog.domain import _no_spread
+
+    t = np.linspace(10.0, 40.0, 31)
+    one_ulp_range = np.tile([1.0 - 1000 * 2.0**-52, 1.0], 16)[:31]
+    columns = {
+        "tiny units": (1e-16 * t, False),
+        "zero or one": (np.tile([0.0, 1.0], 16)[:31], False),
+        "underflow": (np.linspace(0.0, 2e-170, 31), True),
+        "round-off": (1e6 + 1e-9 * np.arange(31), True),
+        "1000 ulps": (one_ulp_range, True),
+    }
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for name, (column, flagged) in columns.items():
+            X = np.column_stack([t, column])
+            assert np.ptp(column) > 0, name
+            assert _no_spread(X).tolist() == [False, flagged], name
+    assert np.ptp(one_ulp_range) == 1e3 * np.finfo(np.float64).eps
+    assert np.linspace(0.0, 2e-170, 31).std() == 0.0  # the premise of the underflow case
+    # A column in tiny units fits a domain whose box holds its own rows.
+    X = np.column_stack([t, 1e-16 * t + 1e-17 * np.sin(t)])
+    domain = CalibrationDomain().fit(X)
+    np.testing.assert_array_equal(domain.distance(X), np.zeros(31))
+
+
+def test_check_varies_says_how_a_feature_fails_to_vary():
+    """The message names the feature, says whether it is constant (with its value) or varies
+    too little (by how much), and counts the calibration rows. Kills ``spread == 0 or
+    True``, ``X[1, column]`` (a single row is constant in every feature), ``X.shape[1]``
+    for the row count, and the mutants of the message's text in
+    :func:`~sklearn_ifog.domain.check_varies`."""
+    from sklearn_ifog.domain import check_varies
+
+    t = np.linspace(10.0, 40.0, 31)
+    tail = (
+        " calibration rows. A calibration must cover a range of temperatures (and rates) "
+        "to say where it holds; calibrate on runs that change temperature."
+    )
+    head = "Cannot fit a calibration domain: feature "
+    with _raises_exactly(ValueError, head + "'dT' is constant (2.5) over the 31" + tail):
+        check_varies(np.column_stack([t, np.full(31, 2.5)]), ["T", "dT"])
+    too_little = "column 1 varies by 3e-08 only, too little to standardise by over the 31"
+    with _raises_exactly(ValueError, head + too_little + tail):
+        check_varies(np.column_stack([t, 1e6 + 1e-9 * np.arange(31)]))
+    with pytest.raises(ValueError, match=r"varies by 2e-170 only, too little to standardise"):
+        check_varies(np.column_stack([t, np.linspace(0.0, 2e-170, 31)]))
+    with _raises_exactly(ValueError, head + "column 0 is constant (7.0) over the 1" + tail):
+        check_varies(np.array([[7.0, 2.0]]))
+
+
+def test_fit_box_of_fewer_rows_than_features_completes_an_orthonormal_basis():
+    """Three calibration rows of five features: the box still has five orthonormal axes,
+    the two that the rows do not span (and the third, degenerate one) at the floored
+    spread ``1e-6`` of the widest, and a row off the rows' span is far outside while the
+    rows themselves are inside. Kills every mutant of the basis completion in
+    :func:`~sklearn_ifog.domain.fit_box` (``axes.shape[1]``, ``eye + axes.T @ axes``, the
+    slices and the padding of ``singular``), ``full_matrices`` True or omitted (which
+    leave three axis scales for five axes) and ``_AXIS_FLOOR / max``."""
+    from sklearn_ifog.domain import box_distance, fit_box
+
+    X = np.array(
+        [
+            [10.0, 0.1, 3.0, -1.0, 100.0],
+            [25.0, 0.4, 2.0, 0.5, 140.0],
+            [40.0, 0.2, 7.0, 2.0, 90.0],
+        ]
+    )
+    box = fit_box(X)
+    assert box.axes.shape == (5, 5)
+    np.testing.assert_allclose(box.axes @ box.axes.T, np.eye(5), atol=1e-12)
+    assert box.axis_scale.shape == box.lower.shape == box.upper.shape == (5,)
+    widest = box.axis_scale.max()
+    assert widest > 1.0  # five unit-variance features over two real axes
+    np.testing.assert_array_equal(box.axis_scale[2:], 1e-6 * widest)
+    assert np.all(box.axis_scale[:2] > 0.5)
+    np.testing.assert_allclose(box_distance(box, X), 0.0, atol=1e-6)
+    # The mean moved off the rows' plane by 1e-3 standard deviations of one feature.
+    off = X.mean(axis=0) + np.r_[0.0, 0.0, 0.0, 1e-3 * X[:, 3].std(), 0.0]
+    assert box_distance(box, off[None, :])[0] > 100.0
+
+
+def test_fit_box_floors_a_degenerate_axis_at_a_millionth_of_the_widest():
+    """A duplicated column: all the spread is on one axis (``sqrt 2`` standard deviations of
+    the standardised features), the other is floored at ``1e-6`` times it, so a row off the
+    relation by ``+-1e-8`` standard deviations of the two features lies at ``sqrt 2 1e-8 /
+    (1e-6 sqrt 2) = 0.01``. Kills ``_AXIS_FLOOR / axis_scale.max()`` in
+    :func:`~sklearn_ifog.domain.fit_box`."""
+    from sklearn_ifog.domain import box_distance, fit_box
+
+    t = np.linspace(10.0, 40.0, 31)
+    box = fit_box(np.column_stack([t, t]))
+    np.testing.assert_allclose(box.axis_scale, [np.sqrt(2.0), 1e-6 * np.sqrt(2.0)], rtol=1e-12)
+    # Off the relation along the degenerate axis: (+d, -d) standard deviations.
+    d = 1e-8
+    row = np.array([[25.0 + d * t.std(), 25.0 - d * t.std()]])
+    expected = d * np.sqrt(2.0) / (1e-6 * np.sqrt(2.0))  # |excess| over the floored scale
+    assert box_distance(box, row)[0] == pytest.approx(expected, rel=1e-4)
+
+
+def test_a_row_just_beyond_any_face_of_the_box_lies_at_its_excess():
+    """In decorrelated coordinates every axis keeps its own range: a row a tenth of an axis's
+    standard deviation beyond its lower (or upper) face, at the middle of every other axis,
+    lies at distance 0.1. Kills ``projected.min(axis=None)`` (one lower bound for every
+    axis, the smallest) in :func:`~sklearn_ifog.domain.fit_box`."""
+    from sklearn_ifog.domain import box_distance, fit_box
+
+    X, _ = _calibration()
+    X = np.column_stack([X, X[:, 0] ** 2 / 40.0 + X[:, 1]])
+    box = fit_box(X)
+    assert box.lower.shape == box.upper.shape == (3,)
+    middle = (box.lower + box.upper) / 2
+    for k in range(3):
+        for face, sign in ((box.lower, -1.0), (box.upper, 1.0)):
+            P = middle.copy()
+            P[k] = face[k] + sign * 0.1 * box.axis_scale[k]
+            row = (P @ box.axes) * box.scale + box.center
+            assert box_distance(box, row[None, :])[0] == pytest.approx(0.1, rel=1e-9), (k, sign)
+
+
+def test_fit_box_keeps_its_rate_columns_and_their_term():
+    """:func:`~sklearn_ifog.domain.fit_box` records the rate columns it was given, so that
+    :func:`~sklearn_ifog.domain.box_distance` adds a rate's excess (in standard deviations
+    over ``RATE_WEIGHT``) under the root. Kills ``Box(..., None, ...)`` for
+    ``rate_columns`` (the domain builds its own Box, so no other test saw it)."""
+    from sklearn_ifog.domain import RATE_WEIGHT, box_distance, fit_box
+
+    X, _ = _calibration()
+    box = fit_box(X, rate_columns=[np.int64(1)])
+    assert box.rate_columns == (1,)
+    assert (box.rate_low.tolist(), box.rate_high.tolist()) == ([X[:, 1].min()], [X[:, 1].max()])
+    assert box.rate_scale[0] == pytest.approx(X[:, 1].std() / RATE_WEIGHT, rel=1e-12)
+    row = np.array([[25.0, X[:, 1].max() + 0.25 * X[:, 1].std()]])
+    plain = box_distance(fit_box(X), row)[0]
+    assert box_distance(box, row)[0] == pytest.approx(np.hypot(plain, 0.25 * RATE_WEIGHT))
+
+
+def test_the_boost_ramps_in_over_a_hundredth_of_a_standard_deviation_row_by_row():
+    """``Box.boost`` is added in proportion to the novelty ``n``, in hundredths of a standard
+    deviation beyond the calibrated rate or temperature (``sqrt`` of the sum of squares of
+    both), up to 1, for each row on its own. Kills ``(RATE_WEIGHT * NOVELTY_RAMP) ** 3``,
+    ``excess * (scale * NOVELTY_RAMP)``, ``excess / (scale / NOVELTY_RAMP)`` and
+    ``sum(axis=None)`` over every row in :func:`~sklearn_ifog.domain.box_distance`."""
+    from sklearn_ifog.domain import box_distance, fit_box
+
+    X, _ = _calibration()
+    low, high = X.min(axis=0), X.max(axis=0)
+    sd = X.std(axis=0)
+    box = fit_box(X, [1])._replace(
+        boost=2.0,
+        temperature_columns=(0,),
+        temperature_low=low[:1],
+        temperature_high=high[:1],
+    )
+    # (degrees beyond, rate beyond), each in hundredths of its standard deviation.
+    steps = np.array(
+        [
+            [0.0, 0.0],
+            [0.5, 0.0],
+            [-0.25, 0.0],
+            [0.0, 0.5],
+            [0.0, -0.75],
+            [0.3, 0.4],
+            [3.0, 0.0],
+            [0.0, 2.0],
+        ]
+    )
+    expected = 2.0 * np.minimum(np.hypot(steps[:, 0], steps[:, 1]), 1.0)
+    rows = np.empty_like(steps)
+    for column in (0, 1):
+        s = steps[:, column] * 0.01 * sd[column]
+        inside = np.where(s < 0, low[column] + s, X[0, column])
+        rows[:, column] = np.where(s > 0, high[column] + s, inside)
+    added = box_distance(box, rows) - box_distance(box._replace(boost=0.0), rows)
+    np.testing.assert_allclose(added, expected, rtol=1e-6, atol=1e-12)
+    assert added[0] == 0.0
+
+
+def test_a_distance_equal_to_the_margin_is_inside():
+    """``margin`` is the distance that still counts as inside; a temperature exactly at its
+    calibrated end is inside too. Kills ``distance >= margin`` in
+    :func:`~sklearn_ifog.domain.outside_domain`."""
+    from sklearn_ifog.domain import outside_domain
+
+    above = np.nextafter(1.5, 2.0)
+    outside = outside_domain([1.5, above, 0.0, 0.0], [0.0, 0.0, 0.0, 1e-12], margin=1.5)
+    assert outside.tolist() == [False, True, False, True]
+
+
+def test_calibrated_threshold_needs_twenty_distances_and_counts_the_bad_ones():
+    """Twenty held-out distances are enough for a quantile, nineteen are not (kills
+    ``size <= 20``); a non-finite distance is an error that counts them (kills
+    ``np.sum(np.isfinite(...))`` and the mutants of the message's text); float32 or
+    integer distances give the float64 quantile (kills ``np.asarray(distances)`` without
+    ``dtype``, which takes the quantile in float32) in
+    :func:`~sklearn_ifog.domain.calibrated_threshold`."""
+    from sklearn_ifog.domain import calibrated_threshold
+
+    twenty = np.linspace(0.0, 19.0, 20)
+    assert calibrated_threshold(twenty, alpha=0.5, floor=0.0) == 9.5
+    assert calibrated_threshold(twenty[:19], alpha=0.5, floor=0.0) is None
+    message = (
+        "Cannot calibrate the domain's threshold (alpha): 2 held-out distances are NaN or "
+        "infinite; the calibration rows must be finite and every feature must vary."
+    )
+    with _raises_exactly(ValueError, message):
+        calibrated_threshold([0.0, 1.0, np.nan, 2.0, -np.inf], alpha=0.02, floor=1.5)
+    rng = np.random.default_rng(0)
+    single = rng.gamma(2.0, size=(5, 100)).astype(np.float32)
+    for distances in single:
+        threshold = calibrated_threshold(distances, alpha=0.02, floor=0.0)
+        assert threshold == float(np.quantile(distances.astype(np.float64), 0.98))
+    assert calibrated_threshold(np.arange(101), alpha=0.02, floor=1.5) == 98.0
+
+
+def test_fit_box_of_float32_rows_is_fitted_in_double_precision():
+    """A single-precision recording gets the box of its values in double precision, not a
+    float32 box. Kills ``np.asarray(X)`` without ``dtype`` in
+    :func:`~sklearn_ifog.domain.fit_box` (mean, spread and axes then in float32, off by
+    about 1e-6)."""
+    from sklearn_ifog.domain import box_distance, fit_box
+
+    X, _ = _calibration()
+    single = X.astype(np.float32)
+    box, double = fit_box(single, [1]), fit_box(single.astype(np.float64), [1])
+    for name in ("center", "scale", "axes", "axis_scale", "lower", "upper", "rate_scale"):
+        assert getattr(box, name).dtype == np.float64, name
+        np.testing.assert_array_equal(getattr(box, name), getattr(double, name), err_msg=name)
+    rows = np.array([[45.0, 0.5], [25.0, 1.3]])
+    np.testing.assert_array_equal(box_distance(box, rows), box_distance(double, rows))
+
+
+def _three_runs(n_rows=50):
+    """Three runs over the same temperatures (10-40 degC) with a second feature of their own."""
+    t = np.tile(np.linspace(10.0, 40.0, n_rows), 3)
+    runs = np.repeat([0, 1, 2], n_rows)
+    return np.column_stack([t, np.sin(t / 5.0 + runs)]), runs
+
+
+def test_held_out_rows_at_the_others_extreme_temperatures_are_kept():
+    """A held-out row is kept when its temperature lies within the other folds' range, its
+    ends included: three runs over the same 10-40 degC keep every row. Kills ``values >
+    low`` and ``values < high`` in :func:`~sklearn_ifog.domain.held_out_distances`."""
+    from sklearn_ifog.domain import held_out_distances, held_out_folds
+
+    X, runs = _three_runs()
+    folds = held_out_folds(runs.size, runs)
+    assert folds.tolist() == runs.tolist()
+    distances = held_out_distances(X, folds, temperature_columns=[0])
+    assert distances.shape == (150,)
+    assert np.all(np.isfinite(distances))
+
+
+def test_held_out_distances_skip_only_the_folds_that_leave_a_feature_constant():
+    """A feature that varies in run 0 only: holding run 0 out leaves it constant, so that fold
+    is skipped (no NaN), and the later folds still count, each the distance of its rows to
+    the others' box. Kills ``and`` for ``or``, ``np.any(None)`` and ``break`` for
+    ``continue`` in :func:`~sklearn_ifog.domain.held_out_distances`."""
+    from sklearn_ifog.domain import box_distance, fit_box, held_out_distances
+
+    X, runs = _three_runs()
+    X[runs > 0, 1] = 0.0
+    distances = held_out_distances(X, runs)
+    expected = np.concatenate([box_distance(fit_box(X[runs != k]), X[runs == k]) for k in (1, 2)])
+    np.testing.assert_array_equal(distances, expected)
+    assert distances.shape == (100,)
+
+
+def test_held_out_distances_of_one_feature_and_of_two_kept_rows():
+    """One feature is enough (kills ``kept.shape[1] < 2``); two kept rows make a box (kills
+    ``kept.shape[0] <= 2`` and ``< 3``): three rows, one per fold, each measured against
+    the other two. With no fold left to measure the result is empty (kills ``if distances
+    or True``, ``np.empty(None)`` and ``np.empty(1)``)."""
+    from sklearn_ifog.domain import held_out_distances, held_out_folds
+
+    t = np.linspace(10.0, 40.0, 100)[:, None]
+    distances = held_out_distances(t, held_out_folds(100), temperature_columns=[0])
+    np.testing.assert_array_equal(distances, np.zeros(60))
+    # Row 0 (0) against [1, 3]: 1 sd below; row 1 inside [0, 3]; row 2 (3) against [0, 1]:
+    # 4 sd above.
+    three = np.array([[0.0], [1.0], [3.0]])
+    np.testing.assert_allclose(held_out_distances(three, np.array([0, 1, 2])), [1.0, 0.0, 4.0])
+    empty = held_out_distances(three, np.zeros(3, dtype=int))
+    assert empty.shape == (0,)
+    assert empty.dtype == np.float64
+
+
+def test_held_out_folds_are_integers_even_for_no_rows():
+    """The folds are integers (kills ``np.empty(n_samples)`` as float64 in
+    :func:`~sklearn_ifog.domain.held_out_folds`) and no rows give no folds (kills
+    ``max(initial=None)`` and ``initial=-2``)."""
+    from sklearn_ifog.domain import held_out_folds
+
+    for folds in (held_out_folds(10), held_out_folds(6, [0, 0, 0, 1, 1, 1])):
+        assert folds.dtype.kind == "i"
+    assert held_out_folds(6, [0, 0, 0, 1, 1, 1]).tolist() == [0, 1, 3, 0, 1, 3]
+    for folds in (held_out_folds(0), held_out_folds(0, [])):
+        assert folds.shape == (0,)
+        assert folds.dtype.kind == "i"
+
+
+def _plane_runs(seed=0):
+    rng = np.random.default_rng(seed)
+    t, rate, runs = _heating_runs(rng)
+    y = 0.05 * t + 0.8 * rate + rng.normal(scale=0.05, size=t.size)
+    return t, rate, runs, y
+
+
+def test_held_out_runs_does_not_depend_on_the_units():
+    """The ratio and scale of :func:`~sklearn_ifog.domain.held_out_runs` are those of the
+    plane, whatever the units of T, dT and the drift: T and dT scaled by 1e-8 or 1e4
+    (each column is standardised on its own, kills ``std(axis=None)``, ``Z * spread``,
+    ``np.where(None, ...)`` and ``spread > 1``), a drift in mdeg/h instead of deg/h
+    (kills ``constant > 1`` and ``spread > 1`` in the ratio's and the scale's guards),
+    and T with an offset of 1e6 (raw sensor counts: the columns are centred before the
+    sums, kills ``Z + Z.mean``, off by 1e-5 then)."""
+    from sklearn_ifog.domain import held_out_runs
+
+    t, rate, runs, y = _plane_runs()
+    reference = np.r_[held_out_runs(t, rate, y[:, None], runs, return_scale=True)].ravel()
+    assert reference[0] < 0.05
+    assert reference[1] == pytest.approx(1.0, abs=0.01)
+    for name, (T, dT, Y) in {
+        "dT x 1e-8": (t, 1e-8 * rate, y),
+        "T x 1e-8": (1e-8 * t, rate, y),
+        "T x 1e4": (1e4 * t, rate, y),
+        "drift x 1e-3": (t, rate, 1e-3 * y),
+        "T + 1e6": (t + 1e6, rate, y),
+    }.items():
+        ratio, scale = held_out_runs(T, dT, Y[:, None], runs, return_scale=True)
+        np.testing.assert_allclose(np.r_[ratio, scale], reference, rtol=1e-8, err_msg=name)
+
+
+def test_held_out_runs_of_a_drift_free_output_and_of_no_rows():
+    """An output with no drift at all (zeros): the plane predicts no deviation from the
+    constant, so its ratio and scale are 0, not NaN (kills ``constant >= 0`` and
+    ``spread >= 0``), beside an output with a real plane; no rows are fewer than two runs
+    (kills ``labels.max(initial=None)``)."""
+    from sklearn_ifog.domain import held_out_runs
+
+    t, rate, runs, y = _plane_runs()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ratio, scale = held_out_runs(
+            t, rate, np.column_stack([y, np.zeros_like(y)]), runs, return_scale=True
+        )
+    assert ratio[1] == 0.0
+    assert scale[1] == 0.0
+    assert 0.0 < ratio[0] < 0.05
+    assert scale[0] == pytest.approx(1.0, abs=0.01)
+    assert held_out_runs([], [], np.empty((0, 1)), []) is None
+    assert held_out_runs([], [], np.empty((0, 1)), [], return_scale=True) == (None, None)
+
+
+def test_the_domain_refuses_nan_as_its_tags_say():
+    """:class:`CalibrationDomain` declares ``allow_nan=False`` and refuses NaN at fit and
+    predict alike (kills ``allow_nan = None`` and ``= True`` in its
+    ``__sklearn_tags__``)."""
+    from sklearn.utils import get_tags
+
+    assert get_tags(CalibrationDomain()).input_tags.allow_nan is False
+    X, _ = _calibration()
+    bad = X.copy()
+    bad[3, 0] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        CalibrationDomain().fit(bad)
+    with pytest.raises(ValueError, match="NaN"):
+        CalibrationDomain().fit(X).predict(bad[:5])
