@@ -7,14 +7,16 @@
 #                e.g. 'sklearn_ifog.domain.x_fit_fallback__mutmut_*' (default: every mutant
 #                of the module)
 # Environment: MUTATION_DIR (scratch root), MUTATION_TESTS (test files instead of the
-# module's default selection below), MUTMUT (the mutmut executable; default .venv/bin/mutmut).
+# module's default selection below), MUTMUT (the mutmut executable; default .venv/bin/mutmut),
+# MUTATION_CHILDREN (mutants run at once; default 1, for a machine shared with other work).
 #
 # The working tree is never touched: its tracked and untracked (not ignored) files are copied
 # to a scratch directory ($MUTATION_DIR/MODULE, default /tmp/sklearn-ifog-mutation/MODULE,
 # wiped at each run), a [mutmut] section naming the module and the tests that exercise it is
 # written there, and mutmut (which itself works on a copy, in mutants/) runs with one worker
-# under `nice`. Each mutant runs only the selected tests that call the mutated function (mutmut
-# records which they are), with pytest -x, so a killed mutant costs one failing test.
+# (MUTATION_CHILDREN) under `nice`. Each mutant runs only the selected tests that call the
+# mutated function (mutmut records which they are), with pytest -x, so a killed mutant costs
+# one failing test.
 #
 # At the end the script prints the score (killed / total) and writes every surviving mutant's
 # diff to $MUTATION_DIR/MODULE/survivors.diff.
@@ -91,7 +93,7 @@ fi
 
 cd "$work"
 export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
-nice -n 10 "$mutmut" run --max-children 1 "$@" || true
+nice -n 10 "$mutmut" run --max-children "${MUTATION_CHILDREN:-1}" "$@" || true
 
 "$mutmut" results --all true >results.txt
 # The score counts the mutants the run was asked for (every mutant of the module, or those
