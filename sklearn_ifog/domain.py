@@ -75,8 +75,8 @@ BLEND_WIDTH = 1.0
 # floored there so that round-off cannot read as a distance.
 _AXIS_FLOOR = 1e-6
 
-# The fallback's slope is tested by extrapolation: the coldest and the warmest fifth of the
-# calibration rows are held out in turn.
+# The fallback's slope is tested by extrapolation: the rows within this share of the
+# temperature span of the coldest and of the warmest are held out in turn.
 _EXTRAPOLATION_FRACTION = 0.2
 _MIN_FALLBACK_ROWS = 10
 #: Rounds of alternating projection (box, then temperature ranges) of
@@ -821,10 +821,14 @@ def _plane(temperature, rate, Y):
 def extremes_held_out(temperature, Y, rate=None):
     """Squared errors of a constant and a line in T extrapolated to the calibrated extremes.
 
-    The coldest and the warmest fifth of the rows are held out in turn; a constant (the mean)
-    and a line in T (with ``rate``: a plane in T and dT) are fitted on the other rows and
-    evaluated on the held-out ones. This is the evidence :func:`fit_fallback` decides the
-    slope on.
+    The rows within a fifth of the temperature span of the coldest, then of the warmest,
+    are held out in turn (at least the 10 coldest or warmest, with every row at their
+    temperatures); a constant (the mean) and a line in T (with ``rate``: a plane in T and
+    dT) are fitted on the other rows and evaluated on the held-out ones. This is the
+    evidence :func:`fit_fallback` decides the slope on. Every held-out row lies beyond every
+    kept one, so the test is an extrapolation even where the calibration soaks at an extreme
+    (a fifth of the rows by rank would then be part of the soak, at the temperature of kept
+    rows: an interpolation).
 
     Parameters
     ----------
@@ -837,34 +841,37 @@ def extremes_held_out(temperature, Y, rate=None):
 
     Returns
     -------
-    losses : ndarray of shape (2, 2, n_held, n_outputs) or None
-        ``losses[end, model]``: the squared errors at the cold (``end=0``) and the warm
-        (``end=1``) extreme of the constant (``model=0``) and of the line (``model=1``).
-        None when fewer than 48 rows (a held-out fifth under 10) or a single temperature
-        leave nothing to test.
+    losses : tuple of 2 ndarrays of shape (2, n_held, n_outputs), or None
+        ``losses[end][model]``: the squared errors at the cold (``end=0``) and the warm
+        (``end=1``) extreme of the constant (``model=0``) and of the line (``model=1``);
+        ``n_held`` differs between the ends. None when fewer than 48 rows, a single
+        temperature, or fewer than 10 rows kept at an end leave nothing to test.
 
     Examples
     --------
     >>> import numpy as np
     >>> t = np.linspace(0.0, 30.0, 100)
     >>> losses = extremes_held_out(t, (2.0 * t)[:, None])
-    >>> losses.shape
-    (2, 2, 20, 1)
-    >>> bool(losses[:, 1].max() < 1e-20)  # an exact line extrapolates exactly
+    >>> [end.shape for end in losses]
+    [(2, 20, 1), (2, 20, 1)]
+    >>> bool(max(end[1].max() for end in losses) < 1e-20)  # an exact line extrapolates exactly
     True
     """
     temperature = np.asarray(temperature, dtype=np.float64)
     Y = np.asarray(Y, dtype=np.float64)
     rate = None if rate is None else np.asarray(rate, dtype=np.float64)
     n_samples = temperature.shape[0]
-    n_held = round(_EXTRAPOLATION_FRACTION * n_samples)
-    if n_held < _MIN_FALLBACK_ROWS or np.ptp(temperature) == 0:
+    span = np.ptp(temperature)
+    if round(_EXTRAPOLATION_FRACTION * n_samples) < _MIN_FALLBACK_ROWS or span == 0:
         return None
-    order = np.argsort(temperature, kind="stable")
+    ordered = np.sort(temperature)
+    cold = max(ordered[0] + _EXTRAPOLATION_FRACTION * span, ordered[_MIN_FALLBACK_ROWS - 1])
+    warm = min(ordered[-1] - _EXTRAPOLATION_FRACTION * span, ordered[-_MIN_FALLBACK_ROWS])
     losses = []
-    for held in (order[:n_held], order[-n_held:]):
-        kept = np.ones(n_samples, dtype=bool)
-        kept[held] = False
+    for held in (temperature <= cold, temperature >= warm):
+        kept = ~held
+        if kept.sum() < _MIN_FALLBACK_ROWS:
+            return None
         if rate is None:
             intercept, slope = _line(temperature[kept], Y[kept])
             line = intercept + temperature[held, None] * slope
@@ -874,7 +881,7 @@ def extremes_held_out(temperature, Y, rate=None):
         losses.append(
             np.stack([np.square(Y[held] - Y[kept].mean(axis=0)), np.square(Y[held] - line)])
         )
-    return np.stack(losses)
+    return tuple(losses)
 
 
 def held_out_runs(temperature, rate, Y, runs, *, return_scale=False):
@@ -993,9 +1000,10 @@ def fit_fallback(
     where its slope extrapolates, else a constant (per output).
 
     The slope is kept for an output only when it *extrapolates* better than a constant:
-    the coldest and the warmest fifth of the rows are held out in turn and a constant and a
-    line are fitted on the rest; at each held-out end the line must leave at most a quarter
-    of the constant's mean squared error, and over both it must beat the constant by more
+    the rows within a fifth of the temperature span of the coldest and of the warmest are
+    held out in turn (:func:`extremes_held_out`) and a constant and a line are fitted on the
+    rest; at each held-out end the line must leave at most a quarter of the constant's mean
+    squared error, and over both it must beat the constant by more
     than one standard error of the paired difference (the rule the network's selection uses,
     with chunk means since neighbouring rows are correlated). An axis with no real thermal
     slope then falls back to its mean: a line fitted to noise or to a bias that moved with

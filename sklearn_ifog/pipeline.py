@@ -291,9 +291,9 @@ class CompensationPipeline(Pipeline):
     handover : bool, default=False
         Whether the model keeps the kinds of novel rows on which held-out runs show it
         beating its fallback. With at least 3 runs, :meth:`fit` refits the steps on two
-        thirds of the runs three times (2.51 to 3.49 times the fit time of the default network
+        thirds of the runs three times (2.28 to 3.80 times the fit time of the default network
         on the 9-run campaigns of ``python benchmarks/bench_extrapolation.py --tune --n-jobs
-        2`` rows "lumped s0" and "layered_glass s7" column "fit time", whose "With
+        2`` rows "layered_glass s5" and "lumped s3" column "fit time", whose "With
         handover=True" table measures what it buys), predicts the held-out runs, and judges
         their rows
         beyond that fit's domain per kind (temperatures below or above, rates below or

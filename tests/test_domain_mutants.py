@@ -41,7 +41,7 @@ def test_plane_fallback_is_held_flat_above_the_warm_end_it_did_not_extrapolate()
     for seed in range(20):
         rng = np.random.default_rng(seed)
         t, rate, runs = _heating_runs(rng)
-        y = 0.05 * t + 0.8 * rate - 0.1 * np.maximum(t - 34.0, 0.0) ** 2
+        y = 0.05 * t + 0.8 * rate - 0.05 * np.maximum(t - 34.0, 0.0) ** 2
         y += rng.normal(scale=0.02, size=t.size)
         plane = fit_fallback(t, y[:, None], 0, rate=rate, rate_column=1, runs=runs)
         assert fallback_name(plane) == "plane", seed
@@ -299,53 +299,60 @@ def test_line_of_a_small_temperature_spread_and_of_one_temperature():
 
 
 def test_a_calibration_mostly_at_one_soak_keeps_a_finite_fallback():
-    """80 % of the rows at one soak temperature, 20 % at another: holding out the warm fifth
-    leaves one temperature, where the line is the constant (slope 0, no NaN)."""
+    """80 % of the rows at one soak temperature, 20 % at another: holding out the warm end
+    (every row within a fifth of the span of it: the 20 warm rows) leaves one temperature,
+    where the line is the constant (slope 0, no NaN)."""
     from sklearn_ifog.domain import extremes_held_out
 
     t = np.r_[np.full(80, 10.0), np.full(20, 30.0)]
     y = np.r_[np.linspace(0.0, 1.0, 80), np.linspace(5.0, 6.0, 20)][:, None]
     losses = extremes_held_out(t, y)
-    assert np.all(np.isfinite(losses))
+    assert all(np.all(np.isfinite(end)) for end in losses)
     # Warm end: the line fitted on the 80 soak rows is their mean, like the constant.
-    np.testing.assert_array_equal(losses[1, 1], losses[1, 0])
-    np.testing.assert_allclose(losses[1, 0][:, 0], np.square(y[80:, 0] - 0.5))
+    np.testing.assert_array_equal(losses[1][1], losses[1][0])
+    np.testing.assert_allclose(losses[1][0][:, 0], np.square(y[80:, 0] - 0.5))
     fallback = fit_fallback(t, y, column=0)
     assert np.all(np.isfinite(fallback.predict(np.array([[0.0], [20.0], [50.0]]))))
 
 
 def test_extremes_held_out_sizes_ties_and_rate():
-    """:func:`~sklearn_ifog.domain.extremes_held_out`: 48 rows hold out fifths of 10, 47 rows
-    are too few (kills ``n_held <= 10``); a temperature span of exactly 1 degree is a span
-    (kills ``ptp == 1``), a single temperature is not; ties are held out in row order (the
-    earliest rows of a soak; numpy's default sort keeps these ties in order too, so the
-    ``kind="stable"`` mutants survive); with ``rate`` the model is the
-    plane in T and dT (kills ``rate = None``)."""
+    """:func:`~sklearn_ifog.domain.extremes_held_out`: 48 rows hold out at least 10 at
+    each end, 47 rows are too few (kills ``n_held <= 10``); a temperature span of exactly 1
+    degree is a span (kills ``ptp == 1``), a single temperature is not; each end holds out
+    every row within a fifth of the span of its extreme, ties included, and the models are
+    fitted on the other rows; with ``rate`` the model is the plane in T and dT (kills
+    ``rate = None``)."""
     from sklearn_ifog.domain import extremes_held_out
 
     line = lambda t: (2.0 * t)[:, None]  # noqa: E731
-    assert extremes_held_out(np.linspace(0.0, 1.0, 48), line(np.linspace(0.0, 1.0, 48))).shape == (
-        2,
-        2,
-        10,
-        1,
-    )
+    shapes = [
+        end.shape
+        for end in extremes_held_out(np.linspace(0.0, 1.0, 48), line(np.linspace(0.0, 1.0, 48)))
+    ]
+    assert shapes == [(2, 10, 1), (2, 10, 1)]
     assert extremes_held_out(np.linspace(0.0, 30.0, 47), line(np.linspace(0.0, 30.0, 47))) is None
     assert extremes_held_out(np.full(100, 20.0), np.arange(100.0)[:, None]) is None
-    # Ties: a soak of 40 rows at 10 degC then a ramp; the cold fifth (20 rows) is the soak's
-    # first 20 rows, whose targets (the row index) are 0-19.
+    # A soak of 40 rows at 10 degC, then a ramp to 40: the cold end holds out the whole soak
+    # and the ramp up to 16 degC (a fifth of the 30-degree span), the warm end the ramp from
+    # 34 degC; each time the constant is the mean of the other rows.
     t = np.r_[np.full(40, 10.0), np.linspace(10.5, 40.0, 60)]
     y = np.arange(100.0)[:, None]
-    losses = extremes_held_out(t, y)
-    kept_mean = y[20:, 0].mean()
-    np.testing.assert_allclose(losses[0, 0][:, 0], np.square(np.arange(20.0) - kept_mean))
+    cold, warm = extremes_held_out(t, y)
+    below, above = t <= 16.0, t >= 34.0
+    np.testing.assert_allclose(cold[0][:, 0], np.square(y[below, 0] - y[~below, 0].mean()))
+    np.testing.assert_allclose(warm[0][:, 0], np.square(y[above, 0] - y[~above, 0].mean()))
+    assert cold.shape[1] == np.sum(t <= 16.0) > 40
+    # A sparse extreme: fewer than 10 rows within a fifth of the span still hold out 10.
+    t = np.r_[np.linspace(0.0, 10.0, 90), 15.0, 30.0]
+    cold, warm = extremes_held_out(t, line(t))
+    assert warm.shape[1] == 10
     # A drift in T and dT: the plane extrapolates it exactly, the line in T does not.
     rng = np.random.default_rng(0)
     t = np.linspace(10.0, 40.0, 100)
     rate = rng.uniform(-1.0, 1.0, 100)
     y = (0.1 * t + 2.0 * rate)[:, None]
-    assert extremes_held_out(t, y, rate)[:, 1].max() < 1e-20
-    assert extremes_held_out(t, y)[:, 1].max() > 0.1
+    assert max(end[1].max() for end in extremes_held_out(t, y, rate)) < 1e-20
+    assert max(end[1].max() for end in extremes_held_out(t, y)) > 0.1
 
 
 @pytest.mark.parametrize("seed", range(5))
@@ -436,7 +443,7 @@ def test_the_plane_is_decided_output_by_output(seed):
     assert fallback.rate_slope[1] == 0.0
     assert (fallback.intercept[1], fallback.slope[1]) == (line.intercept[1], line.slope[1])
     # A small output bending above 34 degC beside a large exact plane: held above, kept.
-    bend = plane - 0.1 * np.maximum(t - 34.0, 0.0) ** 2 + rng.normal(scale=0.02, size=t.size)
+    bend = plane - 0.05 * np.maximum(t - 34.0, 0.0) ** 2 + rng.normal(scale=0.02, size=t.size)
     fallback = fit_fallback(t, np.column_stack([bend, 1000.0 * exact]), 0, **kw)
     assert fallback.hold_above.tolist() == [True, False]
     assert fallback.hold_below.tolist() == [False, False]
