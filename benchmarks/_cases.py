@@ -239,7 +239,7 @@ SEEDS = {
 #: a verdict on the recording is not held out from these. Keys: ``"module:NAME"`` for a
 #: constant (``tests/test_benchmarks.py`` checks that it exists), or a script's name.
 REAL_RECORDING = {
-    "sklearn_ifog.domain:_REAL_SLOPE_RATIO": "0.25, set in 397b5a1 (the first "
+    "sklearn_ifog.fallback:_REAL_SLOPE_RATIO": "0.25, set in 397b5a1 (the first "
     "CalibrationDomain) between the recording's x and y axes' ratios (0.001-0.06) and its "
     "z axis's (0.47-5.8, no thermal drift), on every half of the recording: the fallback's "
     "slope rule was chosen on it",

@@ -19,7 +19,7 @@ tell them apart: it fits the default pipeline once per case on the tuning gyros 
 network alone, the fallback, the model at the projected row (``"clip"``), the distance and
 the kind of novelty, and re-weighs them offline under other rules:
 
-- ``blend w``: today's rule (:func:`~sklearn_ifog.domain.fallback_weight` over a width
+- ``blend w``: today's rule (:func:`~sklearn_ifog.policy.fallback_weight` over a width
   ``w``, the default 1) for every kind;
 - ``per kind t/r/s``: widths ``t`` beyond the calibrated temperatures, ``r`` beyond the
   calibrated rates (inside the temperatures), ``s`` for thermal states (``-``: the fallback
@@ -46,7 +46,7 @@ from joblib import Parallel, delayed
 from sklearn.linear_model import LinearRegression
 
 from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
-from sklearn_ifog.domain import BLEND_WIDTH, fallback_weight
+from sklearn_ifog.policy import BLEND_WIDTH, fallback_weight
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _cases import (

@@ -25,14 +25,8 @@ import numpy as np
 
 from sklearn_ifog._description import describe_pipeline
 from sklearn_ifog._output_layer import layer_kind, read_layer
-from sklearn_ifog.domain import (
-    NOVELTY_RAMP,
-    RATE_WEIGHT,
-    apply_policy,
-    box_distance,
-    outside_domain,
-    temperature_excess,
-)
+from sklearn_ifog.domain import NOVELTY_RAMP, RATE_WEIGHT, locate
+from sklearn_ifog.policy import apply_policy
 from sklearn_ifog.rbf._basis import predict_network, tail_features
 
 __all__ = ["CompiledDomain", "CompiledSteps", "FastRow", "compile_domain", "compile_steps"]
@@ -381,7 +375,7 @@ class CompiledDomain:
     :func:`~sklearn_ifog.domain.box_distance`,
     :func:`~sklearn_ifog.domain.temperature_excess` and
     :func:`~sklearn_ifog.domain.outside_domain` say which rows are outside; ``"blend"``
-    weighs the fallback by :func:`~sklearn_ifog.domain.fallback_weight`, ``"clip"``
+    weighs the fallback by :func:`~sklearn_ifog.policy.fallback_weight`, ``"clip"``
     evaluates the model at :meth:`CalibrationDomain.project
     <sklearn_ifog.domain.CalibrationDomain.project>`. :meth:`row_where` is the same test
     for one row without any validation: one small matrix-vector product and a comparison
@@ -406,7 +400,7 @@ class CompiledDomain:
     >>> t = np.linspace(10.0, 40.0, 31)
     >>> fitted = CalibrationDomain(margin=1.0, temperature=0).fit(np.column_stack([t, t**2]))
     >>> fallback = Fallback(np.array([1.0]), np.array([0.0]), 0)
-    >>> domain = CompiledDomain(fitted, 1.0, "blend", fallback)
+    >>> domain = CompiledDomain(fitted, "blend", fallback)
     >>> features = np.array([[25.0, 625.0], [9.0, 81.0], [-60.0, 3600.0]])
     >>> distance, outside = domain.where(features)
     >>> outside.tolist()  # 9 degC is below the calibrated 10 degC: outside at any distance
@@ -419,10 +413,10 @@ class CompiledDomain:
     [[7.0], [7.0], [1.0]]
     """
 
-    def __init__(self, domain, margin, outside, fallback):
+    def __init__(self, domain, outside, fallback):
         self.domain = domain
         self.box = domain.box_
-        self.margin = float(margin)
+        self.margin = float(domain.threshold_)
         self.policy = outside
         self.fallback = fallback
         self.temperature_columns = list(domain.temperature_columns_)
@@ -472,11 +466,8 @@ class CompiledDomain:
         outside : ndarray of shape (n_samples,), dtype=bool
             Farther than ``margin``, or a temperature beyond its calibrated range.
         """
-        distance = box_distance(self.box, features)
-        beyond = temperature_excess(
-            features, self.temperature_columns, self.data_min, self.data_max
-        )
-        return distance, outside_domain(distance, beyond, self.margin)
+        where = locate(self.domain, features)
+        return where.distance, where.outside
 
     def row_where(self, row):
         """:meth:`where` of one row (a sequence of floats): ``(distance, outside)``.
@@ -592,4 +583,4 @@ def compile_domain(pipeline):
     if not isinstance(pipeline, CompensationPipeline):
         return None
     domain = pipeline.domain_
-    return CompiledDomain(domain, domain.threshold_, pipeline.outside, pipeline.fallback_)
+    return CompiledDomain(domain, pipeline.outside, pipeline.fallback_)

@@ -18,6 +18,7 @@ from sklearn.utils.validation import check_is_fitted
 
 import sklearn_ifog
 from sklearn_ifog import domain as _domain
+from sklearn_ifog import policy as _policy
 from sklearn_ifog._contract import (
     get_term,
     resolved_settings,
@@ -175,7 +176,7 @@ def _check_finite(spec, label):
 def _describe_fallback(fallback, n_outputs):
     """The schema's ``"fallback"`` entry: a line in T, held flat beyond a calibrated extreme
     where ``hold_below`` / ``hold_above``, plus a rate term clipped to ``rate_bound``
-    (:class:`~sklearn_ifog.domain.Fallback`; zeros, no bounds, for a line or a constant)."""
+    (:class:`~sklearn_ifog.fallback.Fallback`; zeros, no bounds, for a line or a constant)."""
     has_rate = fallback.rate_column is not None and fallback.rate_slope is not None
 
     def holds(hold):
@@ -376,7 +377,7 @@ def describe_domain(pipeline, n_features, n_outputs):
         "lower": _floats(box.lower),
         "upper": _floats(box.upper),
         "margin": float(margin),
-        "blend_width": float(_domain.BLEND_WIDTH),
+        "blend_width": float(_policy.BLEND_WIDTH),
         "temperature_columns": columns,
         "temperature_low": _floats(pipeline.domain_.data_min_[columns]),
         "temperature_high": _floats(pipeline.domain_.data_max_[columns]),

@@ -15,7 +15,7 @@ per kind:
 
 For each kind, the model keeps the rows when its held-out squared error beats the
 fallback's by more than one standard error of the paired difference
-(:func:`~sklearn_ifog.rbf._ols.within_one_standard_error`, the network's own selection rule);
+(:func:`~sklearn_ifog._statistics.within_one_standard_error`, the network's own selection rule);
 the domain then widens by what the evidence covered (:meth:`CalibrationDomain.extend
 <sklearn_ifog.domain.CalibrationDomain.extend>`): its threshold to the largest held-out
 thermal-state distance, its calibrated rates by the largest held-out rate excess on that
@@ -29,7 +29,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from sklearn_ifog.rbf._ols import within_one_standard_error
+from sklearn_ifog._statistics import within_one_standard_error
 
 __all__ = ["KINDS", "Evidence", "collect", "decide"]
 

@@ -115,13 +115,9 @@ from sklearn_ifog._compat import (
     _routing_enabled,
     _safe_indexing,
 )
-from sklearn_ifog.domain import (
-    OutsideCalibrationWarning,
-    box_distance,
-    fallback_weight,
-    temperature_excess,
-)
+from sklearn_ifog.domain import OutsideCalibrationWarning, locate
 from sklearn_ifog.pipeline import CompensationPipeline
+from sklearn_ifog.policy import fallback_weight
 
 __all__ = [
     "ConformalRegressor",
@@ -1018,7 +1014,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         """(fallback share, degrees beyond the calibrated temperatures) of every row, or
         (None, None) without the terms outside the domain.
 
-        The share is :func:`~sklearn_ifog.domain.fallback_weight` of the row's distance
+        The share is :func:`~sklearn_ifog.policy.fallback_weight` of the row's distance
         outside the full model's calibration domain (the fallback's share of the
         prediction); both come from one pass of the rows through the feature step.
         """
@@ -1026,11 +1022,8 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             return None, None
         domain = self.estimator_.domain_
         rows = self._thermal_rows(X)
-        share = fallback_weight(box_distance(domain.box_, rows), domain.threshold_)
-        beyond = temperature_excess(
-            rows, domain.temperature_columns_, domain.data_min_, domain.data_max_
-        )
-        return share, beyond
+        where = locate(domain, rows)
+        return fallback_weight(where.distance, domain.threshold_), where.beyond
 
     def _thermal_rows(self, X):
         """The rows through the full model's feature step (degrees, not standardised)."""

@@ -40,7 +40,7 @@ TRUSTED_TYPES = [
     # the package's estimators
     "sklearn_ifog.conformal.ConformalRegressor",
     "sklearn_ifog.domain.CalibrationDomain",
-    "sklearn_ifog.domain.Fallback",
+    "sklearn_ifog.fallback.Fallback",
     "sklearn_ifog.features.ThermalFeatures",
     "sklearn_ifog.pipeline.CompensationPipeline",
     "sklearn_ifog.rbf._network.RBFNetRegressor",

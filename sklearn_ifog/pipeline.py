@@ -29,17 +29,10 @@ from sklearn_ifog._compat import (
 from sklearn_ifog._contract import get_term, sensor_keys
 from sklearn_ifog._domain_words import ROUNDOFF_SHARE
 from sklearn_ifog._table import as_float_rows, label_column
-from sklearn_ifog.domain import (
-    CalibrationDomain,
-    OutsideCalibrationWarning,
-    apply_policy,
-    box_distance,
-    check_varies,
-    fit_fallback,
-    outside_domain,
-    temperature_excess,
-)
+from sklearn_ifog.domain import CalibrationDomain, OutsideCalibrationWarning, check_varies, locate
+from sklearn_ifog.fallback import fit_fallback
 from sklearn_ifog.features import ThermalFeatures
+from sklearn_ifog.policy import apply_policy
 from sklearn_ifog.rbf import RBFNetRegressor
 
 __all__ = ["OUTSIDE_POLICIES", "CompensationPipeline", "make_compensation_pipeline"]
@@ -104,7 +97,7 @@ def make_compensation_pipeline(
     outside : {"blend", "clip", "none"}, default="blend"
         What the model predicts for rows outside its calibration domain
         (:class:`CompensationPipeline`): ``"blend"`` moves smoothly to its fallback (a plane
-        in T and dT, a line in T or a constant, :func:`~sklearn_ifog.domain.fit_fallback`)
+        in T and dT, a line in T or a constant, :func:`~sklearn_ifog.fallback.fit_fallback`)
         as the row lies farther out; ``"clip"`` predicts at the domain's edge;
         ``"none"`` leaves the regressor's extrapolation alone.
     margin : float, default=1.5
@@ -257,7 +250,7 @@ class CompensationPipeline(Pipeline):
     features, its calibration domain (:class:`~sklearn_ifog.domain.CalibrationDomain`: the
     temperatures, rates and thermal states, and their combinations, that the calibration
     covered) and a conservative fallback (a line in the first sensor's T where its slope
-    extrapolates, else the calibration's mean drift: :func:`~sklearn_ifog.domain.fit_fallback`).
+    extrapolates, else the calibration's mean drift: :func:`~sklearn_ifog.fallback.fit_fallback`).
     At :meth:`predict`, rows inside the domain get the regressor's prediction unchanged;
     rows outside (farther than its threshold from the domain's decorrelated box, or with a
     temperature beyond its calibrated range) follow ``outside``, and an
@@ -272,7 +265,7 @@ class CompensationPipeline(Pipeline):
     outside : {"blend", "clip", "none"}, default="blend"
         Prediction outside the domain. ``"blend"``: ``(1 - w) * model + w * fallback`` with
         ``w`` rising smoothly from 0 at the threshold to 1 at the threshold plus ``BLEND_WIDTH``
-        (:func:`~sklearn_ifog.domain.fallback_weight`), so far outside the model gives way
+        (:func:`~sklearn_ifog.policy.fallback_weight`), so far outside the model gives way
         to the fallback (no step anywhere). ``"clip"``: the model at the nearest point of the
         domain (the box widened by the threshold, every temperature clamped to its calibrated
         range: the firmware convention of clamping T to [TMIN, TMAX]). ``"none"``: the
@@ -527,12 +520,7 @@ class CompensationPipeline(Pipeline):
 
     def _where(self, rows):
         """Distance to the box, degrees beyond the calibrated temperatures, outside flag."""
-        domain = self.domain_
-        distance = box_distance(domain.box_, rows)
-        beyond = temperature_excess(
-            rows, domain.temperature_columns_, domain.data_min_, domain.data_max_
-        )
-        return distance, beyond, outside_domain(distance, beyond, domain.threshold_)
+        return locate(self.domain_, rows)
 
     def _transform_features(self, X):
         check_is_fitted(self, "domain_")
@@ -563,7 +551,7 @@ class CompensationPipeline(Pipeline):
         -------
         distance : ndarray of shape (n_samples,)
         """
-        return box_distance(self.domain_.box_, as_float_rows(self._transform_features(X)))
+        return self._where(as_float_rows(self._transform_features(X))).distance
 
     def outside_calibration(self, X):
         """Whether every row lies outside the calibration domain.
@@ -580,7 +568,7 @@ class CompensationPipeline(Pipeline):
         -------
         outside : ndarray of shape (n_samples,), dtype=bool
         """
-        return self._where(as_float_rows(self._transform_features(X)))[2]
+        return self._where(as_float_rows(self._transform_features(X))).outside
 
     def predict(self, X, **params):
         """Predict the drift, following ``outside`` for rows outside the domain.

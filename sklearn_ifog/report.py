@@ -675,7 +675,7 @@ def calibration_status(model, X):
         - ``policy``: str, the ``outside`` policy of the row's model;
         - ``fallback``: str, ``"plane"`` (a line in T and the rate dT), ``"line"`` (a line
           in T) or ``"constant"`` (the calibration's mean drift), what ``"blend"`` falls
-          back towards (:func:`~sklearn_ifog.domain.fallback_name`);
+          back towards (:func:`~sklearn_ifog.fallback.fallback_name`);
         - ``adjusted``: bool, whether the policy changed the row's prediction from the
           regressor's own (the model predicted again with ``outside="none"``).
 
@@ -714,7 +714,8 @@ def calibration_status(model, X):
     """
     from sklearn.utils import Bunch
 
-    from sklearn_ifog.domain import OutsideCalibrationWarning, fallback_name
+    from sklearn_ifog.domain import OutsideCalibrationWarning
+    from sklearn_ifog.fallback import fallback_name
 
     X = _table.as_table(X)
     n_samples = X.shape[0]

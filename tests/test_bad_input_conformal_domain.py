@@ -17,12 +17,8 @@ from sklearn_ifog.conformal import (
     run_quantile_scores,
     thermal_slope,
 )
-from sklearn_ifog.domain import (
-    CalibrationDomain,
-    OutsideCalibrationWarning,
-    fallback_weight,
-    temperature_excess,
-)
+from sklearn_ifog.domain import CalibrationDomain, OutsideCalibrationWarning, temperature_excess
+from sklearn_ifog.policy import fallback_weight
 
 
 @pytest.fixture(scope="module")

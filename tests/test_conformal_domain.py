@@ -10,8 +10,9 @@ from sklearn.linear_model import LinearRegression
 
 from sklearn_ifog import ConformalRegressor, make_compensation_pipeline
 from sklearn_ifog.conformal import conformal_quantile, run_quantile_scores
-from sklearn_ifog.domain import OutsideCalibrationWarning, fallback_weight, temperature_excess
+from sklearn_ifog.domain import OutsideCalibrationWarning, temperature_excess
 from sklearn_ifog.pipeline import CompensationPipeline
+from sklearn_ifog.policy import fallback_weight
 
 
 def _conformal(outside="blend", **params):

@@ -20,20 +20,21 @@ from sklearn_ifog import (
 from sklearn_ifog._compat import InvalidParameterError
 from sklearn_ifog.datasets import load_psim_tvc, make_thermal_campaign
 from sklearn_ifog.domain import (
-    BLEND_WIDTH,
-    CARRIED_SCALE,
     RATE_WEIGHT,
-    REPEATED_RATIO,
-    Fallback,
     box_distance,
-    fallback_name,
-    fallback_weight,
     fit_box,
-    fit_fallback,
-    held_out_runs,
     project_to_box,
     pull_back_to_ranges,
 )
+from sklearn_ifog.fallback import (
+    CARRIED_SCALE,
+    REPEATED_RATIO,
+    Fallback,
+    fallback_name,
+    fit_fallback,
+    held_out_runs,
+)
+from sklearn_ifog.policy import BLEND_WIDTH, fallback_weight
 
 SMALL = dict(n_units=1, n_runs=2, azimuths=(0.0,), sampling_period=120.0, random_state=0)
 

@@ -10,14 +10,9 @@ import warnings
 import numpy as np
 import pytest
 
-from sklearn_ifog.domain import (
-    CalibrationDomain,
-    Fallback,
-    apply_policy,
-    fallback_name,
-    fallback_weight,
-    fit_fallback,
-)
+from sklearn_ifog.domain import CalibrationDomain
+from sklearn_ifog.fallback import Fallback, fallback_name, fit_fallback
+from sklearn_ifog.policy import apply_policy, fallback_weight
 
 
 def _heating_runs(rng, n_runs=4, n_rows=150):
@@ -240,7 +235,7 @@ def test_integer_rows_are_projected_as_floats():
 
 
 def test_fallback_name_of_a_line_and_of_a_zero_rate_term():
-    """Kills the mutants of :func:`~sklearn_ifog.domain.fallback_name` (only its doctest
+    """Kills the mutants of :func:`~sklearn_ifog.fallback.fallback_name` (only its doctest
     named a line)."""
     line = Fallback(np.array([1.0]), np.array([0.5]), 0)
     assert fallback_name(line) == "line"
@@ -258,10 +253,10 @@ def test_fallback_name_of_a_line_and_of_a_zero_rate_term():
 
 
 def test_plane_of_a_constant_rate_is_the_line_and_fits_each_output():
-    """:func:`~sklearn_ifog.domain._plane`: a rate that does not vary gets a rate slope of
+    """:func:`~sklearn_ifog.fallback._plane`: a rate that does not vary gets a rate slope of
     0 and the plane is the line in T; two outputs get their own intercepts. Kills the
     mutants of its zero-scale guard and ``Y.mean(axis=None)`` in its intercept."""
-    from sklearn_ifog.domain import _line, _plane
+    from sklearn_ifog.fallback import _line, _plane
 
     t = np.linspace(10.0, 40.0, 50)
     Y = np.column_stack([1.0 + 0.5 * t, -3.0 + 0.1 * t + np.sin(t)])
@@ -282,10 +277,10 @@ def test_plane_of_a_constant_rate_is_the_line_and_fits_each_output():
 
 
 def test_line_of_a_small_temperature_spread_and_of_one_temperature():
-    """:func:`~sklearn_ifog.domain._line`: a spread of millikelvin still has its slope (kills
+    """:func:`~sklearn_ifog.fallback._line`: a spread of millikelvin still has its slope (kills
     ``denominator > 1``); a single temperature has slope 0, not NaN (kills the mutants of
     that guard: ``>= 0``, ``or True``, ``0 / Y[0]``, ``1 * Y[0]``)."""
-    from sklearn_ifog.domain import _line
+    from sklearn_ifog.fallback import _line
 
     t = np.linspace(0.0, 0.01, 5)
     intercept, slope = _line(t, np.column_stack([2.0 + 3.0 * t, -t]))
@@ -302,7 +297,7 @@ def test_a_calibration_mostly_at_one_soak_keeps_a_finite_fallback():
     """80 % of the rows at one soak temperature, 20 % at another: holding out the warm end
     (every row within a fifth of the span of it: the 20 warm rows) leaves one temperature,
     where the line is the constant (slope 0, no NaN)."""
-    from sklearn_ifog.domain import extremes_held_out
+    from sklearn_ifog.fallback import extremes_held_out
 
     t = np.r_[np.full(80, 10.0), np.full(20, 30.0)]
     y = np.r_[np.linspace(0.0, 1.0, 80), np.linspace(5.0, 6.0, 20)][:, None]
@@ -316,13 +311,13 @@ def test_a_calibration_mostly_at_one_soak_keeps_a_finite_fallback():
 
 
 def test_extremes_held_out_sizes_ties_and_rate():
-    """:func:`~sklearn_ifog.domain.extremes_held_out`: 48 rows hold out at least 10 at
+    """:func:`~sklearn_ifog.fallback.extremes_held_out`: 48 rows hold out at least 10 at
     each end, 47 rows are too few (kills ``n_held <= 10``); a temperature span of exactly 1
     degree is a span (kills ``ptp == 1``), a single temperature is not; each end holds out
     every row within a fifth of the span of its extreme, ties included, and the models are
     fitted on the other rows; with ``rate`` the model is the plane in T and dT (kills
     ``rate = None``)."""
-    from sklearn_ifog.domain import extremes_held_out
+    from sklearn_ifog.fallback import extremes_held_out
 
     line = lambda t: (2.0 * t)[:, None]  # noqa: E731
     shapes = [
@@ -404,7 +399,7 @@ def test_runs_without_a_rate_give_the_line_in_t():
 def test_a_plane_is_trusted_at_a_ratio_of_exactly_repeated_ratio():
     """``repeated_ratio`` is the *largest* ratio trusted: at exactly the plane's own
     held-out ratio it is kept, just below it not (kills ``ratio < repeated_ratio``)."""
-    from sklearn_ifog.domain import held_out_runs
+    from sklearn_ifog.fallback import held_out_runs
 
     rng = np.random.default_rng(0)
     t, rate, runs = _heating_runs(rng)
@@ -426,7 +421,7 @@ def test_the_plane_is_decided_output_by_output(seed):
     None)``, a rate slope of 1 off the plane, ``np.where(None, intercept, ...)`` and
     ``end[1].mean(axis=None)`` in :func:`fit_fallback`). Holds on seeds 0-29 (checked
     once); the test runs 0-4."""
-    from sklearn_ifog.domain import _plane
+    from sklearn_ifog.fallback import _plane
 
     rng = np.random.default_rng(seed)
     t, rate, runs = _heating_runs(rng)
@@ -836,14 +831,14 @@ def _plane_runs(seed=0):
 
 
 def test_held_out_runs_does_not_depend_on_the_units():
-    """The ratio and scale of :func:`~sklearn_ifog.domain.held_out_runs` are those of the
+    """The ratio and scale of :func:`~sklearn_ifog.fallback.held_out_runs` are those of the
     plane, whatever the units of T, dT and the drift: T and dT scaled by 1e-8 or 1e4
     (each column is standardised on its own, kills ``std(axis=None)``, ``Z * spread``,
     ``np.where(None, ...)`` and ``spread > 1``), a drift in mdeg/h instead of deg/h
     (kills ``constant > 1`` and ``spread > 1`` in the ratio's and the scale's guards),
     and T with an offset of 1e6 (raw sensor counts: the columns are centred before the
     sums, kills ``Z + Z.mean``, off by 1e-5 then)."""
-    from sklearn_ifog.domain import held_out_runs
+    from sklearn_ifog.fallback import held_out_runs
 
     t, rate, runs, y = _plane_runs()
     reference = np.r_[held_out_runs(t, rate, y[:, None], runs, return_scale=True)].ravel()
@@ -865,7 +860,7 @@ def test_held_out_runs_of_a_drift_free_output_and_of_no_rows():
     constant, so its ratio and scale are 0, not NaN (kills ``constant >= 0`` and
     ``spread >= 0``), beside an output with a real plane; no rows are fewer than two runs
     (kills ``labels.max(initial=None)``)."""
-    from sklearn_ifog.domain import held_out_runs
+    from sklearn_ifog.fallback import held_out_runs
 
     t, rate, runs, y = _plane_runs()
     with warnings.catch_warnings():

@@ -30,6 +30,8 @@ from sklearn_ifog import (
     make_compensation_pipeline,
 )
 from sklearn_ifog import domain as domain_module
+from sklearn_ifog import fallback as fallback_module
+from sklearn_ifog import policy as policy_module
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.domain import OutsideCalibrationWarning
 from sklearn_ifog.export import to_c, to_c_units, to_json
@@ -313,7 +315,7 @@ def test_schema_carries_the_exact_domain(calibration, tmp_path):
         np.testing.assert_array_equal(domain[key], getattr(box, key))
     assert np.shape(domain["axes"]) == (7, 7)  # one axis per row, as Box.axes
     assert domain["margin"] == model.domain_.threshold_
-    assert domain["blend_width"] == domain_module.BLEND_WIDTH
+    assert domain["blend_width"] == policy_module.BLEND_WIDTH
     assert domain["outside"] == "clip"
     assert domain["temperature_columns"] == model.domain_.temperature_columns_ == [0, 3]
     np.testing.assert_array_equal(domain["temperature_low"], model.domain_.data_min_[[0, 3]])
@@ -370,7 +372,7 @@ def test_domain_c_is_self_contained(adapt, calibration, tmp_path):
 
 def test_export_reads_the_settings_at_export_time(calibration, tmp_path, monkeypatch):
     model = _fit("ridge", "blend", calibration)
-    monkeypatch.setattr(domain_module, "BLEND_WIDTH", 2.5)
+    monkeypatch.setattr(policy_module, "BLEND_WIDTH", 2.5)
     _, target = MODELS["ridge"]
     y = calibration[target].to_numpy() if len(target) > 1 else calibration[target[0]]
     model.set_params(margin=0.25, alpha=0.5, outside="none").fit(calibration, y)  # at fit
@@ -875,7 +877,7 @@ def test_c_and_json_follow_every_term_of_a_plane_fallback(
     names = list(model.feature_names_out_)
     t, rate = features[:, names.index("temperature_T")], features[:, names.index("temperature_dT")]
     handed = model.outside_calibration(excursion) & (model.calibration_distance(excursion) > 2)
-    model.fallback_ = domain_module.Fallback(
+    model.fallback_ = fallback_module.Fallback(
         intercept=np.array([0.01, -0.02]),
         slope=np.array([0.003, -0.002]),
         column=names.index("temperature_T"),

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
+from sklearn_ifog._statistics import within_one_standard_error
 from sklearn_ifog.rbf import _basis
 from sklearn_ifog.rbf._basis import (
     gaussian_design,
@@ -19,7 +20,6 @@ from sklearn_ifog.rbf._ols import (
     ols_forward_select,
     path_criterion,
     prefix_fits,
-    within_one_standard_error,
 )
 
 

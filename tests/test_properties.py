@@ -36,15 +36,9 @@ from sklearn_ifog import (
     make_compensation_pipeline,
 )
 from sklearn_ifog.datasets import make_thermal_campaign
-from sklearn_ifog.domain import (
-    BLEND_WIDTH,
-    Fallback,
-    OutsideCalibrationWarning,
-    apply_policy,
-    fallback_weight,
-    fit_box,
-    project_to_box,
-)
+from sklearn_ifog.domain import OutsideCalibrationWarning, fit_box, project_to_box
+from sklearn_ifog.fallback import Fallback
+from sklearn_ifog.policy import BLEND_WIDTH, apply_policy, fallback_weight
 from sklearn_ifog.streaming import StreamingCompensator
 
 CC = shutil.which("cc")

@@ -2,7 +2,7 @@
 # Mutation testing with mutmut 3 (issue 42, build point 5). Not run by CI: it is slow.
 #
 # Usage: tools/mutation.sh MODULE [MUTANT_GLOB ...]
-#   MODULE       domain | features | lags | ols | conformal
+#   MODULE       domain | fallback | policy | features | lags | ols | conformal
 #   MUTANT_GLOB  optional mutmut mutant names or globs to restrict the run to a subset,
 #                e.g. 'sklearn_ifog.domain.x_fit_fallback__mutmut_*' (default: every mutant
 #                of the module)
@@ -34,6 +34,14 @@ domain)
     # only they would kill counts as a survivor here.
     tests="tests/test_domain.py tests/test_domain_threshold.py tests/test_domain_mutants.py"
     ;;
+fallback)
+    source_file=sklearn_ifog/fallback.py
+    tests="tests/test_domain.py tests/test_domain_mutants.py"
+    ;;
+policy)
+    source_file=sklearn_ifog/policy.py
+    tests="tests/test_domain.py tests/test_domain_mutants.py"
+    ;;
 features)
     source_file=sklearn_ifog/features.py
     tests="tests/test_features.py tests/test_lags.py tests/test_features_mutants.py"
@@ -51,7 +59,7 @@ conformal)
     tests="tests/test_conformal.py tests/test_conformal_domain.py tests/test_conformal_mutants.py"
     ;;
 *)
-    echo "tools/mutation.sh: unknown module '$module' (expected domain, features, lags, ols or conformal)" >&2
+    echo "tools/mutation.sh: unknown module '$module' (expected domain, fallback, policy, features, lags, ols or conformal)" >&2
     exit 2
     ;;
 esac

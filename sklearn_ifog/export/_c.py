@@ -146,7 +146,7 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
     sample's distance outside the domain and its flag, as ``calibration_distance`` and
     ``outside_calibration`` give them, and its drift under the same policy as ``predict``
     (``"blend"``, ``"clip"`` or ``"none"``, with the pipeline's ``margin`` and the current
-    :data:`~sklearn_ifog.domain.BLEND_WIDTH`). After ``{prefix}_step``,
+    :data:`~sklearn_ifog.policy.BLEND_WIDTH`). After ``{prefix}_step``,
     ``{prefix}_compensate`` or ``{prefix}_adapt``, ``state.last_distance`` and
     ``state.last_outside`` hold the sample's distance and flag;
     ``{prefix}_calibration_distance(features)`` is the stateless distance and

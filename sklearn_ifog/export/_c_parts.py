@@ -172,7 +172,7 @@ def _fallback_text(domain, feature_names):
 
 def _fallback_expression(writer, fallback):
     """The C expression of the fallback of output ``k`` (the arithmetic of
-    :meth:`~sklearn_ifog.domain.Fallback.predict`, in its order), and whether it reads the
+    :meth:`~sklearn_ifog.fallback.Fallback.predict`, in its order), and whether it reads the
     features."""
     intercept = writer.array("fallback_intercept", fallback["intercept"], double=True)
     column = fallback["column"]

@@ -7,13 +7,13 @@ import numpy as np
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils import check_random_state
 
+from sklearn_ifog._statistics import within_one_standard_error
 from sklearn_ifog.rbf._basis import (
     Network,
     solve_output_weights_chunked,
     standardisation,
     tail_features,
 )
-from sklearn_ifog.rbf._ols import within_one_standard_error
 from sklearn_ifog.rbf._refine import refine_network
 from sklearn_ifog.rbf._select import (
     select_network,
@@ -29,7 +29,7 @@ def beats_beyond_noise(candidate, start, Z_val, Y_val, sw_val):
     """Whether ``candidate`` beats ``start`` on held-out rows by more than one standard error.
 
     The paired difference of their squared held-out errors (summed over outputs) is judged
-    by :func:`~sklearn_ifog.rbf._ols.within_one_standard_error`, the rule the selection
+    by :func:`~sklearn_ifog._statistics.within_one_standard_error`, the rule the selection
     uses: a refined network that the held-out rows cannot tell from the OLS network it
     started from is not kept, since its moved centres and widths were chosen on those same
     rows (early stopping) and the gain is within their noise.

@@ -14,6 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from sklearn_ifog._statistics import within_one_standard_error
 from sklearn_ifog._table import run_codes
 from sklearn_ifog.rbf._basis import (
     WIDTH_LIMITS,
@@ -30,7 +31,6 @@ from sklearn_ifog.rbf._ols import (
     path_criterion,
     prefix_fits,
     width_grid,
-    within_one_standard_error,
 )
 from sklearn_ifog.rbf._tail_penalty import tail_transform, transformed
 

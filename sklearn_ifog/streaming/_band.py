@@ -3,7 +3,8 @@
 import numpy as np
 
 from sklearn_ifog._compiled import compile_domain, compile_steps
-from sklearn_ifog.domain import fallback_weight, temperature_excess
+from sklearn_ifog.domain import locate
+from sklearn_ifog.policy import fallback_weight
 
 
 def as_frame(features, names):
@@ -97,9 +98,7 @@ class ConformalBand:
             # As ConformalRegressor._outside_terms: the full model's fallback weight.
             share = fallback_weight(distance, margin)
             domain = conformal.estimator_.domain_
-            beyond = temperature_excess(
-                features, domain.temperature_columns_, domain.data_min_, domain.data_max_
-            )
+            beyond = locate(domain, features).beyond
             return conformal.bounds_from_predictions(
                 centre, predictions, raw, fallback_share=share, temperature_beyond=beyond
             )
