@@ -612,6 +612,21 @@ def _check_input(estimator, X, *, reset):
     return X
 
 
+def _test_fold_of_rows(splits, n_samples):
+    """The test fold of every row: ``splits`` must put each row in exactly one test fold."""
+    fold_of = np.full(n_samples, -1)
+    for k, (_, test) in enumerate(splits):
+        if np.any(fold_of[test] >= 0):
+            raise ValueError(f"cv puts row(s) in two test folds (fold {k}); use a partition.")
+        fold_of[test] = k
+    if np.any(fold_of < 0):
+        raise ValueError(
+            f"cv leaves {int(np.sum(fold_of < 0))} row(s) out of every test fold; every "
+            "row must be in exactly one test fold (e.g. GroupKFold, LeaveOneGroupOut)."
+        )
+    return fold_of
+
+
 class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     """Adaptive prediction intervals calibrated run by run (cross-conformal, CV+).
 
@@ -865,6 +880,37 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         self : object
             Fitted estimator.
         """
+        X, y, groups, unit = self._fit_input(X, y, groups)
+        n_samples = y.shape[0]
+        splits = self._splits(X, y, groups)
+        if _routing_enabled():
+            routed = {} if groups is None else {"groups": groups}
+            params = process_routing(self, "fit", **routed, **fit_params).estimator.fit
+        else:
+            params = fit_params
+        fold_of = _test_fold_of_rows(splits, n_samples)
+        oof, oof_fallback, on_calibration = self._fit_folds(X, y, splits, params)
+        self.oof_prediction_ = oof
+        residual = np.abs(y - oof)
+        if self.adaptive:
+            sigma = self._calibrate_difficulty(X, splits, fold_of, residual, on_calibration)
+        else:
+            sigma = np.ones(n_samples)
+        scores = residual / sigma
+        self.scores_ = scores
+        self.score_groups_ = unit
+        self._fit_fallback_band(X, y, oof_fallback)
+        labels, group_scores = run_quantile_scores(scores, unit, self.coverage)
+        first_row = {label: rows[0] for label, rows in _table.run_segments(unit, n_samples)}
+        self.groups_ = labels
+        self.group_scores_ = group_scores
+        self.group_fold_ = np.array([fold_of[first_row[label]] for label in labels])
+        self.quantile_ = float(conformal_quantile(group_scores, self.confidence))
+        return self
+
+    def _fit_input(self, X, y, groups):
+        """``(X, y, groups, unit)`` checked: finite ``y`` of X's length, at least two
+        groups (``unit``: the groups, or one per row without them)."""
         X = _check_input(self, X, reset=True)
         y = column_or_1d(np.asarray(y), warn=True).astype(float, copy=False)
         check_consistent_length(X, y)
@@ -879,22 +925,15 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 "ConformalRegressor needs at least two groups (runs) to calibrate on, got "
                 f"{n_groups}."
             )
-        splits = self._splits(X, y, groups)
-        if _routing_enabled():
-            routed = {} if groups is None else {"groups": groups}
-            params = process_routing(self, "fit", **routed, **fit_params).estimator.fit
-        else:
-            params = fit_params
-        fold_of = np.full(n_samples, -1)
-        for k, (_, test) in enumerate(splits):
-            if np.any(fold_of[test] >= 0):
-                raise ValueError(f"cv puts row(s) in two test folds (fold {k}); use a partition.")
-            fold_of[test] = k
-        if np.any(fold_of < 0):
-            raise ValueError(
-                f"cv leaves {int(np.sum(fold_of < 0))} row(s) out of every test fold; every "
-                "row must be in exactly one test fold (e.g. GroupKFold, LeaveOneGroupOut)."
-            )
+        return X, y, groups, unit
+
+    def _fit_folds(self, X, y, splits, params):
+        """Fit one model per fold and one on all rows (``estimators_``, ``estimator_``).
+
+        Returns the out-of-fold predictions, the fold models' fallback on their test rows
+        (NaN where a fold model has none) and, when ``adaptive``, every fold model's
+        prediction of every row (stacked), else None.
+        """
         # One task per fold and one for the model on all rows, fitted n_jobs at once.
         fitted = Parallel(n_jobs=self.n_jobs)(
             [
@@ -915,8 +954,8 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         )
         self.estimator_ = fitted.pop()[0]
         self.estimators_ = [model for model, _, _, _ in fitted]
-        oof = np.empty(n_samples)
-        oof_fallback = np.full(n_samples, np.nan)
+        oof = np.empty(y.shape[0])
+        oof_fallback = np.full(y.shape[0], np.nan)
         for (_, test), (_, held_out, fallback, _) in zip(splits, fitted, strict=True):
             oof[test] = held_out
             if fallback is not None:
@@ -924,43 +963,45 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         on_calibration = (
             np.stack([on_rows for _, _, _, on_rows in fitted]) if self.adaptive else None
         )
-        self.oof_prediction_ = oof
-        residual = np.abs(y - oof)
+        return oof, oof_fallback, on_calibration
 
-        if self.adaptive:
-            self.fold_variance_reference_ = float(
-                np.quantile(on_calibration.var(axis=0), _EXTRAPOLATION_REFERENCE)
-            )
-            raw = self._raw_features(X)
-            self.feature_mean_ = raw.mean(axis=0)
-            scale = raw.std(axis=0)
-            self.feature_scale_ = np.where(scale > 0, scale, 1.0)
-            features = (raw - self.feature_mean_) / self.feature_scale_
-            # Cross-fitted: a calibration row's distance is to the rows of the fold model
-            # that predicted it, and its difficulty comes from a model of the other folds.
-            distance = np.empty(n_samples)
-            for k, (_, test) in enumerate(splits):
-                distance[test] = knn_distance(features[fold_of != k], features[test])
-            spread = float(np.std(distance))
-            self.distance_scale_ = spread if spread > 0 else 1.0
-            distance = distance / self.distance_scale_
-            squared = residual**2
-            sigma = np.empty(n_samples)
-            for k, (_, test) in enumerate(splits):
-                inside = fold_of != k
-                model, floor = _fit_difficulty(distance[inside], squared[inside])
-                sigma[test] = _predict_difficulty(model, floor, distance[test])
-            self.difficulty_, self.difficulty_floor_ = _fit_difficulty(distance, squared)
-            self.calibration_features_ = features
-            self.difficulty_mean_ = float(np.mean(sigma))
-            sigma = _soften(sigma, self.difficulty_mean_)
-        else:
-            sigma = np.ones(n_samples)
-        scores = residual / sigma
-        self.scores_ = scores
-        self.score_groups_ = unit
-        # The fallback's own out-of-fold errors (each fold model's fallback on the runs it
-        # did not see), for the band where the full model's prediction is the fallback's.
+    def _calibrate_difficulty(self, X, splits, fold_of, residual, on_calibration):
+        """The difficulty ``sigma`` of every calibration row (``adaptive``), cross-fitted.
+
+        Sets the reference of the fold models' spread, the feature standardisation, the
+        distance scale, the difficulty model and its mean.
+        """
+        self.fold_variance_reference_ = float(
+            np.quantile(on_calibration.var(axis=0), _EXTRAPOLATION_REFERENCE)
+        )
+        raw = self._raw_features(X)
+        self.feature_mean_ = raw.mean(axis=0)
+        scale = raw.std(axis=0)
+        self.feature_scale_ = np.where(scale > 0, scale, 1.0)
+        features = (raw - self.feature_mean_) / self.feature_scale_
+        # Cross-fitted: a calibration row's distance is to the rows of the fold model
+        # that predicted it, and its difficulty comes from a model of the other folds.
+        distance = np.empty(residual.shape[0])
+        for k, (_, test) in enumerate(splits):
+            distance[test] = knn_distance(features[fold_of != k], features[test])
+        spread = float(np.std(distance))
+        self.distance_scale_ = spread if spread > 0 else 1.0
+        distance = distance / self.distance_scale_
+        squared = residual**2
+        sigma = np.empty(residual.shape[0])
+        for k, (_, test) in enumerate(splits):
+            inside = fold_of != k
+            model, floor = _fit_difficulty(distance[inside], squared[inside])
+            sigma[test] = _predict_difficulty(model, floor, distance[test])
+        self.difficulty_, self.difficulty_floor_ = _fit_difficulty(distance, squared)
+        self.calibration_features_ = features
+        self.difficulty_mean_ = float(np.mean(sigma))
+        return _soften(sigma, self.difficulty_mean_)
+
+    def _fit_fallback_band(self, X, y, oof_fallback):
+        """The band where the full model's prediction is its fallback's: the fallback's
+        own out-of-fold errors (each fold model's fallback on the runs it did not see),
+        their quantile, and the slope the fallback extrapolates."""
         self.fallback_scores_ = None
         if self.adaptive and _blends(self.estimator_) and not np.isnan(oof_fallback).any():
             self.fallback_scores_ = np.abs(y - oof_fallback)
@@ -974,13 +1015,6 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             if slope == 0.0:
                 slope = thermal_slope(self._thermal_rows(X)[:, fallback.column], y)
             self.thermal_slope_ = slope
-        labels, group_scores = run_quantile_scores(scores, unit, self.coverage)
-        first_row = {label: rows[0] for label, rows in _table.run_segments(unit, n_samples)}
-        self.groups_ = labels
-        self.group_scores_ = group_scores
-        self.group_fold_ = np.array([fold_of[first_row[label]] for label in labels])
-        self.quantile_ = float(conformal_quantile(group_scores, self.confidence))
-        return self
 
     def get_metadata_routing(self):
         """The metadata routing of this object: ``fit`` parameters go to ``estimator.fit``.
