@@ -5,8 +5,7 @@ per-unit meta-estimator, the calibration domain and model persistence. The rest 
 submodules (``datasets``, ``metrics``, ``model_selection``, ``comparison``, ``export``, ...).
 """
 
-__version__ = "0.1.0.dev0"
-
+from sklearn_ifog._version import __version__
 from sklearn_ifog.conformal import ConformalRegressor
 from sklearn_ifog.domain import CalibrationDomain, OutsideCalibrationWarning
 from sklearn_ifog.features import ThermalFeatures

@@ -16,7 +16,7 @@ from sklearn import preprocessing
 from sklearn.pipeline import Pipeline
 from sklearn.utils.validation import check_is_fitted
 
-import sklearn_ifog
+from sklearn_ifog import _version
 from sklearn_ifog import domain as _domain
 from sklearn_ifog import policy as _policy
 from sklearn_ifog._contract import (
@@ -281,7 +281,7 @@ def describe_pipeline(pipeline):
     return {
         "schema": SCHEMA_NAME,
         "schema_version": SCHEMA_VERSION,
-        "generator": f"sklearn-ifog {sklearn_ifog.__version__}",
+        "generator": f"sklearn-ifog {_version.__version__}",
         "features": features,
         "steps": described,
         "n_features": n_features,

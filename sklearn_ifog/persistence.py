@@ -27,6 +27,7 @@ import joblib
 import numpy as np
 import sklearn
 
+from sklearn_ifog import _version
 from sklearn_ifog._io import atomic_path
 
 __all__ = ["TRUSTED_TYPES", "ModelVersionWarning", "load_model", "save_model"]
@@ -90,9 +91,7 @@ class ModelVersionWarning(UserWarning):
 
 
 def _package_version():
-    import sklearn_ifog
-
-    return sklearn_ifog.__version__
+    return _version.__version__
 
 
 def _feature_columns(model):

@@ -16,6 +16,7 @@ import sklearn_ifog
 from sklearn_ifog import (
     CompensationPipeline,
     RBFNetRegressor,
+    _version,
     make_compensation_pipeline,
 )
 from sklearn_ifog.cli import main
@@ -244,9 +245,9 @@ def test_model_from_another_version_warns_on_one_line(
     model, metadata = load_model(fitted_model, return_metadata=True)
     old = tmp_path / "old.joblib"
     current = sklearn_ifog.__version__
-    monkeypatch.setattr(sklearn_ifog, "__version__", "0.0.1")
+    monkeypatch.setattr(_version, "__version__", "0.0.1")
     save_model(model, old, metadata=metadata["extra"])
-    monkeypatch.setattr(sklearn_ifog, "__version__", current)
+    monkeypatch.setattr(_version, "__version__", current)
     assert main(["compensate", str(old), str(campaign_csv), "-o", str(tmp_path / "o.csv")]) == 0
     lines = capsys.readouterr().err.splitlines()
     assert len(lines) == 1

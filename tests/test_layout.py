@@ -11,6 +11,8 @@
   of a ``_private`` name from another module unless that module is itself private (a
   module whose name starts with ``_`` says it serves several): checked on every module of
   the package. The allowed exceptions are in ``ALLOWED_PRIVATE`` (each with its reason).
+- The version has one home, ``sklearn_ifog/_version.py``: no module but the package root
+  reads ``__version__`` from the package root (issue 43).
 
 Each checker is also run on a small source with a violation (``test_*_catches_*``), so a
 checker that stopped seeing anything would fail here rather than pass silently.
@@ -190,6 +192,24 @@ def private_accesses(source, label):
     return found
 
 
+def root_version_reads(source, label):
+    """Every read of ``__version__`` from the package root in ``source``:
+    ``from sklearn_ifog import __version__`` and ``sklearn_ifog.__version__``."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.ImportFrom) and node.module == "sklearn_ifog" and not node.level:
+            if any(alias.name == "__version__" for alias in node.names):
+                found.append(f"{label}:{node.lineno} imports __version__")
+        elif (
+            isinstance(node, ast.Attribute)
+            and node.attr == "__version__"
+            and isinstance(node.value, ast.Name)
+            and node.value.id == "sklearn_ifog"
+        ):
+            found.append(f"{label}:{node.lineno} reads sklearn_ifog.__version__")
+    return found
+
+
 # -- the rules on the package -----------------------------------------------------------------
 
 
@@ -200,6 +220,14 @@ def test_nothing_outside_export_and_cli_imports_export():
         if label.split("/")[0] in EXPORT_USERS:
             continue
         found += export_imports(path.read_text(), label)
+    assert not found, "\n".join(found)
+
+
+def test_the_version_is_read_from_its_module():
+    found = []
+    for path in _modules():
+        if _name(path) != "__init__.py":
+            found += root_version_reads(path.read_text(), _name(path))
     assert not found, "\n".join(found)
 
 
@@ -233,6 +261,18 @@ def test_the_import_check_catches_every_form():
     found = export_imports(source, "streaming/_compensator.py")
     assert [line.split(":")[1].split()[0] for line in found] == ["2", "3", "5", "6", "7"]
     assert export_imports("from sklearn_ifog import exports_table\n", "x.py") == []
+
+
+def test_the_version_check_catches_both_forms():
+    source = (
+        "import sklearn_ifog\n"
+        "from sklearn_ifog import __version__\n"
+        "def f():\n"
+        "    return sklearn_ifog.__version__\n"
+    )
+    found = root_version_reads(source, "persistence.py")
+    assert [line.split(":")[1].split()[0] for line in found] == ["2", "4"]
+    assert root_version_reads("from sklearn_ifog._version import __version__\n", "x.py") == []
 
 
 def test_the_size_check_counts_code_lines_only():

@@ -14,7 +14,7 @@ from sklearn.pipeline import Pipeline, make_pipeline
 from sklearn.preprocessing import StandardScaler
 
 import sklearn_ifog
-from sklearn_ifog import RBFNetRegressor, ThermalFeatures
+from sklearn_ifog import RBFNetRegressor, ThermalFeatures, _version
 from sklearn_ifog._discovery import all_estimators
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.persistence import TRUSTED_TYPES, ModelVersionWarning, load_model, save_model
@@ -170,9 +170,9 @@ def test_other_package_version_warns_naming_both(tmp_path, monkeypatch, file_for
     model = LinearRegression().fit([[0.0], [1.0]], [0.0, 2.0])
     path = tmp_path / f"old.{file_format}"
     current = sklearn_ifog.__version__
-    monkeypatch.setattr(sklearn_ifog, "__version__", "0.0.1")
+    monkeypatch.setattr(_version, "__version__", "0.0.1")
     save_model(model, path)
-    monkeypatch.setattr(sklearn_ifog, "__version__", current)
+    monkeypatch.setattr(_version, "__version__", current)
 
     with pytest.warns(ModelVersionWarning, match=r"sklearn-ifog 0\.0\.1") as record:
         loaded = load_model(path)

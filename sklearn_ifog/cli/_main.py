@@ -4,6 +4,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from sklearn_ifog import _version
 from sklearn_ifog.cli._commands import (
     command_compensate,
     command_export,
@@ -223,13 +224,11 @@ def _add_export(commands):
 
 
 def _build_parser():
-    from sklearn_ifog import __version__
-
     parser = argparse.ArgumentParser(
         prog=PROGRAM,
         description="Learn and remove the temperature drift of fibre-optic gyroscopes.",
     )
-    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version.__version__}")
     parser.add_argument(
         "--debug", action="store_true", help="show the traceback of internal errors"
     )
