@@ -32,17 +32,14 @@ from sklearn_ifog import (
     RBFNetRegressor,
     ThermalFeatures,
     UnitwiseRegressor,
+    _description,
     make_compensation_pipeline,
 )
+from sklearn_ifog._description import SCHEMA_NAME, SCHEMA_VERSION, describe_pipeline
+from sklearn_ifog._output_layer import LINEAR_REGRESSORS
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.export import to_c, to_c_units, to_json
 from sklearn_ifog.export._c import format_c_literal
-from sklearn_ifog.export._spec import (
-    LINEAR_REGRESSORS,
-    SCHEMA_NAME,
-    SCHEMA_VERSION,
-    describe_pipeline,
-)
 
 CC = shutil.which("cc")
 needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler ('cc') on this machine")
@@ -535,6 +532,15 @@ def evaluate_json(spec, frame):
         else:
             raise AssertionError(f"unknown op {op}")
     return x[:, 0] if spec["single_output"] else x
+
+
+def test_the_schema_text_names_the_schema_version():
+    """The schema's specification (the docstring of ``sklearn_ifog._description``) names the
+    version the exports write, in its text and in its example document."""
+    text = _description.__doc__
+    assert f"Schema (version {SCHEMA_VERSION};" in text
+    assert f'"schema_version": {SCHEMA_VERSION},' in text
+    assert f'"schema": "{SCHEMA_NAME}",' in text
 
 
 def test_json_round_trip_reproduces_predictions(model, campaign, tmp_path):

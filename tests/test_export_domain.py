@@ -32,10 +32,10 @@ from sklearn_ifog import (
 from sklearn_ifog import domain as domain_module
 from sklearn_ifog import fallback as fallback_module
 from sklearn_ifog import policy as policy_module
+from sklearn_ifog._description import SCHEMA_VERSION, describe_pipeline
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.domain import OutsideCalibrationWarning
 from sklearn_ifog.export import to_c, to_c_units, to_json
-from sklearn_ifog.export._spec import SCHEMA_VERSION, describe_pipeline
 from sklearn_ifog.streaming import StreamingCompensator
 
 CC = shutil.which("cc")

@@ -254,7 +254,7 @@ def test_the_import_check_catches_every_form():
         "from sklearn_ifog import export\n"
         "import sklearn_ifog.export._c\n"
         "def f():\n"
-        "    from sklearn_ifog.export._spec import describe_pipeline\n"
+        "    from sklearn_ifog.export._json import to_json\n"
         "    from ..export import to_c\n"
         "    return importlib.import_module('sklearn_ifog.export')\n"
     )

@@ -19,7 +19,6 @@ from sklearn_ifog._output_layer import (
     with_weights,
 )
 from sklearn_ifog.datasets import make_thermal_campaign
-from sklearn_ifog.export import _spec
 from sklearn_ifog.streaming import StreamingCompensator
 from sklearn_ifog.unitwise import LINEAR_OUTPUT
 
@@ -53,8 +52,7 @@ def lot():
 
 
 def test_one_list_of_linear_regressors():
-    # The exports' list and pooling's former name are the same tuple.
-    assert _spec.LINEAR_REGRESSORS is LINEAR_REGRESSORS
+    # Pooling's former name is the same tuple.
     assert LINEAR_OUTPUT is LINEAR_REGRESSORS
     assert len(set(LINEAR_REGRESSORS)) == len(LINEAR_REGRESSORS) == 15
     for cls in (RBFNetRegressor, *LINEAR_REGRESSORS):

@@ -43,7 +43,7 @@ def render_c(
     Parameters
     ----------
     spec : dict
-        The output of :func:`sklearn_ifog.export._spec.describe_pipeline`.
+        The output of :func:`sklearn_ifog._description.describe_pipeline`.
     prefix : str, default="ifog"
         Prefix of every public C name and of the file names.
     precision : {"double", "float"}, default="double"

@@ -23,7 +23,7 @@ def to_json(pipeline, path):
     a ``"TT_lag<tau>s"`` term ``u * e``, and, with ``smoothing > 0``,
     ``dT = e / smoothing * seconds_per_unit`` at ``tau = smoothing``. Floats are written with
     round-trip precision (Python's ``repr``). The schema is documented in
-    ``sklearn_ifog/export/_spec.py``; in short, per step ``op``:
+    ``sklearn_ifog/_description.py``; in short, per step ``op``:
 
     - ``"center_scale"``: ``y = (x - center) / scale``;
     - ``"multiply_add"``: ``y = x * multiply + add``, clipped to ``clip`` when given;
@@ -48,7 +48,7 @@ def to_json(pipeline, path):
     excess of its rate ``x[rate_columns[r]]`` beyond ``[rate_low_r, rate_high_r]`` (0
     inside); it is outside above ``margin`` or with a temperature beyond its range; the
     policies are those of :meth:`~sklearn_ifog.pipeline.CompensationPipeline.predict`,
-    written out in ``sklearn_ifog/export/_spec.py`` (``"blend"`` weighs by this distance,
+    written out in ``sklearn_ifog/_description.py`` (``"blend"`` weighs by this distance,
     ``"clip"`` projects by the box's term alone).
 
     Parameters
@@ -88,7 +88,7 @@ def to_json(pipeline, path):
     >>> with tempfile.TemporaryDirectory() as directory:
     ...     spec = json.loads(to_json(model, Path(directory) / "model.json").read_text())
     >>> spec["schema_version"], [step["op"] for step in spec["steps"]], spec["domain"]
-    (5, ['linear'], None)
+    (6, ['linear'], None)
 
     A CompensationPipeline also writes where it was calibrated:
 
