@@ -70,8 +70,8 @@ from sklearn.base import clone
 from sklearn.linear_model import LinearRegression
 
 from sklearn_ifog import RBFNetRegressor, UnitwiseRegressor, make_compensation_pipeline
+from sklearn_ifog._output_layer import final_step
 from sklearn_ifog.datasets import noise_floor
-from sklearn_ifog.unitwise import _final_step
 
 from _cases import (  # isort: skip
     SEEDS,
@@ -152,7 +152,7 @@ def networks(model):
     """
     if not isinstance(model, UnitwiseRegressor):
         return None, None
-    finals = [_final_step(unit_model) for unit_model in model.estimators_.values()]
+    finals = [final_step(unit_model) for unit_model in model.estimators_.values()]
     finals = [final for final in finals if isinstance(final, RBFNetRegressor)]
     if not finals:
         return None, None

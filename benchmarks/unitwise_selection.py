@@ -70,14 +70,8 @@ from joblib import Parallel, delayed
 from sklearn.base import clone
 
 from sklearn_ifog import _shrinkage
-from sklearn_ifog.unitwise import (
-    OWN_MODEL_SPREAD,
-    _final_step,
-    _layer_inputs,
-    _own_score,
-    layer_design,
-    layer_weights,
-)
+from sklearn_ifog._output_layer import final_step, layer_design, layer_weights
+from sklearn_ifog.unitwise import OWN_MODEL_SPREAD, _layer_inputs, _own_score
 
 from _cases import (  # isort: skip
     SEEDS,
@@ -125,7 +119,7 @@ def _sse(truth, prediction):
 def unit_statistics(pipeline, Xi, y, runs, units, train, test):
     """Per unit: the statistics a rule reads and the test SSE of every candidate."""
     lot = clone(pipeline).fit(Xi[train], y[train])
-    final = _final_step(lot)
+    final = final_step(lot)
     Phi = layer_design(final, _layer_inputs(lot, Xi))
     prior = layer_weights(final)
     Y = y[:, None]

@@ -216,7 +216,7 @@ def layer_design(final, X):
     --------
     >>> import numpy as np
     >>> from sklearn.linear_model import LinearRegression
-    >>> from sklearn_ifog.unitwise import layer_design
+    >>> from sklearn_ifog._output_layer import layer_design
     >>> X = np.arange(6.0).reshape(3, 2)
     >>> layer_design(LinearRegression().fit(X, X[:, 0]), X)[:, -1]
     array([1., 1., 1.])
@@ -250,7 +250,7 @@ def layer_weights(final):
     --------
     >>> import numpy as np
     >>> from sklearn.linear_model import LinearRegression
-    >>> from sklearn_ifog.unitwise import layer_weights
+    >>> from sklearn_ifog._output_layer import layer_weights
     >>> X = np.arange(6.0).reshape(3, 2)
     >>> layer_weights(LinearRegression().fit(X, X[:, 0] + 1)).shape
     (3, 1)

@@ -9,10 +9,6 @@ deviations (MSD) before and after compensation, per model or per model and unit;
 default, as a dict to edit. The splitters it uses by default are those of
 :mod:`sklearn_ifog.model_selection`.
 
-Both used to be defined in :mod:`sklearn_ifog.model_selection`, and
-``from sklearn_ifog.model_selection import compare_regressors, default_regressors`` still
-works (the same functions).
-
 Running on a Dask cluster
 -------------------------
 Every fit goes through joblib, so a Dask cluster takes the work without code changes:

@@ -11,12 +11,6 @@ cross-validators: they take the labels from the columns of ``X`` when ``X`` is a
 :func:`~sklearn_ifog.comparison.compare_regressors`). A run never straddles two folds: the
 unit and azimuth splitters check that every run of ``X`` has one unit and one azimuth.
 
-The comparison with baselines (:func:`~sklearn_ifog.comparison.compare_regressors`,
-:func:`~sklearn_ifog.comparison.default_regressors`) and
-:class:`~sklearn_ifog.subsampled.SubsampledRegressor` used to live here and have modules of
-their own, :mod:`sklearn_ifog.comparison` and :mod:`sklearn_ifog.subsampled`; importing them
-from this module still works and gives the same objects.
-
 Running on a Dask cluster
 -------------------------
 Every fit of a search goes through joblib, so a Dask cluster takes the work without code
@@ -37,37 +31,13 @@ runs. For large campaigns, ship the data to the workers once rather than with ev
 ``joblib.parallel_backend("dask", scatter=[X, y])``.
 """
 
-import importlib
-
 import numpy as np
 from sklearn.model_selection import BaseCrossValidator
 
 from sklearn_ifog import _table
 from sklearn_ifog._compat import GroupsConsumerMixin
 
-# Names that used to be defined in this module, and the module that defines them now. They
-# are resolved on first access (PEP 562, ``__getattr__`` below) rather than imported at the
-# top: sklearn_ifog.comparison imports the splitters from here, so an eager import would be
-# circular, and importing the splitters should not load every baseline regressor. They stay
-# importable, and in ``__all__``, for old imports and for model files that name the old path
-# (joblib pickles and skops files store ``module.Class``).
-_MOVED = {
-    "SubsampledRegressor": "sklearn_ifog.subsampled",
-    "compare_regressors": "sklearn_ifog.comparison",
-    "default_regressors": "sklearn_ifog.comparison",
-}
-
-__all__ = ["LeaveOneAzimuthOut", "LeaveOneRunOut", "LeaveOneUnitOut", *_MOVED]
-
-
-def __getattr__(name):
-    if name in _MOVED:
-        return getattr(importlib.import_module(_MOVED[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted({*globals(), *_MOVED})
+__all__ = ["LeaveOneAzimuthOut", "LeaveOneRunOut", "LeaveOneUnitOut"]
 
 
 def _column_values(X, key):

@@ -47,9 +47,6 @@ TRUSTED_TYPES = [
     "sklearn_ifog.rbf._network.RBFNetRegressor",
     "sklearn_ifog.subsampled.SubsampledRegressor",
     "sklearn_ifog.unitwise.UnitwiseRegressor",
-    # where SubsampledRegressor used to be defined: files saved then name it so (the name
-    # still resolves to the same class)
-    "sklearn_ifog.model_selection.SubsampledRegressor",
     # the kernel of compare_regressors' Gaussian process baseline (kernels are not estimators,
     # so skops does not trust them by default)
     "sklearn.gaussian_process.kernels.ConstantKernel",

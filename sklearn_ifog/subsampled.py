@@ -4,10 +4,7 @@
 SVR), whose cost grows with the square or the cube of the number of rows, usable as baselines
 on thermal tests of tens of thousands of samples;
 :func:`~sklearn_ifog.comparison.default_regressors` wraps its kernel baselines in it. It wraps
-any regressor and is not a cross-validation tool, hence a module of its own. It used to be
-defined in :mod:`sklearn_ifog.model_selection`: ``from sklearn_ifog.model_selection import
-SubsampledRegressor`` still gives the same class, and model files saved under that name still
-load (:data:`~sklearn_ifog.persistence.TRUSTED_TYPES` lists both names).
+any regressor and is not a cross-validation tool, hence a module of its own.
 """
 
 import numbers

@@ -46,7 +46,6 @@ from sklearn_ifog._compat import (
     _safe_indexing,
 )
 from sklearn_ifog._output_layer import (
-    LINEAR_REGRESSORS,
     final_step,
     has_output_layer,
     layer_design,
@@ -60,10 +59,6 @@ from sklearn_ifog.rbf import RBFNetRegressor
 __all__ = ["UnitwiseRegressor"]
 
 POOLING = ("none", "partial", "full")
-
-# Final regressors whose output layer is linear in known features: "partial" shrinks it (and
-# RBFNetRegressor's). The exports' list, kept importable here under its former name.
-LINEAR_OUTPUT = LINEAR_REGRESSORS
 
 # A unit keeps its own model when the evidence puts its spread from the lot, per
 # output-layer column, at OWN_MODEL_SPREAD noise standard deviations or more
@@ -92,11 +87,6 @@ _LISTED_UNITS = 10
 # --------------------------------------------------------------------------------------------
 # The output layer of a fitted model (sklearn_ifog._output_layer): what pooling needs of it
 # --------------------------------------------------------------------------------------------
-
-# Kept importable here under their former names (tests and benchmarks use them); layer_design
-# and layer_weights too, imported above.
-_final_step = final_step
-_with_weights = with_weights
 
 
 def _check_partial(estimator):

@@ -379,7 +379,7 @@ def test_compare_regressors_reports_coverage_and_width():
 
     The coverage bound held with ``_heteroscedastic`` seeds 0-9 in place of 5 (checked once).
     """
-    from sklearn_ifog.model_selection import compare_regressors
+    from sklearn_ifog.comparison import compare_regressors
 
     x, y, runs = _heteroscedastic(5, n_runs=12)
     X = pd.DataFrame({"x": x[:, 0], "run": runs})

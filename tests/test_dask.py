@@ -15,13 +15,10 @@ from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 
 from sklearn_ifog import RBFNetRegressor, ThermalFeatures
+from sklearn_ifog.comparison import compare_regressors, default_regressors
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.metrics import neg_mean_squared_deviation_scorer
-from sklearn_ifog.model_selection import (
-    LeaveOneAzimuthOut,
-    compare_regressors,
-    default_regressors,
-)
+from sklearn_ifog.model_selection import LeaveOneAzimuthOut
 
 distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
 

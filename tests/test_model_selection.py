@@ -1,5 +1,5 @@
 """Splitters across units, azimuths and runs; compare_regressors; grid search with scorers;
-the names that moved out of sklearn_ifog.model_selection still import from it."""
+the splitters import without the comparison."""
 
 import subprocess
 import sys
@@ -16,7 +16,7 @@ from sklearn.model_selection import GridSearchCV, GroupKFold, LeaveOneGroupOut, 
 from sklearn.pipeline import Pipeline, make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from sklearn_ifog import RBFNetRegressor, ThermalFeatures, comparison, model_selection, subsampled
+from sklearn_ifog import RBFNetRegressor, ThermalFeatures
 from sklearn_ifog.comparison import compare_regressors, default_regressors
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.metrics import mean_squared_deviation, neg_mean_squared_deviation_scorer
@@ -425,61 +425,8 @@ def test_splitter_parameters_are_keyword_only(splitter):
 
 
 # ---------------------------------------------------------------------------------------------
-# Names that moved out of model_selection: the old imports keep working
+# Imports
 # ---------------------------------------------------------------------------------------------
-
-MOVED = {
-    "SubsampledRegressor": subsampled,
-    "compare_regressors": comparison,
-    "default_regressors": comparison,
-}
-
-
-def test_moved_names_import_from_model_selection_as_the_same_objects():
-    from sklearn_ifog.model_selection import (  # the import that user code has written
-        SubsampledRegressor,
-        compare_regressors,
-        default_regressors,
-    )
-
-    old = {
-        "SubsampledRegressor": SubsampledRegressor,
-        "compare_regressors": compare_regressors,
-        "default_regressors": default_regressors,
-    }
-    for name, module in MOVED.items():
-        assert old[name] is getattr(module, name), name
-        assert old[name].__module__ == module.__name__, name
-        assert name in model_selection.__all__, name
-        assert name in dir(model_selection), name
-    namespace = {}
-    exec("from sklearn_ifog.model_selection import *", namespace)
-    assert {*MOVED, "LeaveOneUnitOut"} <= set(namespace)
-    with pytest.raises(AttributeError, match="has no attribute 'compare_regresors'"):
-        model_selection.compare_regresors  # noqa: B018 - a typo must still fail
-
-
-@pytest.mark.parametrize(
-    "statement",
-    [
-        # each module imported first, in a fresh interpreter: comparison imports the
-        # splitters from model_selection, which must not import comparison back at load time
-        "import sklearn_ifog.comparison",
-        "import sklearn_ifog.subsampled",
-        "from sklearn_ifog.model_selection import compare_regressors, SubsampledRegressor",
-    ],
-)
-def test_modules_import_in_any_order(statement):
-    code = (
-        f"{statement}\n"
-        "import sys\n"
-        "from sklearn_ifog.model_selection import (\n"
-        "    LeaveOneRunOut, SubsampledRegressor, compare_regressors, default_regressors)\n"
-        "from sklearn_ifog.comparison import compare_regressors as new\n"
-        "assert compare_regressors is new\n"
-        "assert SubsampledRegressor.__module__ == 'sklearn_ifog.subsampled'\n"
-    )
-    subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True)
 
 
 def test_splitters_alone_do_not_load_the_comparison():

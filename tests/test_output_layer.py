@@ -20,7 +20,6 @@ from sklearn_ifog._output_layer import (
 )
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.streaming import StreamingCompensator
-from sklearn_ifog.unitwise import LINEAR_OUTPUT
 
 
 def _regressor(cls):
@@ -52,8 +51,6 @@ def lot():
 
 
 def test_one_list_of_linear_regressors():
-    # Pooling's former name is the same tuple.
-    assert LINEAR_OUTPUT is LINEAR_REGRESSORS
     assert len(set(LINEAR_REGRESSORS)) == len(LINEAR_REGRESSORS) == 15
     for cls in (RBFNetRegressor, *LINEAR_REGRESSORS):
         assert has_output_layer(_regressor(cls) if cls is not RBFNetRegressor else cls())

@@ -112,56 +112,16 @@ def test_untrusted_type_is_refused(tmp_path):
     np.testing.assert_allclose(loaded.predict([[3.0]]), [7.0])
 
 
-OLD_SUBSAMPLED = "sklearn_ifog.model_selection.SubsampledRegressor"
-NEW_SUBSAMPLED = "sklearn_ifog.subsampled.SubsampledRegressor"
+SUBSAMPLED = "sklearn_ifog.subsampled.SubsampledRegressor"
 
 
-@pytest.mark.parametrize("file_format", ["joblib", "skops"])
-def test_files_naming_the_old_subsampled_path_still_load(tmp_path, monkeypatch, file_format):
-    """SubsampledRegressor moved from model_selection to subsampled: a file saved before the
-    move names the old path, and must still load (both formats store ``module.Class``)."""
-    rng = np.random.default_rng(0)
-    X = rng.normal(size=(60, 2))
-    y = X @ [1.5, -0.5] + 0.01 * rng.normal(size=60)
-    model = make_pipeline(
-        StandardScaler(), SubsampledRegressor(LinearRegression(), max_samples=20, random_state=0)
-    ).fit(X, y)
-    path = tmp_path / f"before_the_move.{file_format}"
-    # Save as the code did before the move, when the class was defined in model_selection.
-    monkeypatch.setattr(SubsampledRegressor, "__module__", "sklearn_ifog.model_selection")
-    save_model(model, path)
-    monkeypatch.undo()
-    assert SubsampledRegressor.__module__ == "sklearn_ifog.subsampled"
-
-    # The file really names the old path, and only it.
-    if file_format == "skops":
-        named = set(skops_io.get_untrusted_types(file=path))
-        assert OLD_SUBSAMPLED in named
-        assert NEW_SUBSAMPLED not in named
-    else:
-        raw = path.read_bytes()
-        assert b"sklearn_ifog.model_selection" in raw
-        assert b"sklearn_ifog.subsampled" not in raw
-
-    loaded = load_model(path)
-    inner = loaded[-1]
-    assert type(inner) is SubsampledRegressor
-    np.testing.assert_array_equal(inner.sample_indices_, model[-1].sample_indices_)
-    np.testing.assert_array_equal(loaded.predict(X), model.predict(X))
-    if file_format == "skops":
-        # It loads because TRUSTED_TYPES keeps the old name: without it, skops refuses.
-        without_old = [name for name in TRUSTED_TYPES if name != OLD_SUBSAMPLED]
-        with pytest.raises(UntrustedTypesFoundException, match="model_selection"):
-            load_model(path, trusted=without_old)
-
-
-def test_files_saved_now_name_the_new_subsampled_path(tmp_path):
+def test_files_name_the_subsampled_path(tmp_path):
     model = SubsampledRegressor(LinearRegression(), max_samples=3, random_state=0)
     model.fit([[0.0], [1.0], [2.0], [3.0]], [0.0, 2.0, 4.0, 6.0])
     path = tmp_path / "now.skops"
     save_model(model, path)
-    assert skops_io.get_untrusted_types(file=path) == [NEW_SUBSAMPLED]
-    assert {OLD_SUBSAMPLED, NEW_SUBSAMPLED} <= set(TRUSTED_TYPES)
+    assert skops_io.get_untrusted_types(file=path) == [SUBSAMPLED]
+    assert SUBSAMPLED in TRUSTED_TYPES
     np.testing.assert_allclose(load_model(path).predict([[4.0]]), [8.0])
 
 

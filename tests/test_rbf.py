@@ -90,9 +90,6 @@ def test_fitted_network_value_is_what_predict_evaluates(n_outputs):
     assert_array_equal(model.predict(X_new), expected[:, 0] if n_outputs == 1 else expected)
     # The record's fields are predict_network's arguments, by name.
     assert_array_equal(predict_network(Z_new, **network._asdict()), expected)
-    # The old private name stays an alias until its callers outside rbf switch.
-    for name in network._fields:
-        assert_array_equal(getattr(model._network(), name), getattr(network, name))
 
 
 def test_network_of_an_unfitted_regressor_raises():

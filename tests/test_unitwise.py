@@ -15,14 +15,9 @@ from sklearn_ifog import (
 )
 from sklearn_ifog import _shrinkage as shrinkage
 from sklearn_ifog._compat import InvalidParameterError
+from sklearn_ifog._output_layer import layer_design, layer_weights, with_weights
 from sklearn_ifog.datasets import make_thermal_campaign
-from sklearn_ifog.unitwise import (
-    OWN_MODEL_SPREAD,
-    _layer_inputs,
-    _own_score,
-    layer_design,
-    layer_weights,
-)
+from sklearn_ifog.unitwise import OWN_MODEL_SPREAD, _layer_inputs, _own_score
 
 
 @pytest.fixture(scope="module")
@@ -156,8 +151,6 @@ def test_strength_maximises_each_units_evidence(lot):
 
 def test_strength_zero_is_the_units_own_linear_fit_and_inf_the_lots(lot):
     """On a linear pipeline the lot's basis spans the unit's own model's."""
-    from sklearn_ifog.unitwise import _with_weights
-
     X, y = lot.data, lot.target.to_numpy()
     model = UnitwiseRegressor(_linear(), pooling="partial").fit(X, y)
     none = UnitwiseRegressor(_linear(), pooling="none").fit(X, y)
@@ -167,13 +160,13 @@ def test_strength_zero_is_the_units_own_linear_fit_and_inf_the_lots(lot):
         own, pooled = shrinkage.solve_shrunk(Phi[rows], y[rows, None], prior, scale, [0.0, np.inf])
         inner = X[rows].drop(columns="unit")
         np.testing.assert_allclose(
-            _with_weights(model.lot_estimator_, own).predict(inner),
+            with_weights(model.lot_estimator_, own).predict(inner),
             none.estimators_[unit].predict(inner),
             rtol=1e-6,
             atol=1e-9,
         )
         np.testing.assert_array_equal(
-            _with_weights(model.lot_estimator_, pooled).predict(inner),
+            with_weights(model.lot_estimator_, pooled).predict(inner),
             model.lot_estimator_.predict(inner),
         )
 
@@ -747,7 +740,8 @@ def test_save_and_load_give_the_same_predictions(lot, tmp_path, suffix):
 
 
 def test_compare_regressors_by_unit_scores_each_unit(lot):
-    from sklearn_ifog.model_selection import LeaveOneRunOut, compare_regressors
+    from sklearn_ifog.comparison import compare_regressors
+    from sklearn_ifog.model_selection import LeaveOneRunOut
 
     X, y = lot.data, lot.target.to_numpy()
     model = UnitwiseRegressor(_linear(), pooling="none")

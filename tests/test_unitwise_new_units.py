@@ -9,8 +9,9 @@ from sklearn.linear_model import LinearRegression
 
 from sklearn_ifog import RBFNetRegressor, UnitwiseRegressor, make_compensation_pipeline
 from sklearn_ifog import _shrinkage as shrinkage
+from sklearn_ifog._output_layer import layer_design, layer_weights
 from sklearn_ifog.datasets import make_thermal_campaign
-from sklearn_ifog.unitwise import OWN_MODEL_SPREAD, _layer_inputs, layer_design, layer_weights
+from sklearn_ifog.unitwise import OWN_MODEL_SPREAD, _layer_inputs
 
 
 @pytest.fixture(scope="module")

@@ -19,12 +19,11 @@ behind: see ``sklearn_ifog._io`` for the exact guarantee of the multi-file outpu
 demo's directory, the report, the C export).
 
 Layout: ``_main`` parses and dispatches; ``_commands`` holds ``fit``, ``compensate``,
-``report`` and ``export``; ``_demo`` the demo (``run_demo``, importable from here);
+``report`` and ``export``; ``_demo`` the demo (``run_demo``);
 ``_input`` reads and validates the CSV files; ``_progress`` draws the progress;
 ``_common`` holds the exit statuses and the user's error.
 """
 
-from sklearn_ifog.cli._demo import run_demo as run_demo  # importable from here, as before
 from sklearn_ifog.cli._main import main
 
 __all__ = ["main"]

@@ -439,10 +439,6 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
             random_state=self.random_state,
         )
 
-    def _network(self):
-        """Alias of :func:`network_of` ``(self)``, kept until its callers use that name."""
-        return network_of(self)
-
     def predict(self, X):
         """Predict with the network, in row blocks.
 

@@ -15,14 +15,12 @@ the same distance of every feature row and the same ``outside`` policy as its ``
 A package: the compensator (``_compensator``), its feature state machine (``_features``:
 :func:`advance_features`), its state's schema and checks (``_state``), the recalibration
 (``_recalibration``), the conformal band (``_band``) and the input checks (``_inputs``).
-Every public name is importable from ``sklearn_ifog.streaming``, as before.
+The public names, :class:`~sklearn_ifog.streaming.StreamingCompensator` and
+:func:`~sklearn_ifog.streaming.advance_features`, are importable from
+``sklearn_ifog.streaming``.
 """
 
 from sklearn_ifog.streaming._compensator import StreamingCompensator
 from sklearn_ifog.streaming._features import advance_features
-
-# The module's other public constants, importable here as before.
-from sklearn_ifog.streaming._recalibration import ADAPT_MODES  # noqa: F401
-from sklearn_ifog.streaming._state import STATE_SCHEMA, STATE_VERSION  # noqa: F401
 
 __all__ = ["StreamingCompensator", "advance_features"]
