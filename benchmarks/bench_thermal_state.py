@@ -89,9 +89,9 @@ from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
 from sklearn_ifog import RBFNetRegressor, ThermalFeatures, make_compensation_pipeline
+from sklearn_ifog.comparison import SubsampledRegressor
 from sklearn_ifog.datasets import noise_floor
 from sklearn_ifog.model_selection import LeaveOneAzimuthOut
-from sklearn_ifog.subsampled import SubsampledRegressor
 
 import _cases  # isort: skip
 from _cases import (  # isort: skip

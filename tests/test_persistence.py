@@ -16,9 +16,9 @@ from sklearn.preprocessing import StandardScaler
 import sklearn_ifog
 from sklearn_ifog import RBFNetRegressor, ThermalFeatures, _version
 from sklearn_ifog._discovery import all_estimators
+from sklearn_ifog.comparison import SubsampledRegressor
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.persistence import TRUSTED_TYPES, ModelVersionWarning, load_model, save_model
-from sklearn_ifog.subsampled import SubsampledRegressor
 
 skops_io = pytest.importorskip("skops.io", reason="skops is an optional extra")
 from skops.io.exceptions import UntrustedTypesFoundException  # noqa: E402
@@ -112,7 +112,7 @@ def test_untrusted_type_is_refused(tmp_path):
     np.testing.assert_allclose(loaded.predict([[3.0]]), [7.0])
 
 
-SUBSAMPLED = "sklearn_ifog.subsampled.SubsampledRegressor"
+SUBSAMPLED = "sklearn_ifog.comparison.SubsampledRegressor"
 
 
 def test_files_name_the_subsampled_path(tmp_path):
