@@ -6,7 +6,7 @@ Run (about one and a half minutes on two cores; ``--quick`` for CI)::
 
 The paper reports that its RBF network fed (T, ΔT, T·ΔT) (the "modified" model) beats the
 same network fed (T, ΔT) (the "traditional" one) in every experiment of its Tables 3-4. This
-script repeats :func:`sklearn_ifog.experiments.run_paper_experiments` (each unit trained on
+script repeats :func:`sklearn_ifog.paper.run_paper_experiments` (each unit trained on
 its five runs at 0°, tested on five runs at 90°, 45° and 135°: 15 test runs) on several
 simulated campaigns (``_cases.paper_claim_campaign``, seeds 4271-4278: the ``judged`` seeds
 of ``_cases.SEEDS["paper_claim_check"]``, fresh in issue 42, gyros no script tunes on), for
@@ -82,7 +82,7 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
 from sklearn_ifog import RBFNetRegressor, ThermalFeatures
-from sklearn_ifog.experiments import run_paper_experiments
+from sklearn_ifog.paper import run_paper_experiments
 
 from _cases import PHYSICS, SEEDS, paper_claim_campaign, paper_recipe_campaign  # isort: skip
 from _results import add_out_argument, command_line, publish  # isort: skip

@@ -2,7 +2,7 @@
 
 Both are computed from the package when the documentation is built (``builder-inited``), so
 they can never drift from the code: the ``--help`` text comes from the parser of
-``sklearn_ifog.cli``, and the MSD tables from ``sklearn_ifog.experiments`` on the simulator.
+``sklearn_ifog.cli``, and the MSD tables from ``sklearn_ifog.paper`` on the simulator.
 Files are rewritten only when their content changes, so an unchanged build stays incremental.
 """
 
@@ -22,7 +22,7 @@ CLI_COMMANDS = ("demo", "fit", "compensate", "report", "export")
 HELP_WIDTH = "90"
 
 # The reference paper's published Tables 2-4 (MSD, (deg/h)^2) are quoted once, in
-# sklearn_ifog.experiments.PAPER_MSD; ours are computed below.
+# sklearn_ifog.paper.PAPER_MSD; ours are computed below.
 CAMPAIGN_SEED = 0
 
 _SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
@@ -93,7 +93,7 @@ def _list_table(title, header, rows, widths):
 def _paper_results():
     from sklearn_ifog.compensation import compensate
     from sklearn_ifog.datasets import make_thermal_campaign
-    from sklearn_ifog.experiments import run_paper_experiments
+    from sklearn_ifog.paper import run_paper_experiments
 
     campaign = make_thermal_campaign(random_state=CAMPAIGN_SEED)
     result = run_paper_experiments(campaign, random_state=CAMPAIGN_SEED)
@@ -125,7 +125,7 @@ def write_paper_comparison(directory=GENERATED):
     campaign, runs = _paper_results()
     params = campaign.run_params
     parts = []
-    from sklearn_ifog.experiments import PAPER_MSD as published
+    from sklearn_ifog.paper import PAPER_MSD as published
 
     tables = (
         ("table2", "Table 2", published["table2"], 90),

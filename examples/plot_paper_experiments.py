@@ -7,7 +7,7 @@ and checks it on five runs at another: Table 2 (one unit, trained at azimuth 0°
 90°: the MSD before and after compensation) and Tables 3–4 (two other units, tested at 45°
 and 135°: the raw output, the "traditional" model on (T, ΔT) and the "modified" model on
 (T, ΔT, T·ΔT)). Here the same design runs on a simulated campaign, with
-:func:`sklearn_ifog.experiments.run_paper_experiments`, and the package's models are then
+:func:`sklearn_ifog.paper.run_paper_experiments`, and the package's models are then
 compared with the usual baselines by :func:`sklearn_ifog.comparison.compare_regressors`.
 
 MSD is the mean squared deviation of the output from the known input rate, in (deg/h)².
@@ -25,8 +25,8 @@ import pandas as pd
 from sklearn_ifog.comparison import compare_regressors
 from sklearn_ifog.compensation import compensate
 from sklearn_ifog.datasets import make_thermal_campaign
-from sklearn_ifog.experiments import run_paper_experiments
 from sklearn_ifog.model_selection import LeaveOneAzimuthOut
+from sklearn_ifog.paper import run_paper_experiments
 
 campaign = make_thermal_campaign(random_state=0)
 frame = campaign.frame

@@ -39,7 +39,7 @@ from sklearn.linear_model import LinearRegression
 
 from sklearn_ifog import ThermalFeatures
 from sklearn_ifog.datasets import make_thermal_campaign
-from sklearn_ifog.experiments import run_paper_experiments
+from sklearn_ifog.paper import run_paper_experiments
 
 # Campaign seeds of the statistical claims (each a few seconds of fitting per seed).
 SEEDS = (0, 1, 2)

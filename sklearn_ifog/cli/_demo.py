@@ -161,7 +161,7 @@ def _compare_with_paper(paper):
     """Per table: the range and geometric mean of the raw/modified MSD ratio, here and there."""
     import pandas as pd
 
-    from sklearn_ifog.experiments import PAPER_MSD
+    from sklearn_ifog.paper import PAPER_MSD
 
     def describe(ratios):
         ratios = np.asarray(ratios, dtype=float)
@@ -401,7 +401,7 @@ def run_demo(out, *, quick=False, size=None, n_jobs=None, stream=None):
         What was written, by role.
     """
     from sklearn_ifog._io import staged_directory
-    from sklearn_ifog.experiments import run_paper_experiments
+    from sklearn_ifog.paper import run_paper_experiments
     from sklearn_ifog.rbf import RBFNetRegressor
 
     stream = sys.stdout if stream is None else stream

@@ -168,7 +168,7 @@ def run_paper_experiments(
     Examples
     --------
     >>> from sklearn_ifog.datasets import make_thermal_campaign
-    >>> from sklearn_ifog.experiments import run_paper_experiments
+    >>> from sklearn_ifog.paper import run_paper_experiments
     >>> campaign = make_thermal_campaign(n_runs=2, sampling_period=120.0, random_state=0)
     >>> result = run_paper_experiments(campaign)
     >>> result.table3.columns.tolist()
