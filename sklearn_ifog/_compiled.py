@@ -368,13 +368,11 @@ class CompiledDomain:
     """A CompensationPipeline's calibration domain and ``outside`` policy, for streaming.
 
     Built by :func:`compile_domain` from the fitted pipeline's ``domain_`` (a
-    :class:`~sklearn_ifog.domain.CalibrationDomain`), ``margin``, ``outside`` and
-    ``fallback_``, read once (a later ``set_params`` of the pipeline does not reach it). A
-    block of feature rows goes through the operations of
-    :meth:`~sklearn_ifog.pipeline.CompensationPipeline.predict`: the plain functions
-    :func:`~sklearn_ifog.domain.box_distance`,
-    :func:`~sklearn_ifog.domain.temperature_excess` and
-    :func:`~sklearn_ifog.domain.outside_domain` say which rows are outside; ``"blend"``
+    :class:`~sklearn_ifog.domain.CalibrationDomain`), ``outside`` and ``fallback_``, read
+    once (a later ``set_params`` of the pipeline does not reach it). A block of feature rows
+    goes through the operations of
+    :meth:`~sklearn_ifog.pipeline.CompensationPipeline.predict`:
+    :func:`~sklearn_ifog.domain.locate` says which rows are outside; ``"blend"``
     weighs the fallback by :func:`~sklearn_ifog.policy.fallback_weight`, ``"clip"``
     evaluates the model at :meth:`CalibrationDomain.project
     <sklearn_ifog.domain.CalibrationDomain.project>`. :meth:`row_where` is the same test
@@ -384,9 +382,8 @@ class CompiledDomain:
     Parameters
     ----------
     domain : CalibrationDomain
-        Fitted.
-    margin : float
-        Distance that still counts as inside (the domain's calibrated ``threshold_``).
+        Fitted; its calibrated ``threshold_`` is the distance that still counts as inside
+        (``margin``).
     outside : {"blend", "clip", "none"}
         The policy for the rows outside.
     fallback : Fallback
@@ -395,7 +392,8 @@ class CompiledDomain:
     Examples
     --------
     >>> import numpy as np
-    >>> from sklearn_ifog.domain import CalibrationDomain, Fallback
+    >>> from sklearn_ifog.domain import CalibrationDomain
+    >>> from sklearn_ifog.fallback import Fallback
     >>> from sklearn_ifog._compiled import CompiledDomain
     >>> t = np.linspace(10.0, 40.0, 31)
     >>> fitted = CalibrationDomain(margin=1.0, temperature=0).fit(np.column_stack([t, t**2]))

@@ -559,7 +559,7 @@ def locate(domain, rows):
     >>> domain = CalibrationDomain(margin=1.0, temperature=0).fit(t[:, None])
     >>> where = locate(domain, [[25.0], [41.0]])
     >>> where.distance.round(3).tolist(), where.beyond.tolist(), where.outside.tolist()
-    ([0.0, 0.111], [0.0, 1.0], [False, True])
+    ([0.0, 0.112], [0.0, 1.0], [False, True])
     """
     rows = np.asarray(rows, dtype=np.float64)
     distance = box_distance(domain.box_, rows)
