@@ -54,6 +54,55 @@ from sklearn_ifog.rbf._varpro import refine_varpro
 REFINE_METHODS = ("varpro", "lm", "gd")
 
 
+def _checked_network(network, d, m):
+    """The starting network with float64 arrays, checked against ``d`` features and ``m``
+    outputs."""
+    centers = as_float_array(network.centers, "centers")
+    K = centers.shape[0]
+    if centers.shape[1] != d:
+        raise ValueError(f"centers must have {d} columns (as Z), got {centers.shape[1]}.")
+    widths = as_float_array(network.widths, "widths", ndim=1)
+    if widths.shape != (K,) or np.any(widths <= 0):
+        raise ValueError(f"widths must be {K} positive values, got shape {widths.shape}.")
+    coef = as_float_array(network.coef, "coef")
+    if coef.shape != (m, K):
+        raise ValueError(f"coef must have shape ({m}, {K}), got {coef.shape}.")
+    tail_coef = as_float_array(network.tail_coef, "tail_coef")
+    n_quadratic = n_tail_features(d, 2)
+    if tail_coef.shape not in ((m, 0), (m, d), (m, n_quadratic)):
+        raise ValueError(
+            f"tail_coef must have shape ({m}, 0), ({m}, {d}) or ({m}, {n_quadratic}) (no, "
+            f"linear or quadratic tail), got {tail_coef.shape}."
+        )
+    intercept = as_float_array(np.reshape(network.intercept, -1), "intercept", ndim=1)
+    if intercept.shape != (m,):
+        raise ValueError(f"intercept must have shape ({m},), got {intercept.shape}.")
+    return Network(
+        centers=centers, widths=widths, coef=coef, tail_coef=tail_coef, intercept=intercept
+    )
+
+
+def _validation_rows(Z_val, Y_val, sample_weight_val, d, m, max_samples, rng):
+    """The early-stopping rows, checked and subsampled as the training rows are:
+    ``(Zv, Yv, swv, totalv)``."""
+    Zv = as_float_array(Z_val, "Z_val")
+    Yv = np.asarray(Y_val, dtype=np.float64)
+    Yv = as_float_array(Yv[:, None] if Yv.ndim == 1 else Yv, "Y_val")
+    if Zv.shape[1] != d or Yv.shape != (Zv.shape[0], m):
+        raise ValueError(
+            f"Z_val/Y_val must have shapes (n_val, {d}) and (n_val, {m}), "
+            f"got {Zv.shape} and {Yv.shape}."
+        )
+    swv = check_weights(sample_weight_val, Zv.shape[0], "sample_weight_val")
+    if max_samples is not None and Zv.shape[0] > max_samples:
+        rows = np.sort(rng.choice(Zv.shape[0], size=int(max_samples), replace=False))
+        Zv, Yv, swv = Zv[rows], Yv[rows], swv[rows]
+    totalv = float(swv.sum())
+    if totalv <= 0:
+        raise ValueError("sample_weight_val must have a positive sum.")
+    return Zv, Yv, swv, totalv
+
+
 def refine_network(
     Z,
     Y,
@@ -141,27 +190,8 @@ def refine_network(
     Y = as_float_array(Y, "Y")
     if Y.shape[0] != n:
         raise ValueError(f"Y has {Y.shape[0]} rows but Z has {n}.")
-    centers = as_float_array(network.centers, "centers")
-    K = centers.shape[0]
-    if centers.shape[1] != d:
-        raise ValueError(f"centers must have {d} columns (as Z), got {centers.shape[1]}.")
-    widths = as_float_array(network.widths, "widths", ndim=1)
-    if widths.shape != (K,) or np.any(widths <= 0):
-        raise ValueError(f"widths must be {K} positive values, got shape {widths.shape}.")
     m = Y.shape[1]
-    coef = as_float_array(network.coef, "coef")
-    if coef.shape != (m, K):
-        raise ValueError(f"coef must have shape ({m}, {K}), got {coef.shape}.")
-    tail_coef = as_float_array(network.tail_coef, "tail_coef")
-    n_quadratic = n_tail_features(d, 2)
-    if tail_coef.shape not in ((m, 0), (m, d), (m, n_quadratic)):
-        raise ValueError(
-            f"tail_coef must have shape ({m}, 0), ({m}, {d}) or ({m}, {n_quadratic}) (no, "
-            f"linear or quadratic tail), got {tail_coef.shape}."
-        )
-    intercept = as_float_array(np.reshape(network.intercept, -1), "intercept", ndim=1)
-    if intercept.shape != (m,):
-        raise ValueError(f"intercept must have shape ({m},), got {intercept.shape}.")
+    original = _checked_network(network, d, m)
     if not (alpha >= 0 and np.isfinite(alpha)):
         raise ValueError(f"alpha must be a finite non-negative number, got {alpha!r}.")
     if int(max_iter) != max_iter or max_iter < 0:
@@ -188,21 +218,9 @@ def refine_network(
     Zv = Yv = swv = None
     totalv = 1.0
     if has_val:
-        Zv = as_float_array(Z_val, "Z_val")
-        Yv = np.asarray(Y_val, dtype=np.float64)
-        Yv = as_float_array(Yv[:, None] if Yv.ndim == 1 else Yv, "Y_val")
-        if Zv.shape[1] != d or Yv.shape != (Zv.shape[0], m):
-            raise ValueError(
-                f"Z_val/Y_val must have shapes (n_val, {d}) and (n_val, {m}), "
-                f"got {Zv.shape} and {Yv.shape}."
-            )
-        swv = check_weights(sample_weight_val, Zv.shape[0], "sample_weight_val")
-        if max_samples is not None and Zv.shape[0] > max_samples:
-            rows = np.sort(rng.choice(Zv.shape[0], size=int(max_samples), replace=False))
-            Zv, Yv, swv = Zv[rows], Yv[rows], swv[rows]
-        totalv = float(swv.sum())
-        if totalv <= 0:
-            raise ValueError("sample_weight_val must have a positive sum.")
+        Zv, Yv, swv, totalv = _validation_rows(
+            Z_val, Y_val, sample_weight_val, d, m, max_samples, rng
+        )
 
     # Work on targets divided by one scale, so that the tolerances (absolute ones inside
     # least_squares, step norms mixing centres and weights in "lm") mean the same whatever the
@@ -211,11 +229,10 @@ def refine_network(
     _, y_scale = weighted_mean_std(Y, sw, pooled=True)
     if not (np.isfinite(y_scale) and y_scale > 0):
         y_scale = 1.0
-    original = Network(
-        centers=centers, widths=widths, coef=coef, tail_coef=tail_coef, intercept=intercept
-    )
     start = original._replace(
-        coef=coef / y_scale, tail_coef=tail_coef / y_scale, intercept=intercept / y_scale
+        coef=original.coef / y_scale,
+        tail_coef=original.tail_coef / y_scale,
+        intercept=original.intercept / y_scale,
     )
     Y = Y / y_scale
     Yv = Yv / y_scale if has_val else None
