@@ -493,25 +493,13 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
             tail_basis=M,
         )
     if losses is not None:
-        choice = _choose_by_losses(losses, sw_losses, fixed_size, paths)
-        i_cv = choice[0]
-        k_cv = min(choice[1], losses[i_cv].shape[0] - 1)
-        score = float(losses[i_cv][k_cv] @ sw_losses / sw_losses.sum())
-        # Record the cross-validated error of each prefix (of the final paths' length).
-        paths = [
-            p._replace(values=(loss @ sw_losses / sw_losses.sum())[: len(p.path.selected) + 1])
-            for p, loss in zip(paths, losses, strict=True)
-        ]
+        paths, choice, score = _choice_by_cross_validation(paths, losses, sw_losses, fixed_size)
     else:
-        choice = _choose(paths, criterion, fixed_size, sw_val if has_val else None)
+        sw_chosen = sw_val if has_val else None
+        choice, score = _choice_on_paths(paths, criterion, fixed_size, sw_chosen)
     chosen = paths[choice[0]]
     path, fits, values = chosen.path, chosen.fits, chosen.values
     k = choice[1]
-    if losses is None:
-        if criterion == "holdout":
-            score = float(fits.val_sq[k] @ sw_val / sw_val.sum())
-        else:
-            score = float(values[k])
     config_scores = np.array([p.values[-1] if fixed_size else p.values.min() for p in paths])
     # Paths are width-major: the score of a width is its best over the tail penalties.
     width_scores = config_scores.reshape(len(widths_tried), len(tail_alphas)).min(axis=1)
@@ -550,6 +538,32 @@ def _select_at_degree(Z, Ys, sw, sel_rows, val_rows, y_scale, rng, degree, optio
         tail_transform=M if chosen.tail_alpha > 0 else None,
     )
     return network, record, score
+
+
+def _choice_by_cross_validation(paths, losses, sw_losses, fixed_size):
+    """The (width, size) chosen by the cross-validated losses, its score, and the paths
+    with their values replaced by the cross-validated error of each prefix."""
+    choice = _choose_by_losses(losses, sw_losses, fixed_size, paths)
+    i_cv = choice[0]
+    k_cv = min(choice[1], losses[i_cv].shape[0] - 1)
+    score = float(losses[i_cv][k_cv] @ sw_losses / sw_losses.sum())
+    # Record the cross-validated error of each prefix (of the final paths' length).
+    paths = [
+        p._replace(values=(loss @ sw_losses / sw_losses.sum())[: len(p.path.selected) + 1])
+        for p, loss in zip(paths, losses, strict=True)
+    ]
+    return paths, choice, score
+
+
+def _choice_on_paths(paths, criterion, fixed_size, sw_val):
+    """The (width, size) chosen by the paths' own criterion, and its score (the held-out
+    error with ``"holdout"``, else the criterion's value)."""
+    choice = _choose(paths, criterion, fixed_size, sw_val)
+    chosen = paths[choice[0]]
+    k = choice[1]
+    if criterion == "holdout":
+        return choice, float(chosen.fits.val_sq[k] @ sw_val / sw_val.sum())
+    return choice, float(chosen.values[k])
 
 
 def _max_centers(n_centers, n_candidates):
