@@ -179,6 +179,16 @@ def test_pull_back_to_ranges_moves_along_the_segment_to_the_centre():
     assert np.all((pulled[:, [0, 2]] >= [0.0, 1.0]) & (pulled[:, [0, 2]] <= [10.0, 5.0]))
     # No columns: nothing to pull.
     np.testing.assert_array_equal(pull_back_to_ranges(box, rows, [], [], []), rows)
+    # Below a range only: pulled up to its low end (kills a test of the high end alone).
+    low_only = pull_back_to_ranges(box, [[5.0, 1.0, -3.0]], [0, 2], [0.0, 1.0], [10.0, 5.0])
+    share = (1.0 - 3.0) / (-3.0 - 3.0)
+    np.testing.assert_allclose(low_only[0], box.center + share * ([5.0, 1.0, -3.0] - box.center))
+    assert low_only[0, 2] == 1.0
+    # Integer rows are pulled in floating point, not truncated.
+    pulled = pull_back_to_ranges(box, np.array([[16, 2, 3]]), [0], [0.0], [10.0])
+    assert pulled.dtype == np.float64
+    share = (10.0 - 14.0 / 3.0) / (16.0 - 14.0 / 3.0)
+    np.testing.assert_allclose(pulled[0], box.center + share * ([16.0, 2.0, 3.0] - box.center))
 
 
 def test_project_to_box_one_feature_is_a_clamp():
