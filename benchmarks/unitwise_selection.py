@@ -28,7 +28,7 @@ the same fits. Rules:
   evidence puts it far from the lot (``n lam <= 1 / OWN_MODEL_SPREAD²``; a single-run unit
   by the shared strength) keeps its own model; the own model otherwise chosen for the lot,
   RBF network only, its held-out error that of its output layer re-solved without each
-  held-out run (its basis kept: one fit per unit, ``unitwise._own_score``), unscaled;
+  held-out run (its basis kept: one fit per unit, ``_pooling.own_score``), unscaled;
 - ``chosen_far_multi_run``: as ``chosen``, the far-unit rule for units of two runs or more
   only, with spread 2 (the previous release's choice);
 - ``chosen_far_spread2``, ``chosen_far_spread3``, ``chosen_far_spread4``: as ``chosen``,
@@ -71,7 +71,8 @@ from sklearn.base import clone
 
 from sklearn_ifog import _shrinkage
 from sklearn_ifog._output_layer import final_step, layer_design, layer_weights
-from sklearn_ifog.unitwise import OWN_MODEL_SPREAD, _layer_inputs, _own_score
+from sklearn_ifog._pooling import layer_inputs, own_score
+from sklearn_ifog.unitwise import OWN_MODEL_SPREAD
 
 from _cases import (  # isort: skip
     SEEDS,
@@ -120,7 +121,7 @@ def unit_statistics(pipeline, Xi, y, runs, units, train, test):
     """Per unit: the statistics a rule reads and the test SSE of every candidate."""
     lot = clone(pipeline).fit(Xi[train], y[train])
     final = final_step(lot)
-    Phi = layer_design(final, _layer_inputs(lot, Xi))
+    Phi = layer_design(final, layer_inputs(lot, Xi))
     prior = layer_weights(final)
     Y = y[:, None]
     scale = _shrinkage.design_scale(Phi[train])
@@ -147,7 +148,7 @@ def unit_statistics(pipeline, Xi, y, runs, units, train, test):
         weights = _shrinkage.solve_shrunk(Phi[index], Y[index], prior, scale, GRID)
         own = clone(pipeline).fit(Xi.iloc[index], y[index])
         own_layer = (
-            _own_score(own, Xi.iloc[index], Y[index], folds)
+            own_score(own, Xi.iloc[index], Y[index], folds)
             if np.unique(runs[index]).size >= 2
             else 0.0
         )

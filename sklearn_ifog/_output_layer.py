@@ -8,12 +8,12 @@ are known: a linear model of :data:`LINEAR_REGRESSORS` (the design: its inputs, 
 inputs, the polynomial tail, then 1). :func:`read_layer` reads one as an
 :class:`OutputLayer` record.
 
-A private module that serves several: partial pooling (:mod:`sklearn_ifog.unitwise`: the
-layer's design and weights, :func:`layer_design` / :func:`layer_weights`, and
-:func:`with_weights` to write the shrunk weights back), the compiled fast path
-(:mod:`sklearn_ifog._compiled`, which evaluates the layer and gives its design to the
-online recalibration of :mod:`sklearn_ifog.streaming`), and the pipeline's description
-(:mod:`sklearn_ifog._description`) that both exports write.
+A private module that serves several: partial pooling (:mod:`sklearn_ifog.unitwise` and
+:mod:`sklearn_ifog._pooling`: the layer's design and weights, :func:`layer_design` /
+:func:`layer_weights`, and :func:`with_weights` to write the shrunk weights back), the
+compiled fast path (:mod:`sklearn_ifog._compiled`, which evaluates the layer and gives its
+design to the online recalibration of :mod:`sklearn_ifog.streaming`), and the pipeline's
+description (:mod:`sklearn_ifog._description`) that both exports write.
 
 Two views of an RBF network's tail, kept apart on purpose: the network stores a tail of
 zeros (width ``n_features``, degree 1) when it was fitted without one. The layer as stored

@@ -4,7 +4,8 @@ Plain functions, numpy out, for numpy arrays and pandas / polars DataFrames:
 
 - columns: :func:`as_table`, :func:`column_names`, :func:`column_at`, :func:`column_position`
   (strict, with an error naming the column and the parameter), :func:`find_column` (lenient),
-  :func:`numeric_column`, :func:`label_column`, :func:`check_finite`, and
+  :func:`numeric_column`, :func:`label_column` (with :func:`check_ids`, :func:`id_kind` and
+  :func:`plain_label` for the run and unit ids it holds), :func:`check_finite`, and
   :func:`read_thermal_columns` (the temperature, time and run columns of a thermal test);
 - runs: :func:`run_codes`, :func:`group_rows_by_run` (a stable order that makes each run
   contiguous, however the runs are interleaved), :func:`run_segments` (the rows of each run,
@@ -17,6 +18,7 @@ Errors are :class:`TableError` (a ``ValueError``; :class:`TableTypeError` is als
 attributes, so that a caller (the command line) can word them its own way.
 """
 
+import contextlib
 import itertools
 import numbers
 from typing import NamedTuple
@@ -31,6 +33,7 @@ __all__ = [
     "as_float_rows",
     "as_table",
     "check_finite",
+    "check_ids",
     "check_time_increasing",
     "column_at",
     "column_names",
@@ -40,9 +43,11 @@ __all__ = [
     "first_time_violation",
     "frame_kind",
     "group_rows_by_run",
+    "id_kind",
     "label_column",
     "numeric_column",
     "per_run_mean",
+    "plain_label",
     "read_thermal_columns",
     "run_codes",
     "run_segments",
@@ -564,6 +569,50 @@ class ThermalColumns(NamedTuple):
     """Shape (n_samples,), the run ids; None without a run column."""
     time_label: str | None
     """How messages name the time column (e.g. ``"time column 'time'"``)."""
+
+
+def plain_label(value):
+    """A unit label as a plain Python value (numpy scalars unwrapped), for dict keys."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def id_kind(value):
+    """The kind of a run or unit id: ``"string"``, ``"number"`` or its type's name."""
+    if isinstance(value, (str, bytes, np.str_, np.bytes_)):
+        return "string"
+    if isinstance(value, (numbers.Number, np.number)):
+        return "number"
+    return type(value).__name__
+
+
+def check_ids(labels, key, param):
+    """``labels`` (unit or run ids), refused with a TypeError unless all numbers or all strings.
+
+    Ids of mixed kinds cannot be sorted (``units_`` is sorted), and an integer ``0`` beside a
+    string ``"0"`` would be two units that print alike: the column is named, with an example
+    of each kind, instead of numpy's comparison error.
+    """
+    if labels.dtype.kind != "O":
+        return labels
+    values = labels.tolist()
+    # distinct ids, first seen first; an unhashable id (e.g. a dict) leaves every row
+    with contextlib.suppress(TypeError):
+        values = dict.fromkeys(values)
+    examples = {}
+    for value in values:
+        examples.setdefault(id_kind(value), value)
+    if len(examples) > 1 or not examples.keys() <= {"number", "string"}:
+        found = " and ".join(
+            f"{kind}s (e.g. {value!r})" if kind in ("number", "string") else f"{kind} {value!r}"
+            for kind, value in examples.items()
+        )
+        what = "mixes {0} ids of different types" if len(examples) > 1 else "holds {0} ids of type"
+        raise TypeError(
+            f"The {param} column {key!r} of X {what.format(param)}: {found}. Expected "
+            f"{param} ids of one kind, all numbers or all strings (convert the column, e.g. "
+            "with .astype(str))."
+        )
+    return labels
 
 
 def read_thermal_columns(X, *, temperature, time=None, run=None):

@@ -2,8 +2,11 @@
 
 The unit travels inside X as a column (like the run id), so scorers, ``cross_validate`` and
 ``GridSearchCV`` see one ordinary regressor. The numerics of partial pooling live in
-:mod:`sklearn_ifog._shrinkage`, the access to the output layer of the supported final
-regressors in :mod:`sklearn_ifog._output_layer`; this module holds the scikit-learn surface.
+:mod:`sklearn_ifog._shrinkage` (the shrunk output layer) and :mod:`sklearn_ifog._pooling`
+(the checks of the lot, a unit's own model: the rows it needs, its held-out error), the
+access to the output layer of the supported final regressors in
+:mod:`sklearn_ifog._output_layer`, the run and unit ids in :mod:`sklearn_ifog._table`; this
+module holds the scikit-learn surface.
 
 Every unit's model carries a calibration domain (a
 :class:`~sklearn_ifog.pipeline.CompensationPipeline` learns it at fit): with ``"none"`` (and
@@ -13,18 +16,16 @@ lot's, since its weights pool the lot's calibration. Outside it a unit's predict
 its model's ``outside`` policy, and :meth:`UnitwiseRegressor.predict` says so once per call.
 """
 
-import contextlib
 import copy
 import sys
 import time
 import warnings
-from numbers import Integral, Number
+from numbers import Integral
 from typing import ClassVar
 
 import numpy as np
 from sklearn.base import BaseEstimator, MetaEstimatorMixin, RegressorMixin, clone
 from sklearn.exceptions import UnsetMetadataPassedError
-from sklearn.pipeline import Pipeline
 from sklearn.utils import get_tags
 from sklearn.utils.metadata_routing import MetadataRouter, MethodMapping, process_routing
 from sklearn.utils.metaestimators import available_if
@@ -45,14 +46,16 @@ from sklearn_ifog._compat import (
     _routing_enabled,
     _safe_indexing,
 )
-from sklearn_ifog._output_layer import (
-    final_step,
-    has_output_layer,
-    layer_design,
-    layer_weights,
-    supported_names,
-    with_weights,
+from sklearn_ifog._output_layer import final_step, layer_design, layer_weights, with_weights
+from sklearn_ifog._pooling import (
+    MIN_UNIT_ROWS,
+    check_partial,
+    check_units_change_temperature,
+    layer_inputs,
+    own_score,
+    rows_needed,
 )
+from sklearn_ifog._table import check_ids, id_kind, plain_label
 from sklearn_ifog.domain import OutsideCalibrationWarning
 from sklearn_ifog.rbf import RBFNetRegressor
 
@@ -73,125 +76,8 @@ POOLING = ("none", "partial", "full")
 # ``benchmarks/_cases.SEEDS``).
 OWN_MODEL_SPREAD = 3.0
 
-# A unit whose model is fitted on its rows alone (pooling="none", or a unit that keeps its
-# own model) needs at least this many rows, whatever the model: a single row holds no
-# temperature change (its dT and lags follow the first-row rule), so a model fitted on it
-# learns a constant. A final regressor with a linear output layer needs, besides, at least
-# one row per output-layer weight, or its weights are not determined by the unit's rows.
-MIN_UNIT_ROWS = 2
-
 # Units named one by one in the warning of a predict call (a lot can hold hundreds).
 _LISTED_UNITS = 10
-
-
-# --------------------------------------------------------------------------------------------
-# The output layer of a fitted model (sklearn_ifog._output_layer): what pooling needs of it
-# --------------------------------------------------------------------------------------------
-
-
-def _check_partial(estimator):
-    final = final_step(estimator)
-    if not has_output_layer(final):
-        raise ValueError(
-            f"pooling='partial' shrinks a linear output layer towards the lot's; the final "
-            f"regressor {type(final).__name__} has none. Use pooling='none' or 'full', or a "
-            f"final regressor among: {supported_names()} (alone or as the last step of a "
-            "Pipeline)."
-        )
-
-
-def _check_units_change_temperature(lot, X_inner, rows, unit_column):
-    """A ValueError naming the first unit whose calibrated temperature never changes.
-
-    Only for a lot model that knows its temperature columns (a fitted
-    :class:`~sklearn_ifog.pipeline.CompensationPipeline`); ``rows``: unit -> row indices.
-    A single row is a spot calibration that ``"partial"`` shrinks to the lot (see
-    ``_enough_rows``); many rows at one exact temperature are a stuck or misassigned sensor.
-    """
-    domain = getattr(lot, "domain_", None)
-    columns = getattr(domain, "temperature_columns_", None)
-    if not columns or not isinstance(lot, Pipeline):
-        return
-    # the rows as the domain reads them: the output of the pipeline's feature step
-    raw = np.asarray(lot.steps[0][1].transform(X_inner), dtype=np.float64)[:, columns]
-    names = getattr(lot, "feature_names_out_", None)
-    for unit, index in rows.items():
-        constant = np.flatnonzero(np.ptp(raw[index], axis=0) == 0)
-        if index.size > 1 and constant.size:
-            column = int(constant[0])
-            name = repr(str(names[columns[column]])) if names is not None else column
-            raise ValueError(
-                f"unit {unit!r} (column {unit_column!r} of X): its temperature (feature "
-                f"{name}) is constant ({float(raw[index[0], column])!r}) over its "
-                f"{index.size} calibration rows. A unit calibrated at one temperature says "
-                "nothing of its thermal drift (a stuck or misassigned sensor?); calibrate it "
-                "on runs that change temperature, or leave it out of the lot."
-            )
-
-
-def _layer_inputs(model, X):
-    """What the final regressor of the fitted ``model`` sees for ``X``, as a float array."""
-    if isinstance(model, Pipeline):
-        X = model[:-1].transform(X)
-    return np.asarray(X, dtype=np.float64)
-
-
-def _label(value):
-    """A unit label as a plain Python value (numpy scalars unwrapped), for dict keys."""
-    return value.item() if isinstance(value, np.generic) else value
-
-
-def _id_kind(value):
-    if isinstance(value, (str, bytes, np.str_, np.bytes_)):
-        return "string"
-    if isinstance(value, (Number, np.number)):
-        return "number"
-    return type(value).__name__
-
-
-def _check_ids(labels, key, param):
-    """``labels`` (unit or run ids), refused with a TypeError unless all numbers or all strings.
-
-    Ids of mixed kinds cannot be sorted (``units_`` is sorted), and an integer ``0`` beside a
-    string ``"0"`` would be two units that print alike: the column is named, with an example
-    of each kind, instead of numpy's comparison error.
-    """
-    if labels.dtype.kind != "O":
-        return labels
-    values = labels.tolist()
-    # distinct ids, first seen first; an unhashable id (e.g. a dict) leaves every row
-    with contextlib.suppress(TypeError):
-        values = dict.fromkeys(values)
-    examples = {}
-    for value in values:
-        examples.setdefault(_id_kind(value), value)
-    if len(examples) > 1 or not examples.keys() <= {"number", "string"}:
-        found = " and ".join(
-            f"{kind}s (e.g. {value!r})" if kind in ("number", "string") else f"{kind} {value!r}"
-            for kind, value in examples.items()
-        )
-        what = "mixes {0} ids of different types" if len(examples) > 1 else "holds {0} ids of type"
-        raise TypeError(
-            f"The {param} column {key!r} of X {what.format(param)}: {found}. Expected "
-            f"{param} ids of one kind, all numbers or all strings (convert the column, e.g. "
-            "with .astype(str))."
-        )
-    return labels
-
-
-def _rows_needed(model):
-    """(rows a unit needs for the fitted ``model`` to be determined by them, why)."""
-    final = final_step(model)
-    if has_output_layer(final):
-        n_weights = layer_weights(final).shape[0]
-        if not isinstance(final, RBFNetRegressor) and not getattr(final, "fit_intercept", True):
-            n_weights -= 1  # layer_weights carries an intercept row of zeros
-        why = (
-            f"{type(final).__name__} with {n_weights} output-layer weights: one row per "
-            "weight determines them"
-        )
-        return max(MIN_UNIT_ROWS, n_weights), why
-    return MIN_UNIT_ROWS, "one row holds no temperature change"
 
 
 def _fit_unit_model(estimator, X, y, unit, column, params):
@@ -202,40 +88,6 @@ def _fit_unit_model(estimator, X, y, unit, column, params):
         raise  # scikit-learn's own routing error, as it is
     except ValueError as error:
         raise ValueError(f"unit {unit!r} (column {column!r}): {error}") from error
-
-
-def _own_score(model, X, Y, folds):
-    """Held-out mean squared error of a unit's own model, one run out at a time.
-
-    The model is fitted once on all of the unit's rows; each fold re-solves its output layer
-    without the held-out rows, as the network solves it (its ridge ``alpha`` per row on the
-    Gaussian weights, its tail penalty on the tail, the intercept free; plain least squares
-    for a linear model) and predicts them, without the ``outside`` policy. The basis
-    (centres and widths) is the one learnt from all the rows, as the lot's is for the shrunk
-    layer: both candidates keep their basis and are compared on their output layers.
-    ``inf`` when the model is None or a fold leaves fewer rows than output weights.
-    """
-    if model is None:
-        return np.inf
-    final = final_step(model)
-    Phi = layer_design(final, _layer_inputs(model, X))
-    penalty = np.zeros(Phi.shape[1])
-    if isinstance(final, RBFNetRegressor):
-        n_centers = np.shape(final.centers_)[0]
-        penalty[:n_centers] = final.alpha
-        penalty[n_centers:-1] = final.selection_path_.get("tail_alpha", 0.0)
-        # The tail penalty's shape: a ridge on the reparametrised tail, as the network's.
-        basis = final.selection_path_.get("tail_transform")
-        if basis is not None and Phi.shape[1] > n_centers + 1:
-            Phi[:, n_centers:-1] = Phi[:, n_centers:-1] @ basis
-    zero = np.zeros((Phi.shape[1], Y.shape[1]))
-    sse = 0.0
-    for test in folds:
-        if np.count_nonzero(~test) < Phi.shape[1]:
-            return np.inf
-        (weights,) = _shrinkage.solve_shrunk(Phi[~test], Y[~test], zero, np.sqrt(penalty), [1.0])
-        sse += float(np.square(Y[test] - Phi[test] @ weights).sum())
-    return sse / Y.size
 
 
 # --------------------------------------------------------------------------------------------
@@ -498,7 +350,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             param="unit",
             hint="UnitwiseRegressor needs the unit of every row; name its column with unit=.",
         )
-        units = _check_ids(_table.label_column(X, self.unit, param="unit"), self.unit, "unit")
+        units = check_ids(_table.label_column(X, self.unit, param="unit"), self.unit, "unit")
         keep = [index for index in range(X.shape[1]) if index != position]
         if not keep:
             raise ValueError(
@@ -517,7 +369,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             hint="pooling='partial' holds out one run at a time; pass run=None to cut each "
             "unit's rows into contiguous blocks instead.",
         )
-        return _check_ids(runs, self.run, "run")
+        return check_ids(runs, self.run, "run")
 
     # -- scikit-learn surface -------------------------------------------------------------
 
@@ -632,18 +484,18 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         y = check_array(y, ensure_2d=False, dtype=np.float64, input_name="y")
         check_consistent_length(X, y)
         new = np.unique(units)
-        if _id_kind(new[0]) != _id_kind(self.units_[0]):
+        if id_kind(new[0]) != id_kind(self.units_[0]):
             raise TypeError(
-                f"the new units of column {self.unit!r} ({_label(new[0])!r}) are not of the "
-                f"kind of the fitted ones ({_label(self.units_[0])!r})."
+                f"the new units of column {self.unit!r} ({plain_label(new[0])!r}) are not of the "
+                f"kind of the fitted ones ({plain_label(self.units_[0])!r})."
             )
-        fitted = [_label(unit) for unit in new if _label(unit) in self.estimators_]
+        fitted = [plain_label(unit) for unit in new if plain_label(unit) in self.estimators_]
         if fitted:
             raise ValueError(
                 f"unit(s) {fitted[:10]} (column {self.unit!r} of X) were already fitted; "
                 "add_units calibrates new units only (refit the lot to change a fitted one)."
             )
-        rows = {_label(unit): np.flatnonzero(units == unit) for unit in new}
+        rows = {plain_label(unit): np.flatnonzero(units == unit) for unit in new}
         params = (
             process_routing(self, "fit", **fit_params).estimator.fit
             if _routing_enabled()
@@ -654,7 +506,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         elif self.pooling == "full":
             models = dict.fromkeys(rows, self.lot_estimator_)
         else:
-            _check_units_change_temperature(self.lot_estimator_, X_inner, rows, self.unit)
+            check_units_change_temperature(self.lot_estimator_, X_inner, rows, self.unit)
             models = self._add_partial(X_inner, y, self._runs(X, X.shape[0]), rows, params)
         self.estimators_.update(models)
         self.units_ = np.unique(np.concatenate([self.units_, new]))
@@ -664,7 +516,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         """The new units' models under ``"partial"`` (see :meth:`add_units`)."""
         lot = self.lot_estimator_
         final = final_step(lot)
-        Phi = layer_design(final, _layer_inputs(lot, X_inner))
+        Phi = layer_design(final, layer_inputs(lot, X_inner))
         prior = layer_weights(final)
         scale, grid = self.shrinkage_scale_, self.shrinkage_grid_
         Y = y.reshape(y.shape[0], -1)
@@ -707,7 +559,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         y = check_array(y, ensure_2d=False, dtype=np.float64, input_name="y")
         check_consistent_length(X, y)
         if self.pooling == "partial":
-            _check_partial(self.estimator)
+            check_partial(self.estimator)
             runs = self._runs(X, X.shape[0])
         if self.handle_unknown == "lot" and self.pooling == "none":
             raise ValueError(
@@ -716,7 +568,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 "handle_unknown='error'."
             )
         self.units_ = np.unique(units)
-        rows = {_label(unit): np.flatnonzero(units == unit) for unit in self.units_}
+        rows = {plain_label(unit): np.flatnonzero(units == unit) for unit in self.units_}
         params = (
             process_routing(self, "fit", **fit_params).estimator.fit
             if _routing_enabled()
@@ -732,7 +584,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         started = time.perf_counter()
         lot = clone(self.estimator).fit(X_inner, y, **params)
         self._report(f"lot model fitted on {len(rows)} units", started)
-        _check_units_change_temperature(lot, X_inner, rows, self.unit)
+        check_units_change_temperature(lot, X_inner, rows, self.unit)
         self.lot_estimator_ = lot
         if self.pooling == "full":
             self.estimators_ = dict.fromkeys(rows, lot)
@@ -780,7 +632,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         """``model`` if the unit's ``n_rows`` determine it; else None or a ValueError."""
         needed, why = MIN_UNIT_ROWS, "one row holds no temperature change"
         if model is not None:
-            needed, why = _rows_needed(model)
+            needed, why = rows_needed(model)
         if n_rows >= needed:
             return model
         if too_few == "none":
@@ -795,7 +647,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
 
     def _fit_partial(self, lot, X_inner, y, runs, rows, params):
         final = final_step(lot)
-        Phi = layer_design(final, _layer_inputs(lot, X_inner))
+        Phi = layer_design(final, layer_inputs(lot, X_inner))
         prior = layer_weights(final)
         scale = _shrinkage.design_scale(Phi)
         Y = y.reshape(y.shape[0], -1)
@@ -841,7 +693,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         )
         for unit in several:
             self.own_scores_[unit] = (
-                _own_score(
+                own_score(
                     own_models[unit],
                     _safe_indexing(X_inner, rows[unit]),
                     Y[rows[unit]],
@@ -923,11 +775,11 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             return X_inner, units
         known = set(self.estimators_)
         for unit in np.unique(units):
-            if _label(unit) not in known:
-                fitted = [_label(u) for u in self.units_[:10]]
+            if plain_label(unit) not in known:
+                fitted = [plain_label(u) for u in self.units_[:10]]
                 more = "" if self.units_.size <= 10 else f" and {self.units_.size - 10} more"
                 raise ValueError(
-                    f"unit {_label(unit)!r} (column {self.unit!r} of X) was not seen in fit; "
+                    f"unit {plain_label(unit)!r} (column {self.unit!r} of X) was not seen in fit; "
                     f"the fitted units are {fitted}{more}. Calibrate it with add_units, or "
                     "predict it with the lot's model (handle_unknown='lot')."
                 )
@@ -935,7 +787,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
 
     def _model_of(self, unit):
         """The model of ``unit``: its own, or the lot's for a unit not seen in fit."""
-        return self.estimators_.get(_label(unit), self.lot_estimator_)
+        return self.estimators_.get(plain_label(unit), self.lot_estimator_)
 
     def unit_models(self, X):
         """Which fitted model predicts which rows of ``X``.
@@ -1045,7 +897,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             rows = units == unit
             n_out = int(flags[rows].sum())
             parts.append(
-                f"unit {_label(unit)!r}: {n_out} of {int(rows.sum())} rows, "
+                f"unit {plain_label(unit)!r}: {n_out} of {int(rows.sum())} rows, "
                 f"{n_out / rows.sum():.1%}"
             )
         if present.size > _LISTED_UNITS:
@@ -1056,7 +908,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             f"Rows lie outside their unit's calibration domain in {present.size} of "
             f"{np.unique(units).size} units ({'; '.join(parts)}); largest distance "
             f"{distance[worst]:.3g} decorrelated standard deviations (unit "
-            f"{_label(units[worst])!r}). Their predictions follow each unit model's outside "
+            f"{plain_label(units[worst])!r}). Their predictions follow each unit model's outside "
             f"policy ({', '.join(map(repr, policies))}).",
             OutsideCalibrationWarning,
             stacklevel=3,

@@ -14,7 +14,7 @@ from sklearn.utils import Bunch
 from sklearn_ifog import ThermalFeatures, UnitwiseRegressor, make_compensation_pipeline
 from sklearn_ifog._domain_words import ROUNDOFF_SHARE, rate_beyond_text
 from sklearn_ifog.cli import main
-from sklearn_ifog.cli._commands import _outside_lines
+from sklearn_ifog.cli._compensate import _outside_lines
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.domain import OutsideCalibrationWarning
 from sklearn_ifog.report import _rate_clause, per_run_calibration

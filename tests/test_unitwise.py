@@ -16,8 +16,9 @@ from sklearn_ifog import (
 from sklearn_ifog import _shrinkage as shrinkage
 from sklearn_ifog._compat import InvalidParameterError
 from sklearn_ifog._output_layer import layer_design, layer_weights, with_weights
+from sklearn_ifog._pooling import layer_inputs, own_score
 from sklearn_ifog.datasets import make_thermal_campaign
-from sklearn_ifog.unitwise import OWN_MODEL_SPREAD, _layer_inputs, _own_score
+from sklearn_ifog.unitwise import OWN_MODEL_SPREAD
 
 
 @pytest.fixture(scope="module")
@@ -102,7 +103,7 @@ def _first_runs(lot):
 def _lot_layer(model, X):
     """The lot model's output-layer design on X (with the unit column), weights, scales."""
     lot_final = model.lot_estimator_.steps[-1][1]
-    Phi = layer_design(lot_final, _layer_inputs(model.lot_estimator_, X.drop(columns="unit")))
+    Phi = layer_design(lot_final, layer_inputs(model.lot_estimator_, X.drop(columns="unit")))
     return Phi, layer_weights(lot_final), shrinkage.design_scale(Phi)
 
 
@@ -262,7 +263,7 @@ def test_own_score_refits_the_output_layer_without_each_held_out_run(lot):
     runs = X["run"].to_numpy()
     folds = shrinkage.cv_folds(runs)
     assert len(folds) == 3
-    Phi = layer_design(final, _layer_inputs(model, X))
+    Phi = layer_design(final, layer_inputs(model, X))
     # The default tail penalty, "spread": tail_alpha * ||M^-1 w||^2 on the tail weights w.
     tail_alpha = final.selection_path_["tail_alpha"]
     M = final.selection_path_["tail_transform"]
@@ -279,11 +280,11 @@ def test_own_score_refits_the_output_layer_without_each_held_out_run(lot):
         b = np.r_[y[~test], np.zeros(6 + n_tail)]
         weights = np.linalg.lstsq(A, b, rcond=None)[0]
         sse += float(np.sum(np.square(y[test] - Phi[test] @ weights)))
-    score = _own_score(model, X, y[:, None], folds)
+    score = own_score(model, X, y[:, None], folds)
     np.testing.assert_allclose(score, sse / y.size, rtol=1e-6)
     # a fold leaving fewer rows than output weights cannot score the model
-    assert _own_score(model, X.iloc[:3], y[:3, None], [np.array([True, False, False])]) == np.inf
-    assert _own_score(None, X, y[:, None], folds) == np.inf
+    assert own_score(model, X.iloc[:3], y[:3, None], [np.array([True, False, False])]) == np.inf
+    assert own_score(None, X, y[:, None], folds) == np.inf
 
 
 def test_partial_with_identical_units_gives_the_lot_model(lot):

@@ -11,9 +11,10 @@ from sklearn.pipeline import Pipeline, make_pipeline
 from sklearn.preprocessing import StandardScaler
 
 from sklearn_ifog import RBFNetRegressor, UnitwiseRegressor, make_compensation_pipeline
+from sklearn_ifog._pooling import layer_inputs
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.domain import OutsideCalibrationWarning
-from sklearn_ifog.unitwise import POOLING, _layer_inputs
+from sklearn_ifog.unitwise import POOLING
 
 # The attributes that make up a fitted CalibrationDomain's box and ranges.
 DOMAIN_ARRAYS = (
@@ -143,7 +144,7 @@ def test_partial_reads_the_scaled_features_through_the_slice(two_ranges):
     X_inner = X.drop(columns="unit")
     assert type(lot[:-1]) is Pipeline
     expected = lot.named_steps["scale"].transform(lot.named_steps["features"].transform(X_inner))
-    np.testing.assert_array_equal(_layer_inputs(lot, X_inner), expected)
+    np.testing.assert_array_equal(layer_inputs(lot, X_inner), expected)
 
 
 @pytest.mark.parametrize("pooling", POOLING)

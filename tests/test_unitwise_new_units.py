@@ -10,8 +10,9 @@ from sklearn.linear_model import LinearRegression
 from sklearn_ifog import RBFNetRegressor, UnitwiseRegressor, make_compensation_pipeline
 from sklearn_ifog import _shrinkage as shrinkage
 from sklearn_ifog._output_layer import layer_design, layer_weights
+from sklearn_ifog._pooling import layer_inputs
 from sklearn_ifog.datasets import make_thermal_campaign
-from sklearn_ifog.unitwise import OWN_MODEL_SPREAD, _layer_inputs
+from sklearn_ifog.unitwise import OWN_MODEL_SPREAD
 
 
 @pytest.fixture(scope="module")
@@ -107,7 +108,7 @@ def test_add_units_partial_shrinks_the_new_unit_towards_the_unrefitted_lot(lot):
     # the new unit's weights: the ridge towards the lot's layer, strength by its evidence
     final = lot_model.steps[-1][1]
     inner = X_new.drop(columns="unit")
-    Phi = layer_design(final, _layer_inputs(lot_model, inner))
+    Phi = layer_design(final, layer_inputs(lot_model, inner))
     prior = layer_weights(final)
     evidence = shrinkage.log_evidence(
         Phi, y_new[:, None], prior, model.shrinkage_scale_, model.shrinkage_grid_

@@ -18,10 +18,11 @@ first and renamed into place only when complete, so a failure leaves no partial 
 behind: see ``sklearn_ifog._io`` for the exact guarantee of the multi-file outputs (the
 demo's directory, the report, the C export).
 
-Layout: ``_main`` parses and dispatches; ``_commands`` holds ``fit``, ``compensate``,
-``report`` and ``export``; ``_demo`` the demo (``run_demo``);
-``_input`` reads and validates the CSV files; ``_progress`` draws the progress;
-``_common`` holds the exit statuses and the user's error.
+Layout: ``_main`` parses and dispatches; ``_fit`` holds ``fit``; ``_compensate`` holds
+``compensate`` and ``report``; ``_export`` holds ``export``; ``_demo`` the demo
+(``run_demo``); ``_files`` loads the saved model and checks the output paths; ``_input``
+reads and validates the CSV files; ``_progress`` draws the progress; ``_common`` holds the
+exit statuses and the user's error.
 """
 
 from sklearn_ifog.cli._main import main

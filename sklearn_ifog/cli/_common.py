@@ -1,4 +1,5 @@
-"""What every command shares: the program name, the exit statuses, the user's error."""
+"""What the commands share: the program name, the exit statuses, the user's error, how a
+table is printed and the check of a coverage option."""
 
 import sys
 
@@ -23,3 +24,9 @@ def print_table(title, table, stream=None, float_format="{:.3g}"):
     stream = sys.stdout if stream is None else stream
     print(f"\n{title}", file=stream)
     print(table.to_string(float_format=float_format.format), file=stream)
+
+
+def check_coverage(value, option="--interval"):
+    """An InputError unless ``value``, given with ``option``, is a coverage in (0, 1)."""
+    if not 0.0 < value < 1.0:
+        raise InputError(f"{option} must be a coverage in (0, 1), e.g. 0.9; got {value:g}")

@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 from sklearn.utils import Bunch
 
-from sklearn_ifog.cli._commands import check_output_directory
 from sklearn_ifog.cli._common import PROGRAM, print_table
+from sklearn_ifog.cli._files import check_output_directory
 from sklearn_ifog.cli._input import Columns
 from sklearn_ifog.cli._progress import Progress
 from sklearn_ifog.domain import OutsideCalibrationWarning

@@ -5,12 +5,6 @@ import sys
 from pathlib import Path
 
 from sklearn_ifog import _version
-from sklearn_ifog.cli._commands import (
-    command_compensate,
-    command_export,
-    command_fit,
-    command_report,
-)
 from sklearn_ifog.cli._common import (
     EXIT_BAD_INPUT,
     EXIT_INTERNAL,
@@ -20,7 +14,10 @@ from sklearn_ifog.cli._common import (
     InputError,
     one_line,
 )
+from sklearn_ifog.cli._compensate import command_compensate, command_report
 from sklearn_ifog.cli._demo import DEMO_SIZES, run_demo
+from sklearn_ifog.cli._export import command_export
+from sklearn_ifog.cli._fit import command_fit
 
 __all__ = ["main"]
 
