@@ -39,6 +39,7 @@ __all__ = [
     "NOVELTY_RAMP",
     "PROJECTION_ROUNDS",
     "RATE_WEIGHT",
+    "ROUNDOFF_SHARE",
     "CalibrationDomain",
     "OutsideCalibrationWarning",
     "SmallCalibrationWarning",
@@ -80,6 +81,20 @@ RATE_WEIGHT = 2.0
 #: only so that the distance stays continuous where a row leaves them (the exports repeat
 #: it).
 NOVELTY_RAMP = 0.01
+#: A rate dT beyond its calibrated range by at most this share of that range is round-off,
+#: not a rate the calibration never saw: the pipeline's warning, the report and the command
+#: line do not word it (an excess as :meth:`CalibrationDomain.excess` reads it; no flag or
+#: prediction depends on this share).
+#: Why relative to the calibrated range: the excess is the difference of a rate recomputed
+#: from a new log (a difference of temperatures over a time step, through the lags) and the
+#: calibrated extreme, each carrying a few units in the last place of numbers of the size
+#: of that range; so round-off scales with the range, in whatever unit dT is read (degC per
+#: minute or per second: an absolute tolerance would be 60 times off in one of them). It
+#: cannot be relative to the extreme itself: the slowest rate of a heating-only calibration
+#: is a soak's, about 0, where any round-off (a 1.47e-14 below it) is infinitely many times
+#: the value. 1e-9 of the range is ten million times a double's round-off and far below any
+#: rate excess a calibration could be faulted for.
+ROUNDOFF_SHARE = 1e-9
 
 
 class OutsideCalibrationWarning(UserWarning):

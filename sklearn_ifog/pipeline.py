@@ -27,9 +27,14 @@ from sklearn_ifog._compat import (
     _safe_indexing,
 )
 from sklearn_ifog._contract import get_term, sensor_keys
-from sklearn_ifog._domain_words import ROUNDOFF_SHARE
 from sklearn_ifog._table import as_float_rows, label_column
-from sklearn_ifog.domain import CalibrationDomain, OutsideCalibrationWarning, check_varies, locate
+from sklearn_ifog.domain import (
+    ROUNDOFF_SHARE,
+    CalibrationDomain,
+    OutsideCalibrationWarning,
+    check_varies,
+    locate,
+)
 from sklearn_ifog.fallback import fit_fallback
 from sklearn_ifog.features import ThermalFeatures
 from sklearn_ifog.policy import apply_policy

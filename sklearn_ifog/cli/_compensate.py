@@ -56,14 +56,14 @@ def _calibration_status(model, X, path):
 def _outside_lines(status, runs, run_name, units=None, unit_name=None):
     """One line per run with rows outside the calibration domain, after a heading (a run
     of a lot named with its unit)."""
-    from sklearn_ifog._domain_words import (
+    from sklearn_ifog._table import run_segments
+    from sklearn_ifog.report import per_run_calibration
+    from sklearn_ifog.report._words import (
         beyond_text,
         number_text,
         policy_actions,
         rate_beyond_text,
     )
-    from sklearn_ifog._table import run_segments
-    from sklearn_ifog.report import per_run_calibration
 
     n_outside = int(status.outside.sum())
     if n_outside == 0:

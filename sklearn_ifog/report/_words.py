@@ -1,4 +1,5 @@
-"""How the package says, in words, what its models did outside their calibration domain.
+"""The report's text: how the package says, in words, what its models did outside their
+calibration domain.
 
 Shared by the report (:func:`sklearn_ifog.report.compensation_report`) and the command
 line (``sklearn-ifog compensate`` and ``report``), so that both tell a gyro engineer the
@@ -7,20 +8,9 @@ same thing in the same words.
 
 import numpy as np
 
-__all__ = ["number_text", "policy_actions"]
+from sklearn_ifog.domain import ROUNDOFF_SHARE
 
-#: A rate dT beyond its calibrated range by at most this share of that range is round-off,
-#: not a rate the calibration never saw, and is not worded (:func:`rate_beyond_text`).
-#: Why relative to the calibrated range: the excess is the difference of a rate recomputed
-#: from a new log (a difference of temperatures over a time step, through the lags) and the
-#: calibrated extreme, each carrying a few units in the last place of numbers of the size
-#: of that range; so round-off scales with the range, in whatever unit dT is read (degC per
-#: minute or per second: an absolute tolerance would be 60 times off in one of them). It
-#: cannot be relative to the extreme itself: the slowest rate of a heating-only calibration
-#: is a soak's, about 0, where any round-off (a 1.47e-14 below it) is infinitely many times
-#: the value. 1e-9 of the range is ten million times a double's round-off and far below any
-#: rate excess a calibration could be faulted for.
-ROUNDOFF_SHARE = 1e-9
+__all__ = ["number_text", "policy_actions"]
 
 
 def policy_actions(status):
@@ -73,8 +63,8 @@ def policy_actions(status):
 def rate_beyond_text(below, above, low, high):
     """:func:`beyond_text` for the rate dT, without what is round-off.
 
-    ``below`` and ``above`` count only beyond :data:`ROUNDOFF_SHARE` times the calibrated
-    range ``high - low``.
+    ``below`` and ``above`` count only beyond :data:`~sklearn_ifog.domain.ROUNDOFF_SHARE`
+    times the calibrated range ``high - low`` (the domain's rule of what is round-off).
 
     Parameters
     ----------

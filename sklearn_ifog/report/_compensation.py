@@ -1,0 +1,342 @@
+"""The compensation report a gyro engineer hands on after a thermal test.
+
+:func:`compensation_report` measures a compensation run by run and writes its report with
+figures; :func:`per_unit_table` is its per-unit table for a production lot.
+"""
+
+from pathlib import Path
+
+import numpy as np
+
+from sklearn_ifog import _table
+from sklearn_ifog._per_run import ALL_RUNS, compensation_arrays
+from sklearn_ifog.report._document import Report
+from sklearn_ifog.report._sections import (
+    _add_allan_deviation,
+    _add_calibration,
+    _add_compensation_figures,
+    _add_model,
+    _add_summary,
+)
+from sklearn_ifog.report._status import calibration_status, per_run_calibration
+
+__all__ = ["compensation_report", "per_unit_table"]
+
+
+def compensation_report(
+    directory,
+    *,
+    rate,
+    drift,
+    reference,
+    temperature,
+    time=None,
+    run=None,
+    unit=None,
+    title="Thermal compensation report",
+    model_metadata=None,
+    data_name=None,
+    max_runs=4,
+    bias_window=100.0,
+    report=None,
+    heading="Compensation",
+    interval=None,
+    model=None,
+    X=None,
+):
+    """Measure a compensation and write its report (Markdown and HTML) with figures.
+
+    For every run, the table of :func:`~sklearn_ifog.metrics.per_run_metrics`: the MSD of
+    the raw and of the compensated rate from the reference (the reference paper's Eq. 24),
+    their ratio and the bias stability before and after (``bias_window``-second averages,
+    IEEE Std 952 practice; n/a where the run is too short or not uniformly sampled); the raw
+    and compensated rate with the temperature for the first ``max_runs`` runs; and the Allan
+    deviation of the error (output minus reference) before and after compensation, for the
+    longest run. Given the ``model`` and the rows ``X`` it predicted ``drift`` from, and
+    when that model knows its calibration domain (a
+    :class:`~sklearn_ifog.CompensationPipeline`, or a meta-estimator around them), a
+    "Calibration domain" section says whether rows lay outside it and what the model's
+    ``outside`` policy did there, with a table per run (:func:`per_run_calibration`), and
+    the figures shade the stretches outside.
+
+    Parameters
+    ----------
+    directory : str or path-like
+        Existing directory for the report and its PNG figures.
+    rate, drift, reference, temperature : array-like of shape (n_samples,)
+        Gyro output (deg/h), predicted drift (deg/h), true input rate (deg/h), coil
+        temperature (deg C).
+    time : array-like of shape (n_samples,), default=None
+        Time, seconds (None: the sample index, at an assumed 1 s period).
+    run : array-like of shape (n_samples,), default=None
+        Run label of each row; None means one run. Rows of a run are in time order.
+    unit : array-like of shape (n_samples,), default=None
+        Unit (gyro) label of each row, e.g. for a :class:`~sklearn_ifog.UnitwiseRegressor`:
+        a per-unit table (MSD before and after, their ratio, runs and samples) is added
+        before the per-run one.
+    title : str, default="Thermal compensation report"
+        Report title (ignored when ``report`` is given).
+    model_metadata : dict, default=None
+        Metadata of the model (from :func:`~sklearn_ifog.persistence.load_model`), shown
+        in a "Model" section.
+    data_name : str, default=None
+        Name of the data set, shown in the summary.
+    max_runs : int, default=4
+        Number of runs drawn (the first ones, in order of appearance).
+    bias_window : float, default=100.0
+        Averaging window of the bias stability, seconds.
+    report : Report, default=None
+        A report to append the sections to (e.g. with sections of your own before); None
+        starts a new one.
+    heading : str, default="Compensation"
+        Heading of the section this function adds.
+    interval : array-like of shape (n_samples, 2), default=None
+        Lower and upper bound of the drift (deg/h), e.g. from
+        :meth:`~sklearn_ifog.ConformalRegressor.predict_interval`. The table then gains the
+        columns ``coverage`` (fraction of the run's samples whose measured drift,
+        ``rate - reference``, lies inside) and ``width`` (mean width, deg/h), and the
+        figures shade the band.
+    model : estimator, default=None
+        The fitted drift model that predicted ``drift`` (with ``X``): its calibration
+        domain is read by :func:`calibration_status`. A model without one gets a line
+        saying so.
+    X : array-like or DataFrame of shape (n_samples, n_columns), default=None
+        The rows ``model`` predicted ``drift`` from, in the order of ``rate``.
+
+    Returns
+    -------
+    result : sklearn.utils.Bunch
+        ``report`` (the :class:`Report`), ``table`` (DataFrame indexed by run, with a last
+        row ``"(all runs)"`` for all rows together; without ``run``, that row only),
+        ``unit_table`` (DataFrame indexed by unit, or None without ``unit``), ``figures``
+        (list of Path), ``paths`` (``{"markdown": Path, "html": Path}``), and with a
+        model that has a calibration domain ``calibration`` (the per-row
+        :func:`calibration_status`) and ``calibration_table``
+        (:func:`per_run_calibration`, indexed like ``table``); both None otherwise.
+
+    Raises
+    ------
+    ValueError
+        If the arrays differ in length, ``model`` is given without ``X`` (or the
+        reverse), or ``X`` does not have one row per sample.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import numpy as np
+    >>> from sklearn_ifog.report import compensation_report
+    >>> time = np.arange(0.0, 3600.0, 1.0)
+    >>> temperature = 20.0 + 10.0 * np.sin(time / 600.0)
+    >>> drift = 0.02 * (temperature - 20.0)
+    >>> noise = np.random.default_rng(0).normal(0.0, 0.001, time.size)
+    >>> rate = 7.5 + drift + noise
+    >>> with tempfile.TemporaryDirectory() as directory:
+    ...     result = compensation_report(
+    ...         directory,
+    ...         rate=rate,
+    ...         drift=drift,
+    ...         reference=7.5,
+    ...         temperature=temperature,
+    ...         time=time,
+    ...     )
+    ...     sorted(path.name for path in result.paths.values())
+    ['report.html', 'report.md']
+    >>> bool(result.table.loc["(all runs)", "reduction"] > 100)
+    True
+
+    With the model and the rows it predicted from, the report says where the model was
+    outside its calibration (here a cold test, the model calibrated between 10 and 40 °C):
+
+    >>> import warnings
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn_ifog import OutsideCalibrationWarning, make_compensation_pipeline
+    >>> from sklearn_ifog.datasets import make_thermal_campaign
+    >>> def campaign(temperature_range, seed):
+    ...     return make_thermal_campaign(
+    ...         n_units=1,
+    ...         n_runs=2,
+    ...         azimuths=[0.0],
+    ...         sampling_period=120.0,
+    ...         temperature_range=temperature_range,
+    ...         random_state=seed,
+    ...     )
+    >>> warm, cold = campaign((10.0, 40.0), 0), campaign((-20.0, 5.0), 1)
+    >>> model = make_compensation_pipeline(LinearRegression()).fit(warm.data, warm.target)
+    >>> frame = cold.frame
+    >>> with warnings.catch_warnings(), tempfile.TemporaryDirectory() as directory:
+    ...     warnings.simplefilter("ignore", OutsideCalibrationWarning)  # the report says it
+    ...     result = compensation_report(
+    ...         directory,
+    ...         rate=frame["rate"],
+    ...         drift=model.predict(cold.data),
+    ...         reference=frame["reference"],
+    ...         temperature=frame["temperature"],
+    ...         time=frame["time"],
+    ...         run=frame["run"],
+    ...         model=model,
+    ...         X=cold.data,
+    ...     )
+    >>> result.calibration_table["outside_share"].tolist()
+    [1.0, 1.0, 1.0]
+    """
+    from sklearn.utils import Bunch
+
+    from sklearn_ifog.metrics import per_run_metrics
+
+    directory = Path(directory)
+    table = per_run_metrics(
+        rate=rate,
+        drift=drift,
+        reference=reference,
+        temperature=temperature,
+        time=time,
+        run=run,
+        bias_window=bias_window,
+    )
+    rate, drift, reference, temperature, time_values = compensation_arrays(
+        rate, drift, reference, temperature, time
+    )
+    data = Bunch(
+        rate=rate,
+        compensated=rate - drift,
+        reference=reference,
+        temperature=temperature,
+        time=time_values,
+        # {run label: row positions in time order}, in order of first appearance.
+        segments={
+            ALL_RUNS if label is None else label: rows
+            for label, rows in _table.run_segments(run, rate.shape[0])
+        },
+        has_runs=run is not None,
+        interval=None,
+        outside=None,
+    )
+    if interval is not None:
+        _add_interval(table, data, interval, run)
+    status, calibration_table = _calibration(model, X, rate.shape[0], run)
+    data.outside = None if status is None else status.outside
+    unit_table = None if unit is None else per_unit_table(rate, drift, reference, unit, run)
+    if report is None:
+        report = Report(title)
+    _add_summary(report, heading, data, table, data_name, bias_window, time is None, unit_table)
+    if model is not None:
+        _add_calibration(report, data, status, calibration_table)
+    figures = _add_compensation_figures(report, directory, data, max_runs)
+    figures += _add_allan_deviation(report, directory, data)
+    if model_metadata:
+        _add_model(report, model_metadata)
+    paths = report.write(directory)
+    return Bunch(
+        report=report,
+        table=table,
+        unit_table=unit_table,
+        figures=figures,
+        paths=paths,
+        calibration=status,
+        calibration_table=calibration_table,
+    )
+
+
+def _add_interval(table, data, interval, run):
+    """The drift interval of every row into ``data``, and its coverage and mean width per run
+    (and over all runs, with ``run``) as the columns ``coverage`` and ``width`` of
+    ``table``."""
+    from sklearn_ifog.metrics import interval_coverage, mean_interval_width
+
+    n_samples = data.rate.shape[0]
+    interval = np.asarray(interval, dtype=float)
+    if interval.shape != (n_samples, 2):
+        raise ValueError(
+            f"interval has shape {interval.shape}; expected ({n_samples}, 2), the "
+            "lower and upper drift bound of every sample."
+        )
+    data.interval = interval
+    measured = data.rate - data.reference
+    coverage, width = {}, {}
+    for label, rows in data.segments.items():
+        coverage[label] = interval_coverage(measured[rows], interval[rows])
+        width[label] = mean_interval_width(interval[rows])
+    if run is not None:
+        coverage[ALL_RUNS] = interval_coverage(measured, interval)
+        width[ALL_RUNS] = mean_interval_width(interval)
+    table["coverage"] = table.index.map(coverage)
+    table["width"] = table.index.map(width)
+
+
+def _calibration(model, X, n_samples, run):
+    """``(calibration_status(model, X), per_run_calibration(...))``, both None without a
+    model or for a model without a calibration domain; checks that model and X come
+    together and that X has ``n_samples`` rows."""
+    if (model is None) != (X is None):
+        given, missing = ("model", "X") if X is None else ("X", "model")
+        raise ValueError(
+            f"{given} was given without {missing}: the calibration domain needs both, the "
+            "model and the rows X it predicted drift from (or neither)."
+        )
+    if model is None:
+        return None, None
+    status = calibration_status(model, X)
+    if status is None:
+        return None, None
+    if status.distance.shape[0] != n_samples:
+        raise ValueError(
+            f"X has {status.distance.shape[0]} rows, rate has {n_samples}; give "
+            "the rows the model predicted drift from, one per sample."
+        )
+    return status, per_run_calibration(status, run)
+
+
+def per_unit_table(rate, drift, reference, unit, run=None):
+    """MSD before and after compensation for every unit of a lot.
+
+    Parameters
+    ----------
+    rate, drift, reference : array-like of shape (n_samples,)
+        Gyro output, predicted drift and true input rate, deg/h (``reference`` may be a
+        scalar).
+    unit : array-like of shape (n_samples,)
+        Unit label of every row.
+    run : array-like of shape (n_samples,), default=None
+        Run label of every row, to count each unit's runs (None: one per unit).
+
+    Returns
+    -------
+    table : pandas.DataFrame
+        Indexed by unit (sorted): ``msd_before``, ``msd_after``, ``reduction``, ``n_runs``,
+        ``n_samples``.
+
+    Examples
+    --------
+    >>> from sklearn_ifog.report import per_unit_table
+    >>> table = per_unit_table([1.0, 1.2, 2.0], [0.0, 0.2, 1.0], 1.0, ["a", "a", "b"])
+    >>> table[["msd_before", "msd_after", "n_samples"]].round(3)
+          msd_before  msd_after  n_samples
+    unit
+    a           0.02        0.0          2
+    b           1.00        0.0          1
+    """
+    import pandas as pd
+
+    rate = np.asarray(rate, dtype=np.float64)
+    error = rate - np.broadcast_to(np.asarray(reference, dtype=np.float64), rate.shape)
+    compensated = error - np.asarray(drift, dtype=np.float64)
+    unit = np.asarray(unit)
+    frame = pd.DataFrame(
+        {
+            "unit": unit,
+            "before": error**2,
+            "after": compensated**2,
+            "run": np.zeros(unit.shape[0]) if run is None else np.asarray(run),
+        }
+    )
+    grouped = frame.groupby("unit", sort=True)
+    table = pd.DataFrame(
+        {
+            "msd_before": grouped["before"].mean(),
+            "msd_after": grouped["after"].mean(),
+        }
+    )
+    table["reduction"] = table["msd_before"] / table["msd_after"]
+    table["n_runs"] = grouped["run"].nunique()
+    table["n_samples"] = grouped.size()
+    return table
