@@ -2,7 +2,8 @@
 # Mutation testing with mutmut 3 (issue 42, build point 5). Not run by CI: it is slow.
 #
 # Usage: tools/mutation.sh MODULE [MUTANT_GLOB ...]
-#   MODULE       domain | fallback | policy | features | lags | ols | conformal
+#   MODULE       domain | fallback | policy | features | lags | ols | conformal |
+#                conformal_numerics
 #   MUTANT_GLOB  optional mutmut mutant names or globs to restrict the run to a subset,
 #                e.g. 'sklearn_ifog.domain.x_fit_fallback__mutmut_*' (default: every mutant
 #                of the module)
@@ -54,12 +55,16 @@ ols)
     source_file=sklearn_ifog/rbf/_ols.py
     tests="tests/test_ols.py tests/test_ols_mutants.py"
     ;;
+conformal_numerics)
+    source_file=sklearn_ifog/_conformal_numerics.py
+    tests="tests/test_conformal.py tests/test_conformal_mutants.py"
+    ;;
 conformal)
     source_file=sklearn_ifog/conformal.py
     tests="tests/test_conformal.py tests/test_conformal_domain.py tests/test_conformal_mutants.py"
     ;;
 *)
-    echo "tools/mutation.sh: unknown module '$module' (expected domain, fallback, policy, features, lags, ols or conformal)" >&2
+    echo "tools/mutation.sh: unknown module '$module' (expected domain, fallback, policy, features, lags, ols, conformal or conformal_numerics)" >&2
     exit 2
     ;;
 esac
