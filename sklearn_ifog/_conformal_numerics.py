@@ -30,6 +30,16 @@ __all__ = [
 _DIFFICULTY_NEIGHBORS = 10
 
 
+def _as_numbers(values, name):
+    """``values`` as a float array, or a TypeError naming ``name`` (text, objects)."""
+    try:
+        return np.asarray(values, dtype=float)
+    except (TypeError, ValueError) as error:
+        raise TypeError(
+            f"{name} must be an array of numbers; got {type(values).__name__}."
+        ) from error
+
+
 def _check_values(values, name, shape, what="finite", *, low=-np.inf, high=np.inf):
     """``values`` as a float array of ``shape``, finite and within [low, high].
 
@@ -37,12 +47,7 @@ def _check_values(values, name, shape, what="finite", *, low=-np.inf, high=np.in
     and the first offending entry: a wrong length must not broadcast, a NaN must not pass
     into the bounds, nor a value out of range widen them silently.
     """
-    try:
-        array = np.asarray(values, dtype=float)
-    except (TypeError, ValueError) as error:
-        raise TypeError(
-            f"{name} must be an array of numbers; got {type(values).__name__}."
-        ) from error
+    array = _as_numbers(values, name)
     if array.shape != tuple(shape):
         raise ValueError(f"{name} must have shape {tuple(shape)}, got {array.shape}.")
     bad = ~np.isfinite(array) | (array < low) | (array > high)

@@ -115,6 +115,7 @@ from sklearn_ifog._compat import (
     _safe_indexing,
 )
 from sklearn_ifog._conformal_numerics import (
+    _as_numbers,
     _check_values,
     _cover_both,
     _widen,
@@ -840,54 +841,21 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             If an argument holds something other than numbers.
         """
         check_is_fitted(self)
-        centre = np.asarray(centre, dtype=float).ravel()
+        centre = _as_numbers(centre, "centre").ravel()
         n_samples = centre.shape[0]
         centre = _check_values(
             centre, "centre", (n_samples,), "finite (the full model's prediction of every row)"
         )
-        predictions = np.asarray(fold_predictions, dtype=float)
+        predictions = _as_numbers(fold_predictions, "fold_predictions")
         if predictions.shape != (len(self.estimators_), n_samples):
             raise ValueError(
                 f"fold_predictions must have shape (n_folds, n_samples) = "
                 f"({len(self.estimators_)}, {n_samples}), got {predictions.shape}."
             )
         predictions = _check_values(predictions, "fold_predictions", predictions.shape)
-        raw = None
-        if self.adaptive:
-            if difficulty_features is None:
-                raise ValueError(
-                    "difficulty_features is required when adaptive=True: the rows through "
-                    "the steps of estimator_ before its regressor."
-                )
-            raw = _check_values(
-                difficulty_features,
-                "difficulty_features",
-                (n_samples, self.feature_mean_.shape[0]),
-                "finite (the rows through the steps of estimator_ before its regressor)",
-            )
-        if fallback_share is not None:
-            fallback_share = _check_values(
-                fallback_share,
-                "fallback_share",
-                (n_samples,),
-                "a weight in [0, 1] for every row",
-                low=0.0,
-                high=1.0,
-            )
-        if temperature_beyond is not None:
-            if fallback_share is None:
-                raise ValueError(
-                    "temperature_beyond is used only with fallback_share (its slope term is "
-                    "one of the terms outside the domain); pass fallback_share too, or leave "
-                    "temperature_beyond None."
-                )
-            temperature_beyond = _check_values(
-                temperature_beyond,
-                "temperature_beyond",
-                (n_samples,),
-                "a number of degrees >= 0 for every row",
-                low=0.0,
-            )
+        raw, fallback_share, temperature_beyond = self._checked_terms(
+            n_samples, difficulty_features, fallback_share, temperature_beyond
+        )
         extrapolation = None
         if fallback_share is not None and getattr(self, "fallback_scores_", None) is not None:
             # What the regressor itself extrapolates to, before the policy set it aside.
@@ -945,6 +913,48 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         if extrapolation is not None:
             bounds = _cover_both(bounds, centre, extrapolation)
         return bounds
+
+    def _checked_terms(self, n_samples, difficulty_features, fallback_share, temperature_beyond):
+        """:meth:`bounds_from_predictions`'s optional inputs checked for ``n_samples`` rows:
+        ``(raw, fallback_share, temperature_beyond)`` (``raw``: the difficulty features,
+        None unless ``adaptive``)."""
+        raw = None
+        if self.adaptive:
+            if difficulty_features is None:
+                raise ValueError(
+                    "difficulty_features is required when adaptive=True: the rows through "
+                    "the steps of estimator_ before its regressor."
+                )
+            raw = _check_values(
+                difficulty_features,
+                "difficulty_features",
+                (n_samples, self.feature_mean_.shape[0]),
+                "finite (the rows through the steps of estimator_ before its regressor)",
+            )
+        if fallback_share is not None:
+            fallback_share = _check_values(
+                fallback_share,
+                "fallback_share",
+                (n_samples,),
+                "a weight in [0, 1] for every row",
+                low=0.0,
+                high=1.0,
+            )
+        if temperature_beyond is not None:
+            if fallback_share is None:
+                raise ValueError(
+                    "temperature_beyond is used only with fallback_share (its slope term is "
+                    "one of the terms outside the domain); pass fallback_share too, or leave "
+                    "temperature_beyond None."
+                )
+            temperature_beyond = _check_values(
+                temperature_beyond,
+                "temperature_beyond",
+                (n_samples,),
+                "a number of degrees >= 0 for every row",
+                low=0.0,
+            )
+        return raw, fallback_share, temperature_beyond
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

@@ -167,6 +167,19 @@ def test_a_share_of_text_is_a_type_error(band_inputs):
         _bounds(model, inputs, fallback_share=["a"] * inputs["centre"].shape[0])
 
 
+def test_a_centre_or_fold_predictions_of_text_is_a_type_error_naming_it(band_inputs):
+    """As the docstring promises: a TypeError naming the argument, not numpy's ValueError
+    from the conversion (found by a surviving mutant, issue 42)."""
+    model, inputs, _ = band_inputs
+    n = inputs["centre"].shape[0]
+    with pytest.raises(TypeError, match="centre must be an array of numbers"):
+        _bounds(model, inputs, centre=["a"] * n)
+    folds = np.asarray(inputs["fold_predictions"]).astype(object)
+    folds[0, 0] = "a"
+    with pytest.raises(TypeError, match="fold_predictions must be an array of numbers"):
+        _bounds(model, inputs, fold_predictions=folds)
+
+
 # -- the plain functions of conformal.py ----------------------------------------------------
 
 

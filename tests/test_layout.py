@@ -26,8 +26,9 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "sklearn_ifog"
-MAX_MODULE_LINES = 600
-MAX_FUNCTION_LINES = 120
+# Issue 43, point 8 (600 and 120 before).
+MAX_MODULE_LINES = 500
+MAX_FUNCTION_LINES = 100
 
 # Private attribute names that are another library's public API: a NamedTuple's own methods
 # (underscored so as not to clash with field names), and scikit-learn's parameter validation

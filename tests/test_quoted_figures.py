@@ -315,6 +315,14 @@ def _git(root, *args):
     ).stdout.strip()
 
 
+def test_a_commit_hash_is_not_a_figure():
+    """A short hash of digits around an ``e`` reads like a number in scientific notation:
+    ``4e51234`` overflowed the tolerance (now and then in the test below, whose commit's
+    hash changes with the clock); a hash after "commit" or "at" is a name."""
+    text = "At commit 4e51234 the share was 0.810; at 1234567 it was 0.812."
+    assert [figure for _, _, figure, _ in checker.figures(text)] == ["0.810", "0.812"]
+
+
 def test_a_past_measurement_is_checked_at_its_commit(tree):
     _git(tree, "init", "-q")
     _git(tree, "-c", "user.name=t", "-c", "user.email=t@t", "add", "benchmarks")

@@ -517,6 +517,8 @@ def _prose(text):
     (positions stay)."""
     prose = _blank_literals(text)
     prose = PARAMETER_LINE.sub(lambda m: " " * len(m.group()), prose)
+    # a commit's hash is a name too ("at commit 4e51234" is not 4e51234, nor 4 x 10^51234)
+    prose = COMMIT.sub(lambda m: " " * len(m.group()), prose)
     # a row's label names it ("clamp 1.5"): it is not a figure
     return re.sub(_SELECTOR, lambda m: re.sub(r"[^\n]", " ", m.group()), prose)
 
