@@ -201,12 +201,40 @@ CLIP_ONCE = Template(
 )
 
 
-# With temperature columns, "clip" ends on the box widened by the margin, then moves a row
-# with a temperature beyond its range along the segment to the box's centre (the
-# calibration's mean: inside the box and every range) until every temperature is within
-# it, as ``pull_back_to_ranges`` does; then clamps them (a rounding error's change).
+# With temperature columns, "clip" alternates the projection onto the box widened by the
+# margin and the clamp of every temperature to its range: both sets are convex, so the row
+# converges into their intersection, slowly where they meet at a narrow angle. The rounds
+# end on the box; then a row with a temperature beyond its range moves along the segment to
+# the box's centre (the calibration's mean: inside the box and every range) until every
+# temperature is within it, as ``pull_back_to_ranges`` does, and the temperatures are
+# clamped (a rounding error's change).
 DOMAIN_PULL_BACK = Template(
     """
+/* "clip": the row moved onto the box widened by the margin when it lies beyond it. */
+static void ${prefix}_onto_box(double row[${PREFIX}_N_FEATURES])
+{
+    double coordinates[${PREFIX}_N_FEATURES];
+    double inside[${PREFIX}_N_FEATURES];
+    const double point = ${prefix}_box(row, coordinates, inside);
+    if (point > ${PREFIX}_MARGIN) {
+        ${prefix}_project(coordinates, inside, point, row);
+    }
+}
+
+/* "clip": every temperature of the row clamped to its calibrated range. */
+static void ${prefix}_clamp_temperatures(double row[${PREFIX}_N_FEATURES])
+{
+    int t;
+    for (t = 0; t < ${PREFIX}_N_TEMPERATURES; ++t) {
+        const int column = ${prefix}_temperature_columns[t];
+        if (row[column] < ${prefix}_temperature_low[t]) {
+            row[column] = ${prefix}_temperature_low[t];
+        } else if (row[column] > ${prefix}_temperature_high[t]) {
+            row[column] = ${prefix}_temperature_high[t];
+        }
+    }
+}
+
 /* "clip" with temperature columns: a row with a temperature beyond its calibrated range
  * moves towards the box's centre until every temperature lies within its range. */
 static void ${prefix}_pull_back(double row[${PREFIX}_N_FEATURES])
@@ -237,49 +265,22 @@ static void ${prefix}_pull_back(double row[${PREFIX}_N_FEATURES])
     for (j = 0; j < ${PREFIX}_N_FEATURES; ++j) {
         row[j] = ${prefix}_domain_center[j] + share * (row[j] - ${prefix}_domain_center[j]);
     }
-    for (t = 0; t < ${PREFIX}_N_TEMPERATURES; ++t) {
-        const int column = ${prefix}_temperature_columns[t];
-        if (row[column] < ${prefix}_temperature_low[t]) {
-            row[column] = ${prefix}_temperature_low[t];
-        } else if (row[column] > ${prefix}_temperature_high[t]) {
-            row[column] = ${prefix}_temperature_high[t];
-        }
-    }
+    ${prefix}_clamp_temperatures(row);
 }
 """
 )
 
 
-# With temperature columns, "clip" alternates the projection onto the box widened by the
-# margin and the clamp of every temperature to its range, ending on the clamp: both sets are
-# convex, so the row converges into their intersection, slowly where they meet at a narrow
-# angle: the rounds end on the box, and the pull-back (DOMAIN_PULL_BACK) brings the
-# temperatures into range along the segment to the centre, within the box.
+# With temperature columns: the rounds (box, then the temperatures' clamp), the box once
+# more, the pull-back (DOMAIN_PULL_BACK).
 CLIP_ROUNDS = Template(
-    """\
-    {
+    """    {
         int round;
-        int t;
         for (round = 0; round < ${PREFIX}_PROJECTION_ROUNDS; ++round) {
-            const double point = ${prefix}_box(evaluated, coordinates, inside);
-            if (point > ${PREFIX}_MARGIN) {
-                ${prefix}_project(coordinates, inside, point, evaluated);
-            }
-            for (t = 0; t < ${PREFIX}_N_TEMPERATURES; ++t) {
-                const int column = ${prefix}_temperature_columns[t];
-                if (evaluated[column] < ${prefix}_temperature_low[t]) {
-                    evaluated[column] = ${prefix}_temperature_low[t];
-                } else if (evaluated[column] > ${prefix}_temperature_high[t]) {
-                    evaluated[column] = ${prefix}_temperature_high[t];
-                }
-            }
+            ${prefix}_onto_box(evaluated);
+            ${prefix}_clamp_temperatures(evaluated);
         }
-        {
-            const double point = ${prefix}_box(evaluated, coordinates, inside);
-            if (point > ${PREFIX}_MARGIN) {
-                ${prefix}_project(coordinates, inside, point, evaluated);
-            }
-        }
+        ${prefix}_onto_box(evaluated);
         ${prefix}_pull_back(evaluated);
     }
 """
