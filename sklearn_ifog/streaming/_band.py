@@ -3,7 +3,7 @@
 import numpy as np
 
 from sklearn_ifog._compiled import compile_domain, compile_steps
-from sklearn_ifog.domain import locate
+from sklearn_ifog.domain import temperature_excess
 from sklearn_ifog.policy import fallback_weight
 
 
@@ -98,7 +98,10 @@ class ConformalBand:
             # As ConformalRegressor._outside_terms: the full model's fallback weight.
             share = fallback_weight(distance, margin)
             domain = conformal.estimator_.domain_
-            beyond = locate(domain, features).beyond
+            # The distance is at hand: only the degrees beyond the calibrated temperatures.
+            beyond = temperature_excess(
+                features, domain.temperature_columns_, domain.data_min_, domain.data_max_
+            )
             return conformal.bounds_from_predictions(
                 centre, predictions, raw, fallback_share=share, temperature_beyond=beyond
             )
