@@ -25,7 +25,7 @@ import numpy as np
 
 from sklearn_ifog._description import describe_pipeline
 from sklearn_ifog._output_layer import layer_kind, read_layer
-from sklearn_ifog.domain import NOVELTY_RAMP, RATE_WEIGHT, locate
+from sklearn_ifog.domain import NOVELTY_RAMP, RATE_WEIGHT, locate, require_box
 from sklearn_ifog.policy import apply_policy
 from sklearn_ifog.rbf._basis import predict_network, tail_features
 
@@ -581,4 +581,5 @@ def compile_domain(pipeline):
     if not isinstance(pipeline, CompensationPipeline):
         return None
     domain = pipeline.domain_
+    require_box(domain, "Streaming compensation and the C and JSON exports")
     return CompiledDomain(domain, pipeline.outside, pipeline.fallback_)

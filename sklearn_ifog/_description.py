@@ -485,6 +485,7 @@ def describe_domain(pipeline, n_features, n_outputs):
     if not isinstance(pipeline, CompensationPipeline):
         return None
     check_is_fitted(pipeline, "domain_")
+    _domain.require_box(pipeline.domain_, "Streaming compensation and the C and JSON exports")
     outside, margin = pipeline.outside, pipeline.domain_.threshold_
     if outside not in OUTSIDE_POLICIES:
         raise ValueError(

@@ -48,13 +48,16 @@ __all__ = [
     "calibrated_threshold",
     "check_varies",
     "fit_box",
+    "has_box",
     "held_out_distances",
     "held_out_folds",
     "locate",
     "outside_domain",
     "project_to_box",
     "pull_back_to_ranges",
+    "require_box",
     "temperature_excess",
+    "threshold_of",
 ]
 
 # Axes whose spread is below this fraction of the widest axis's are numerically degenerate
@@ -548,6 +551,94 @@ class Where(NamedTuple):
     outside: np.ndarray
 
 
+def has_box(domain):
+    """Whether ``domain`` is a fitted CalibrationDomain-like box (not another detector).
+
+    Streaming, the exports and the ``"clip"`` policy need the box
+    (:func:`require_box`); the rest of the package asks any novelty detector through
+    :func:`locate`.
+
+    Parameters
+    ----------
+    domain : estimator
+        A fitted CalibrationDomain or another novelty detector.
+
+    Returns
+    -------
+    has_box : bool
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.covariance import EllipticEnvelope
+    >>> rows = np.random.default_rng(0).normal(size=(50, 2))
+    >>> has_box(CalibrationDomain().fit(rows)), has_box(EllipticEnvelope().fit(rows))
+    (True, False)
+    """
+    return hasattr(domain, "box_")
+
+
+def require_box(domain, what):
+    """Raise a ValueError naming ``what`` unless ``domain`` is a fitted box (:func:`has_box`).
+
+    Parameters
+    ----------
+    domain : estimator
+        A fitted CalibrationDomain or another novelty detector.
+    what : str
+        What needs the box, as the message's subject (e.g. ``'outside="clip"'``).
+
+    Raises
+    ------
+    ValueError
+        If ``domain`` is another detector.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.covariance import EllipticEnvelope
+    >>> detector = EllipticEnvelope().fit(np.random.default_rng(0).normal(size=(50, 2)))
+    >>> require_box(detector, "the C export")
+    Traceback (most recent call last):
+    ...
+    ValueError: the C export needs the pipeline's domain to be a CalibrationDomain ...
+    """
+    if not has_box(domain):
+        raise ValueError(
+            f"{what} needs the pipeline's domain to be a CalibrationDomain (its box, "
+            f"threshold and calibrated temperatures); got {type(domain).__name__}. Fit the "
+            "pipeline with domain=CalibrationDomain() (the default)."
+        )
+
+
+def threshold_of(domain):
+    """The distance of :func:`locate` at which ``domain`` starts to flag a row.
+
+    A CalibrationDomain's ``threshold_``; 0 for another novelty detector (its
+    ``decision_function`` changes sign there).
+
+    Parameters
+    ----------
+    domain : estimator
+        A fitted CalibrationDomain or another novelty detector.
+
+    Returns
+    -------
+    threshold : float
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.covariance import EllipticEnvelope
+    >>> rows = np.random.default_rng(0).normal(size=(50, 2))
+    >>> threshold_of(CalibrationDomain(alpha=0.5).fit(rows)) >= 1.5
+    True
+    >>> threshold_of(EllipticEnvelope().fit(rows))
+    0.0
+    """
+    return float(domain.threshold_) if has_box(domain) else 0.0
+
+
 def locate(domain, rows):
     """Distance, temperature excess and outside flag of feature rows for a fitted domain.
 
@@ -555,9 +646,16 @@ def locate(domain, rows):
     :class:`~sklearn_ifog.pipeline.CompensationPipeline`, the conformal band and the
     streaming compensator all ask it (the per-row fast path of streaming is tested equal).
 
+    Another fitted novelty detector (scikit-learn's shape: ``predict`` gives -1 for an
+    outlier, ``decision_function`` is negative there, e.g.
+    :class:`~sklearn.covariance.EllipticEnvelope`) is asked the same: its outliers are
+    outside, the distance is how far its ``decision_function`` lies below 0 (its
+    threshold is 0, see :func:`threshold_of`) and no temperature is beyond (a calibrated
+    temperature range is the CalibrationDomain's).
+
     Parameters
     ----------
-    domain : CalibrationDomain
+    domain : CalibrationDomain or novelty detector
         A fitted domain.
     rows : array-like of shape (n_samples, n_features)
         Rows of the features it was fitted on (not validated: the callers have).
@@ -577,6 +675,10 @@ def locate(domain, rows):
     ([0.0, 0.112], [0.0, 1.0], [False, True])
     """
     rows = np.asarray(rows, dtype=np.float64)
+    if not has_box(domain):
+        distance = np.maximum(-np.asarray(domain.decision_function(rows), dtype=np.float64), 0.0)
+        outside = np.asarray(domain.predict(rows)) == -1
+        return Where(distance, np.zeros(rows.shape[0]), outside)
     distance = box_distance(domain.box_, rows)
     beyond = temperature_excess(
         rows, domain.temperature_columns_, domain.data_min_, domain.data_max_

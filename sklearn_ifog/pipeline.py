@@ -8,7 +8,6 @@ scikit-learn Pipeline that also learns its calibration domain and stays safe out
 """
 
 import warnings
-from numbers import Real
 from typing import ClassVar
 
 import numpy as np
@@ -16,11 +15,11 @@ from sklearn.base import clone, is_regressor
 from sklearn.metrics import r2_score
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
-from sklearn.utils.validation import check_is_fitted
+from sklearn.utils.validation import check_is_fitted, has_fit_parameter
 
 from sklearn_ifog import _handover
 from sklearn_ifog._compat import (
-    Interval,
+    HasMethods,
     StrOptions,
     _fit_context,
     _routing_enabled,
@@ -107,7 +106,10 @@ def make_compensation_pipeline(
         ``"none"`` leaves the regressor's extrapolation alone.
     margin : float, default=1.5
         Smallest distance outside the calibrated box, in decorrelated standard deviations,
-        that still counts as inside (:class:`~sklearn_ifog.domain.CalibrationDomain`).
+        that still counts as inside: the pipeline's ``domain`` is
+        ``CalibrationDomain(margin=margin, alpha=alpha)``, so ``domain__margin`` and
+        ``domain__alpha`` are its parameters in a grid search (another detector:
+        ``set_params(domain=...)``, see :class:`CompensationPipeline`).
     alpha : float, default=0.02
         Share of the rows of a new run of a calibrated profile that the domain flags: its
         threshold is calibrated at fit on runs of the calibration held out in turn
@@ -150,6 +152,8 @@ def make_compensation_pipeline(
     ['features', 'scale', 'regressor']
     >>> model.named_steps["features"].terms
     'auto'
+    >>> model.get_params()["domain__margin"], model.get_params()["domain__alpha"]
+    (1.5, 0.02)
     >>> drift = model.fit(X, y).predict(X)
     >>> model.named_steps["features"].terms_  # doctest: +NORMALIZE_WHITESPACE
     ('T', 'dT', 'TdT', 'T2', 'T_lag900s', 'TT_lag900s', 'T_lag3600s', 'TT_lag3600s')
@@ -178,9 +182,8 @@ def make_compensation_pipeline(
         scale.set_fit_request(sample_weight=False)
     return CompensationPipeline(
         [("features", features), ("scale", scale), ("regressor", regressor)],
+        domain=CalibrationDomain(margin=margin, alpha=alpha),
         outside=outside,
-        margin=margin,
-        alpha=alpha,
         handover=handover,
     )
 
@@ -238,6 +241,28 @@ def _params_of_rows(params, rows, n_samples):
     }
 
 
+def _is_domain_default_or_box(domain):
+    """Whether ``domain`` (the parameter) is None or a CalibrationDomain-like box."""
+    return domain is None or hasattr(domain, "extend")
+
+
+def _fit_detector(domain, raw, temperature, rate, runs):
+    """The fitted clone of the ``domain`` parameter (None: a CalibrationDomain).
+
+    A detector with ``temperature`` / ``rate`` parameters left at None is given the feature
+    step's T and dT columns; one whose ``fit`` takes ``groups`` is given the runs.
+    """
+    detector = CalibrationDomain() if domain is None else clone(domain)
+    given = detector.get_params(deep=False)
+    columns = {"temperature": temperature, "rate": rate}
+    detector.set_params(
+        **{key: value for key, value in columns.items() if key in given and given[key] is None}
+    )
+    if has_fit_parameter(detector, "groups"):
+        return detector.fit(raw, groups=runs)
+    return detector.fit(raw)
+
+
 def _like(template, values):
     """``values`` in the container of ``template`` (a pandas DataFrame keeps its columns)."""
     if type(template).__module__.startswith("pandas"):
@@ -262,11 +287,27 @@ class CompensationPipeline(Pipeline):
     :class:`~sklearn_ifog.domain.OutsideCalibrationWarning` says how many there were and how
     far out. :func:`make_compensation_pipeline` builds one.
 
+    The detector is a parameter, ``domain``, cloned at :meth:`fit` (as
+    :class:`~sklearn.compose.TransformedTargetRegressor` clones its ``transformer``): its
+    parameters are ``domain__margin``, ``domain__alpha``, ... for a grid search, and any
+    novelty detector in scikit-learn's shape (``fit``, ``predict`` giving -1 for an
+    outlier, ``decision_function``; e.g. :class:`~sklearn.covariance.EllipticEnvelope` or
+    ``LocalOutlierFactor(novelty=True)``) may take its place, fitted on the thermal
+    features. Only a CalibrationDomain knows the calibrated temperatures, can project a
+    row (``outside="clip"``), widen with ``handover`` and be streamed or exported.
+
     Parameters
     ----------
     steps : list of (str, estimator)
         As for :class:`~sklearn.pipeline.Pipeline`; the first step is the feature step
         (usually :class:`~sklearn_ifog.ThermalFeatures`), the last a regressor.
+    domain : estimator, default=None
+        The calibration domain's detector, cloned and fitted on the first step's output at
+        :meth:`fit` (``domain_``). None: ``CalibrationDomain()`` with its defaults.
+        A CalibrationDomain whose ``temperature`` or ``rate`` is None is given the feature
+        step's T and dT columns. Another novelty detector: its outliers are outside, and
+        the blend's distance is how far its ``decision_function`` lies below 0
+        (:func:`~sklearn_ifog.domain.locate`).
     outside : {"blend", "clip", "none"}, default="blend"
         Prediction outside the domain. ``"blend"``: ``(1 - w) * model + w * fallback`` with
         ``w`` rising smoothly from 0 at the threshold to 1 at the threshold plus ``BLEND_WIDTH``
@@ -277,15 +318,6 @@ class CompensationPipeline(Pipeline):
         regressor's own extrapolation (the behaviour before the domain existed). The
         default is the policy that ``benchmarks/bench_extrapolation.py`` measures as never
         worse than uncompensated.
-    margin : float, default=1.5
-        Smallest distance outside the calibrated box, in decorrelated standard deviations,
-        that still counts as inside (the domain's ``margin``).
-    alpha : float, default=0.02
-        The domain's false-alarm rate: its threshold (``domain_.threshold_``, at least
-        ``margin``) flags this share of the rows of calibration runs held out in turn, so a
-        new run of a calibrated profile has about ``alpha`` of its rows flagged. ``margin``
-        and ``alpha`` are learnt into ``domain_`` at :meth:`fit`: changing them takes a
-        refit (``outside`` takes effect at once).
     handover : bool, default=False
         Whether the model keeps the kinds of novel rows on which held-out runs show it
         beating its fallback. With at least 3 runs, :meth:`fit` refits the steps on two
@@ -299,14 +331,17 @@ class CompensationPipeline(Pipeline):
         error, ``domain_`` widens as far as the evidence reached
         (:meth:`~sklearn_ifog.domain.CalibrationDomain.extend`). Where the held-out runs show
         no such rows, nothing changes. Off by default: its fit cost is not yet paid back on
-        the benchmark's tuning campaigns.
+        the benchmark's tuning campaigns. Needs a CalibrationDomain as ``domain``.
     transform_input, memory, verbose
         As for :class:`~sklearn.pipeline.Pipeline`.
 
     Attributes
     ----------
-    domain_ : CalibrationDomain
-        The calibration domain, fitted on the first step's output (the thermal features).
+    domain_ : CalibrationDomain or novelty detector
+        The fitted clone of ``domain``, fitted on the first step's output (the thermal
+        features). Its threshold and false-alarm rate are learnt at :meth:`fit`: changing
+        ``domain__margin`` or ``domain__alpha`` takes a refit (``outside`` takes effect at
+        once).
     fallback_ : Fallback
         The conservative model outside the domain: ``intercept``, ``slope`` (0 where the
         slope did not extrapolate better than a constant) and ``column`` (of T).
@@ -353,9 +388,8 @@ class CompensationPipeline(Pipeline):
 
     _parameter_constraints: ClassVar[dict] = {
         **Pipeline._parameter_constraints,
+        "domain": [HasMethods(["fit", "predict", "decision_function"]), None],
         "outside": [StrOptions(set(OUTSIDE_POLICIES))],
-        "margin": [Interval(Real, 0, None, closed="left")],
-        "alpha": [Interval(Real, 0, 0.5, closed="right")],
         "handover": ["boolean"],
     }
 
@@ -363,18 +397,16 @@ class CompensationPipeline(Pipeline):
         self,
         steps,
         *,
+        domain=None,
         outside="blend",
-        margin=1.5,
-        alpha=0.02,
         handover=False,
         transform_input=None,
         memory=None,
         verbose=False,
     ):
         super().__init__(steps, transform_input=transform_input, memory=memory, verbose=verbose)
+        self.domain = domain
         self.outside = outside
-        self.margin = margin
-        self.alpha = alpha
         self.handover = handover
 
     @_fit_context(
@@ -413,6 +445,14 @@ class CompensationPipeline(Pipeline):
                 "CompensationPipeline.fit needs the drift target y (rate - reference); got None."
             )
         X, y, params = _in_run_order(self.steps[0][1], X, y, params)
+        if hasattr(self.domain, "_validate_params"):
+            # A bad domain__alpha fails here, not after the steps' (long) fit.
+            clone(self.domain)._validate_params()
+        if self.handover and not _is_domain_default_or_box(self.domain):
+            raise ValueError(
+                "handover=True widens a CalibrationDomain; the pipeline's domain is "
+                f"{type(self.domain).__name__}. Use handover=False with another detector."
+            )
         super().fit(X, y, **params)
         self.fit_domain(X, y)
         self.handover_ = self._weigh_handover(X, y, params) if self.handover else None
@@ -507,9 +547,7 @@ class CompensationPipeline(Pipeline):
         rates = _sensor_columns(features, "dT")
         self.feature_names_out_ = names
         runs = _run_labels(features, X)
-        self.domain_ = CalibrationDomain(
-            margin=self.margin, alpha=self.alpha, temperature=columns, rate=rates
-        ).fit(raw, groups=runs)
+        self.domain_ = _fit_detector(self.domain, raw, columns, rates, runs)
         column = columns[0] if columns else None
         rate_column = rates[0] if rates else None
         Y = np.asarray(y, dtype=np.float64).reshape(raw.shape[0], -1)
@@ -624,7 +662,7 @@ class CompensationPipeline(Pipeline):
             f"calibration domain (largest distance {distance.max():.3g} decorrelated "
             "standard deviations"
         )
-        if beyond.max() > 0:
+        if beyond.max() > 0:  # only a CalibrationDomain measures it
             column = self.domain_.temperature_columns_[0]
             low, high = self.domain_.data_min_[column], self.domain_.data_max_[column]
             message += (

@@ -11,6 +11,8 @@ export writes the same arithmetic.
 
 import numpy as np
 
+from sklearn_ifog.domain import require_box, threshold_of
+
 __all__ = [
     "BLEND_WIDTH",
     "apply_policy",
@@ -112,9 +114,10 @@ def apply_policy(policy, prediction, features, distance, outside, *, domain, fal
         return prediction
     prediction = prediction.copy()
     if policy == "clip":
+        require_box(domain, 'outside="clip"')
         prediction[outside] = evaluate(domain.project(features[outside]))
     else:
-        weight = fallback_weight(distance[outside], domain.threshold_)[:, None]
+        weight = fallback_weight(distance[outside], threshold_of(domain))[:, None]
         blended = fallback.predict(features[outside])
         prediction[outside] = (1.0 - weight) * prediction[outside] + weight * blended
     return prediction

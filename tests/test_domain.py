@@ -512,7 +512,7 @@ def test_fallback_rate_term_is_bounded_to_the_calibrated_rates():
 def test_default_pipeline_is_a_compensation_pipeline():
     model = make_compensation_pipeline()
     assert isinstance(model, CompensationPipeline)
-    assert (model.outside, model.margin) == ("blend", 1.5)
+    assert (model.outside, model.domain.margin, model.domain.alpha) == ("blend", 1.5, 0.02)
     assert [name for name, _ in model.steps] == ["features", "scale", "regressor"]
     assert clone(model).get_params()["outside"] == "blend"
     assert type(model[:-1]).__name__ == "Pipeline"
@@ -638,7 +638,7 @@ def test_pipeline_flags_new_rates_inside_the_calibrated_temperatures():
     inside_t = (features[:, t] >= low[t]) & (features[:, t] <= high[t])
     new_rates = inside_t & (features[:, r] < low[r])
     box = model.domain_.box_._replace(rate_columns=())
-    within_box = box_distance(box, features) <= model.margin
+    within_box = box_distance(box, features) <= model.domain.margin
     # Rows the box alone would leave inside are outside by their rate, and blended.
     rate_only = new_rates & within_box & model.outside_calibration(X)
     assert rate_only.sum() >= 10
@@ -674,7 +674,7 @@ def test_fits_in_grid_search_and_pickles(heating_and_cycling):
         search.fit(X, y, groups=X["run"])
         again = pickle.loads(pickle.dumps(search.best_estimator_))
         np.testing.assert_array_equal(again.predict(X_op), search.best_estimator_.predict(X_op))
-    assert again.domain_.margin == again.margin == 1.5
+    assert again.domain_.margin == again.domain.margin == 1.5
 
 
 def _real_table():

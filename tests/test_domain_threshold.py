@@ -200,18 +200,19 @@ def test_the_pipeline_calibrates_on_its_runs_and_searches_alpha():
         n_units=1, n_runs=2, sampling_period=120.0, random_state=0, return_X_y=True
     )
     model = make_compensation_pipeline(LinearRegression(), alpha=0.1)
-    assert model.get_params()["alpha"] == 0.1
+    assert model.get_params()["domain__alpha"] == 0.1
     model.fit(X, y)
     domain = model.domain_
     assert domain.alpha == 0.1
     assert domain.n_held_out_ > 0
-    assert domain.threshold_ >= model.margin
+    assert domain.threshold_ >= model.domain.margin
     # Its calibration is inside its own domain, and its runs held out set the threshold.
     assert not model.outside_calibration(X).any()
     folds = held_out_folds(len(X), X["run"].to_numpy())
     raw = np.asarray(model[0].transform(X), dtype=np.float64)
     distances = held_out_distances(raw, folds, domain.rate_columns_, domain.temperature_columns_)
-    assert domain.threshold_ == pytest.approx(max(model.margin, np.quantile(distances, 0.9)))
+    expected = max(model.domain.margin, np.quantile(distances, 0.9))
+    assert domain.threshold_ == pytest.approx(expected)
 
 
 @pytest.fixture(scope="module")

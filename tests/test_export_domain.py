@@ -375,7 +375,8 @@ def test_export_reads_the_settings_at_export_time(calibration, tmp_path, monkeyp
     monkeypatch.setattr(policy_module, "BLEND_WIDTH", 2.5)
     _, target = MODELS["ridge"]
     y = calibration[target].to_numpy() if len(target) > 1 else calibration[target[0]]
-    model.set_params(margin=0.25, alpha=0.5, outside="none").fit(calibration, y)  # at fit
+    # read at fit
+    model.set_params(domain__margin=0.25, domain__alpha=0.5, outside="none").fit(calibration, y)
     threshold = model.domain_.threshold_
     assert threshold >= 0.25
     domain = describe_pipeline(model)["domain"]

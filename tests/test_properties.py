@@ -520,8 +520,8 @@ ESTIMATORS = {
         lambda: make_compensation_pipeline(Ridge()),
         {
             "outside": st.sampled_from(POLICIES),
-            "margin": st.floats(0.0, 10.0),
-            "alpha": st.floats(0.001, 0.5),
+            "domain__margin": st.floats(0.0, 10.0),
+            "domain__alpha": st.floats(0.001, 0.5),
             "regressor__alpha": st.floats(1e-6, 1e3),
         },
     ),

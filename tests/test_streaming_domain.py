@@ -166,7 +166,7 @@ def test_a_temperature_beyond_its_range_is_outside_at_any_distance(fitted, calib
     coldest = calibration["temperature"].min()
     run = run.assign(temperature=run["temperature"] - (run["temperature"].min() - coldest) - 0.3)
     outside = model.outside_calibration(run)
-    near = model.calibration_distance(run) <= model.margin
+    near = model.calibration_distance(run) <= model.domain.margin
     assert np.any(outside & near)
     compensator = StreamingCompensator(model)
     drift, _, flags, _ = _stream(compensator, run, chunk)
