@@ -453,7 +453,7 @@ def extrapolation_mixed_profiles(physics, seed, sampling_period, n_runs):
 
     :func:`thermal_state_campaign` (one gyro, four azimuths, ``profile="mix"`` with drawn
     ramp rates) with ``n_runs`` runs per azimuth; ``bench_extrapolation.py`` compares,
-    leave one azimuth out, the default network's MSD with and without its outside policy.
+    leave one azimuth out, the default network's MSD with and without its uncalibrated policy.
     """
     return thermal_state_campaign(
         seed, physics, sampling_period, {**THERMAL_STATE_FULL, "n_runs": n_runs}

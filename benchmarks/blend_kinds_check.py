@@ -9,7 +9,7 @@ Run (about 1 min on two cores)::
 
 Issue 41 asks the default to cost nothing where calibration and use share profiles
 (``bench_extrapolation.py``'s 'mix' campaigns, leave one azimuth out: the default's MSD
-<= 1.02 x ``outside="none"``'s on every campaign) and to stay safe where they do not (its
+<= 1.02 x ``uncalibrated="none"``'s on every campaign) and to stay safe where they do not (its
 case 1: a heating-only calibration used on cycling and cooling runs). In the 'mix' campaigns
 the cost arises on flagged rows inside the calibrated temperatures (thermal states and rates
 beyond the calibrated ones), where the network alone beats its fallback; in case 1 the
@@ -46,7 +46,7 @@ from joblib import Parallel, delayed
 from sklearn.linear_model import LinearRegression
 
 from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
-from sklearn_ifog.policy import BLEND_WIDTH, fallback_weight
+from sklearn_ifog.policy import BlendWithFallback, fallback_weight
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _cases import (
@@ -66,7 +66,7 @@ NEVER_WORSE = 1.05
 RATE_RATIO = 1.2
 # (rule name, kind of the rule, widths beyond T / beyond the rates / thermal states).
 RULES = [
-    ("blend 1 (default)", "blend", (BLEND_WIDTH,) * 3),
+    ("blend 1 (default)", "blend", (BlendWithFallback().width,) * 3),
     ("blend 3", "blend", (3.0, 3.0, 3.0)),
     ("blend 10", "blend", (10.0, 10.0, 10.0)),
     ("per kind 1/1/10", "blend", (1.0, 1.0, 10.0)),
@@ -90,9 +90,9 @@ def _predictions(model, X):
         warnings.simplefilter("ignore")
         outputs = {}
         for policy in ("none", "clip"):
-            model.set_params(outside=policy)
+            model.set_params(uncalibrated=policy)
             outputs[policy] = np.ravel(model.predict(X))
-        model.set_params(outside="blend")
+        model.set_params(uncalibrated="blend")
     rates = features[:, domain.rate_columns_]
     low, high = domain.data_min_[domain.rate_columns_], domain.data_max_[domain.rate_columns_]
     beyond_t = domain.temperature_excess(features) > 0

@@ -10,7 +10,7 @@ Run (about 10 s)::
 Issue 41 asks for a network that needs no rescue by the calibration domain: on the shipped
 recording (``real_per_second``: one row per second, one run, a time column, so the default
 features with their lags), calibrated on the even bursts and used on the odd ones (and the
-reverse), the default network alone (``outside="none"``) should leave at most 2 x the MSD of
+reverse), the default network alone (``uncalibrated="none"``) should leave at most 2 x the MSD of
 a line in T. Its linear tail sits on eight nearly collinear features. This table gives the
 network alone for both shapes of the tail penalty (``tail_penalty="ridge"``, the plain
 ridge, and ``"spread"``, the default: each principal direction of the tail features charged
@@ -46,10 +46,10 @@ DEFAULT = f"{_DEFAULTS['tail_penalty']} {_DEFAULTS['tail_alpha']}"
 
 def network_alone(X_cal, y_cal, X_op, tail_alpha, tail_penalty):
     """The default pipeline's network with ``tail_alpha`` and ``tail_penalty``, without its
-    outside policy: its predictions of ``X_op``, the strength it used and its centres."""
+    uncalibrated policy: its predictions of ``X_op``, the strength it used and its centres."""
     model = make_compensation_pipeline(
         RBFNetRegressor(random_state=0, tail_alpha=tail_alpha, tail_penalty=tail_penalty),
-        outside="none",
+        uncalibrated="none",
     ).fit(X_cal, y_cal)
     network = model.named_steps["regressor"]
     used = network.selection_path_.get("tail_alpha", tail_alpha)
@@ -88,7 +88,7 @@ def markdown(records, command, seconds):
     out = [
         "# The network alone on the recording's interleaved bursts, by tail penalty",
         "",
-        f"Command: `{command}` ({seconds:.0f} s). The network alone's MSD (outside='none') "
+        f"Command: `{command}` ({seconds:.0f} s). The network alone's MSD (uncalibrated='none') "
         "over the line in T's, on the compensated bursts; in brackets the relative tail "
         "penalty used and the Gaussian units kept. One row per shape and strength "
         f"(the default: {DEFAULT}); a free tail (0) has no shape.",

@@ -8,7 +8,7 @@ cold, goes colder than anything calibrated, and cools. Every row of that run lie
 what the model was calibrated on, and a flexible model fitted on strongly correlated thermal
 features can return anything there: sometimes a fair extrapolation, sometimes worse than no
 compensation at all. This example shows how :class:`~sklearn_ifog.CompensationPipeline`
-finds those rows (its calibration domain), what its three ``outside`` policies predict
+finds those rows (its calibration domain), what its three ``uncalibrated`` policies predict
 there, and how the user is told. The user guide explains the why:
 :ref:`outside_calibration`.
 """
@@ -86,7 +86,7 @@ warnings.simplefilter("ignore", OutsideCalibrationWarning)
 # %%
 # The three policies
 # ------------------
-# ``outside`` is an ordinary parameter read at ``predict``: ``set_params`` switches it
+# ``uncalibrated`` is an ordinary parameter read at ``predict``: ``set_params`` switches it
 # without refitting. ``"none"`` is the network's own extrapolation, ``"clip"`` the network at
 # the nearest point of the domain, ``"blend"`` (the default) moves smoothly from the network
 # to the fallback as a row lies farther out. Their MSD on the new run, (deg/h)², next to no
@@ -107,11 +107,11 @@ def held_line(X_calibration, y_calibration, X_new):
 def compensate(model, X_new, y_new, X_calibration, y_calibration, scored=None):
     """Every policy's prediction, and the MSD of each, of uncompensated and of the held line
     in T on ``scored``."""
-    default = model.outside
+    default = model.uncalibrated
     predictions = {}
     for policy in POLICIES:
-        predictions[policy] = model.set_params(outside=policy).predict(X_new)
-    model.set_params(outside=default)
+        predictions[policy] = model.set_params(uncalibrated=policy).predict(X_new)
+    model.set_params(uncalibrated=default)
     scored = np.ones(len(y_new), dtype=bool) if scored is None else scored
     y_scored = np.asarray(y_new)[scored]
     msd = {"uncompensated": mean_squared_deviation(y_scored, 0 * y_scored + y_calibration.mean())}
@@ -151,7 +151,7 @@ ax_t.set_ylabel("temperature (°C)")
 ax_t.legend(loc="lower right", fontsize="small")
 ax_drift.plot(hours, y_new, color="0.6", lw=0.8, label="measured drift")
 for policy, prediction in predictions.items():
-    ax_drift.plot(hours, prediction, lw=1.5, label=f'outside="{policy}"')
+    ax_drift.plot(hours, prediction, lw=1.5, label=f'uncalibrated="{policy}"')
 ax_drift.set_ylabel("drift (deg/h)")
 ax_drift.legend(fontsize="small", ncol=4, loc="upper left")
 ax_d.semilogy(hours, np.maximum(distance, 1e-3), color="k")
@@ -267,7 +267,9 @@ offset = y_real[train].mean()
 fig, ax = plt.subplots(figsize=(8, 3.5))
 ax.plot(real_hours, y_real - offset, "o", color="0.6", ms=6, mfc="none", label="measured")
 for policy in ("none", "blend"):
-    ax.plot(real_hours, real_predictions[policy] - offset, ".", ms=3, label=f'outside="{policy}"')
+    ax.plot(
+        real_hours, real_predictions[policy] - offset, ".", ms=3, label=f'uncalibrated="{policy}"'
+    )
 shade(ax, real_hours, real_outside)
 ax.set_xlabel("time (h)")
 ax.set_ylabel("gyro x − calibration mean (deg/h)")
@@ -279,7 +281,7 @@ fig.tight_layout()
 # ---------------------
 # The tables are computed when this page is built. Reading them:
 #
-# * outside its calibration the network's own extrapolation (``outside="none"``) is a
+# * outside its calibration the network's own extrapolation (``uncalibrated="none"``) is a
 #   gamble: on some simulated units it still helps (the first one, above, is such a unit),
 #   on others it is worse than no thermal compensation at all, and on the real recording,
 #   whose later bursts are colder than anything calibrated, it is far worse;

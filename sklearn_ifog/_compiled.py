@@ -14,8 +14,9 @@ recalibration. A Pipeline with a step this module does not know is not compiled
 
 :func:`compile_domain` does the same for the calibration domain of a
 :class:`~sklearn_ifog.pipeline.CompensationPipeline`: a :class:`CompiledDomain` holds its
-box, margin, ``outside`` policy and fallback, and applies the policy with the plain
-functions of :mod:`sklearn_ifog.domain` (a block of rows exactly as ``predict`` does), and
+box, margin, policy (an :class:`~sklearn_ifog.policy.UncalibratedPolicy`) and fallback, and
+applies the policy as ``predict`` does (a block of rows, with the plain functions of
+:mod:`sklearn_ifog.domain`), and
 tests one row with a single small matrix-vector product.
 """
 
@@ -26,7 +27,7 @@ import numpy as np
 from sklearn_ifog._description import describe_pipeline
 from sklearn_ifog._output_layer import layer_kind, read_layer
 from sklearn_ifog.domain import NOVELTY_RAMP, RATE_WEIGHT, locate, require_box
-from sklearn_ifog.policy import apply_policy
+from sklearn_ifog.policy import policy_for
 from sklearn_ifog.rbf._basis import predict_network, tail_features
 
 __all__ = ["CompiledDomain", "CompiledSteps", "FastRow", "compile_domain", "compile_steps"]
@@ -365,29 +366,28 @@ class FastRow:
 
 
 class CompiledDomain:
-    """A CompensationPipeline's calibration domain and ``outside`` policy, for streaming.
+    """A CompensationPipeline's calibration domain and policy, for streaming.
 
     Built by :func:`compile_domain` from the fitted pipeline's ``domain_`` (a
-    :class:`~sklearn_ifog.domain.CalibrationDomain`), ``outside`` and ``fallback_``, read
+    :class:`~sklearn_ifog.domain.CalibrationDomain`), ``uncalibrated`` and ``fallback_``, read
     once (a later ``set_params`` of the pipeline does not reach it). A block of feature rows
     goes through the operations of
     :meth:`~sklearn_ifog.pipeline.CompensationPipeline.predict`:
-    :func:`~sklearn_ifog.domain.locate` says which rows are outside; ``"blend"``
-    weighs the fallback by :func:`~sklearn_ifog.policy.fallback_weight`, ``"clip"``
-    evaluates the model at :meth:`CalibrationDomain.project
-    <sklearn_ifog.domain.CalibrationDomain.project>`. :meth:`row_where` is the same test
-    for one row without any validation: one small matrix-vector product and a comparison
-    per temperature (the online step's hot path).
+    :func:`~sklearn_ifog.domain.locate` says which rows are outside, and the policy
+    object applies itself (:meth:`~sklearn_ifog.policy.UncalibratedPolicy.apply`).
+    :meth:`row_where` is the same test for one row without any validation: one small
+    matrix-vector product and a comparison per temperature (the online step's hot path).
 
     Parameters
     ----------
     domain : CalibrationDomain
         Fitted; its calibrated ``threshold_`` is the distance that still counts as inside
         (``margin``).
-    outside : {"blend", "clip", "none"}
-        The policy for the rows outside.
+    policy : UncalibratedPolicy
+        The policy for the rows outside (:func:`~sklearn_ifog.policy.policy_for` of the
+        pipeline's ``uncalibrated``).
     fallback : Fallback
-        The conservative model of the ``"blend"`` policy.
+        The conservative model (of a policy that uses one, ``"blend"``).
 
     Examples
     --------
@@ -395,10 +395,11 @@ class CompiledDomain:
     >>> from sklearn_ifog.domain import CalibrationDomain
     >>> from sklearn_ifog.fallback import Fallback
     >>> from sklearn_ifog._compiled import CompiledDomain
+    >>> from sklearn_ifog.policy import BlendWithFallback
     >>> t = np.linspace(10.0, 40.0, 31)
     >>> fitted = CalibrationDomain(margin=1.0, temperature=0).fit(np.column_stack([t, t**2]))
     >>> fallback = Fallback(np.array([1.0]), np.array([0.0]), 0)
-    >>> domain = CompiledDomain(fitted, "blend", fallback)
+    >>> domain = CompiledDomain(fitted, BlendWithFallback(), fallback)
     >>> features = np.array([[25.0, 625.0], [9.0, 81.0], [-60.0, 3600.0]])
     >>> distance, outside = domain.where(features)
     >>> outside.tolist()  # 9 degC is below the calibrated 10 degC: outside at any distance
@@ -411,11 +412,11 @@ class CompiledDomain:
     [[7.0], [7.0], [1.0]]
     """
 
-    def __init__(self, domain, outside, fallback):
+    def __init__(self, domain, policy, fallback):
         self.domain = domain
         self.box = domain.box_
         self.margin = float(domain.threshold_)
-        self.policy = outside
+        self.policy = policy
         self.fallback = fallback
         self.temperature_columns = list(domain.temperature_columns_)
         self.data_min, self.data_max = domain.data_min_, domain.data_max_
@@ -519,7 +520,7 @@ class CompiledDomain:
             Their :meth:`where`.
         evaluate : callable, default=None
             ``evaluate(rows) -> (n_rows, n_outputs)``: the model's prediction of feature
-            rows, for ``"clip"`` (unused by the other policies).
+            rows, for a policy that moves rows (``"clip"``; unused by the others).
 
         Returns
         -------
@@ -527,8 +528,7 @@ class CompiledDomain:
             A new array when a row is outside and the policy changes it, else
             ``prediction`` itself.
         """
-        return apply_policy(
-            self.policy,
+        return self.policy.apply(
             prediction,
             features,
             distance,
@@ -572,7 +572,7 @@ def compile_domain(pipeline):
     >>> model = make_compensation_pipeline(LinearRegression()).fit(X, y)
     >>> domain = compile_domain(model)
     >>> domain.policy, domain.margin == model.domain_.threshold_, domain.temperature_columns
-    ('blend', True, [0])
+    (BlendWithFallback(width=1.0), True, [0])
     >>> compile_domain(model[:]) is None  # a plain Pipeline of the same steps
     True
     """
@@ -582,4 +582,4 @@ def compile_domain(pipeline):
         return None
     domain = pipeline.domain_
     require_box(domain, "Streaming compensation and the C and JSON exports")
-    return CompiledDomain(domain, pipeline.outside, pipeline.fallback_)
+    return CompiledDomain(domain, policy_for(pipeline.uncalibrated), pipeline.fallback_)

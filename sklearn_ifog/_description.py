@@ -10,14 +10,15 @@ of the final regressor is read by :mod:`sklearn_ifog._output_layer`.
 Every float goes through ``float(...)`` of a float64, so ``json`` (which writes ``repr``)
 and the C generator (``repr`` / ``%.9g``) keep round-trip precision.
 
-Schema (version 6; version 5 ended "clip" on the temperature clamp, where the row could
-stay outside the widened box; version 4 had the margin where version 5 has the calibrated
+Schema (version 7; version 6 named the policy's key ``"outside"``, now ``"uncalibrated"`` as
+the pipeline's parameter; version 5 ended "clip" on the temperature clamp, where the row
+could stay outside the widened box; version 4 had the margin where version 5 has the calibrated
 threshold, and no boost; version 3 no rate term in the domain (``"rate_columns"``...),
 version 2 no ``"domain"``, version 1 an EMA ``smoothing`` in samples and its ``alpha``)::
 
     {
       "schema": "sklearn-ifog-pipeline",
-      "schema_version": 6,
+      "schema_version": 7,
       "generator": "sklearn-ifog <version>",
       "features": {
         "op": "thermal_features",
@@ -37,7 +38,7 @@ version 2 no ``"domain"``, version 1 an EMA ``smoothing`` in samples and its ``a
       "n_outputs": int,
       "single_output": bool,         # the Pipeline predicts a 1-D array
       "domain": <domain> | null      # a CompensationPipeline's calibration domain and
-                                     # outside policy; null for a plain Pipeline
+                                     # uncalibrated policy; null for a plain Pipeline
     }
 
 Each step is ``{"name", "class", "op", "n_inputs", "n_outputs", ...}`` with ``op``:
@@ -84,7 +85,7 @@ ThermalFeatures outputs them, before any later step)::
       "boost_rate_ramp": <float>,            # the novelty's scales (rho_r, rho_t): the
       "boost_temperature_ramp": <float>,     # boost in full at a novelty of 1
       "projection_rounds": <int>,            # rounds of "clip" with temperature columns
-      "outside": "blend" | "clip" | "none",  # the policy outside the domain
+      "uncalibrated": "blend" | "clip" | "none",  # the policy outside the domain
       "fallback": {"intercept": [...], "slope": [...],   # n_outputs each
                    "column": <int> | null,   # the feature holding T; null: a constant
                    "low": <float> | null, "high": <float> | null,   # calibrated T range
@@ -108,7 +109,7 @@ the calibration never showed, such as a cooling row of a heating-only calibratio
 outside even where the axes spread it within the margin). It is outside when
 ``d > margin`` or when a temperature column ``x[c]`` lies outside
 ``[temperature_low, temperature_high]`` (by any amount). Rows inside get the steps'
-prediction ``y``; rows outside follow ``outside``:
+prediction ``y``; rows outside follow ``uncalibrated``:
 
 - ``"blend"``: ``(1 - w) y + w f`` with ``s = clip((d - margin) / blend_width, 0, 1)``,
   ``w = s^2 (3 - 2 s)`` (0 for a row outside by a temperature alone) and the fallback
@@ -159,7 +160,6 @@ from sklearn.utils.validation import check_is_fitted
 
 from sklearn_ifog import _version
 from sklearn_ifog import domain as _domain
-from sklearn_ifog import policy as _policy
 from sklearn_ifog._contract import (
     get_term,
     resolved_settings,
@@ -170,9 +170,10 @@ from sklearn_ifog._contract import (
 )
 from sklearn_ifog._output_layer import layer_kind, read_layer, supported_names
 from sklearn_ifog.features import ThermalFeatures
+from sklearn_ifog.policy import BlendWithFallback, policy_for
 
 SCHEMA_NAME = "sklearn-ifog-pipeline"
-SCHEMA_VERSION = 6
+SCHEMA_VERSION = 7
 
 
 def _floats(values):
@@ -354,7 +355,7 @@ def describe_pipeline(pipeline):
     spec : dict
         JSON-able description (see the module docstring for the schema); its ``"domain"``
         holds a :class:`~sklearn_ifog.pipeline.CompensationPipeline`'s calibration domain,
-        fallback and ``outside`` policy, None for a plain Pipeline.
+        fallback and ``uncalibrated`` policy, None for a plain Pipeline.
 
     Raises
     ------
@@ -459,7 +460,7 @@ def describe_domain(pipeline, n_features, n_outputs):
     Raises
     ------
     ValueError
-        If the pipeline's ``outside`` or its domain's ``threshold_`` is not one it could
+        If the pipeline's ``uncalibrated`` or its domain's ``threshold_`` is not one it could
         predict with, or the domain's shapes do not match the features (both name the
         parameter).
 
@@ -472,26 +473,30 @@ def describe_domain(pipeline, n_features, n_outputs):
     ...     n_units=1, n_runs=1, sampling_period=120.0, random_state=0, return_X_y=True
     ... )
     >>> model = make_compensation_pipeline(
-    ...     LinearRegression(), terms=("T", "dT"), outside="clip", margin=0.5
+    ...     LinearRegression(), terms=("T", "dT"), uncalibrated="clip", margin=0.5
     ... ).fit(X, y)
     >>> domain = describe_domain(model, n_features=2, n_outputs=1)
-    >>> domain["outside"], domain["margin"], len(domain["axes"]), domain["temperature_columns"]
+    >>> (
+    ...     domain["uncalibrated"],
+    ...     domain["margin"],
+    ...     len(domain["axes"]),
+    ...     domain["temperature_columns"],
+    ... )
     ('clip', 0.5, 2, [0])
     >>> domain["rate_columns"], len(domain["rate_low"]), len(domain["rate_scale"])
     ([1], 1, 1)
     """
-    from sklearn_ifog.pipeline import OUTSIDE_POLICIES, CompensationPipeline
+    from sklearn_ifog.pipeline import CompensationPipeline
 
     if not isinstance(pipeline, CompensationPipeline):
         return None
     check_is_fitted(pipeline, "domain_")
     _domain.require_box(pipeline.domain_, "Streaming compensation and the C and JSON exports")
-    outside, margin = pipeline.outside, pipeline.domain_.threshold_
-    if outside not in OUTSIDE_POLICIES:
-        raise ValueError(
-            f"Cannot export the calibration domain: outside must be one of "
-            f"{list(OUTSIDE_POLICIES)}, got {outside!r}."
-        )
+    margin = pipeline.domain_.threshold_
+    try:
+        policy = policy_for(pipeline.uncalibrated)
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"Cannot export the calibration domain: {error}") from None
     if (
         isinstance(margin, bool)
         or not isinstance(margin, numbers.Real)
@@ -519,7 +524,8 @@ def describe_domain(pipeline, n_features, n_outputs):
         "lower": _floats(box.lower),
         "upper": _floats(box.upper),
         "margin": float(margin),
-        "blend_width": float(_policy.BLEND_WIDTH),
+        # The blend's width even under another policy: the C header defines it always.
+        "blend_width": float(BlendWithFallback().width),
         "temperature_columns": columns,
         "temperature_low": _floats(pipeline.domain_.data_min_[columns]),
         "temperature_high": _floats(pipeline.domain_.data_max_[columns]),
@@ -539,11 +545,11 @@ def describe_domain(pipeline, n_features, n_outputs):
         "boost_rate_ramp": float(_domain.RATE_WEIGHT * _domain.NOVELTY_RAMP),
         "boost_temperature_ramp": float(_domain.NOVELTY_RAMP),
         "projection_rounds": int(_domain.PROJECTION_ROUNDS),
-        "outside": outside,
+        "uncalibrated": policy.name,
         "fallback": _describe_fallback(fallback, n_outputs),
     }
     numbers_only = {
-        key: value for key, value in spec.items() if key not in ("outside", "fallback")
+        key: value for key, value in spec.items() if key not in ("uncalibrated", "fallback")
     }
     _check_finite(numbers_only, "the calibration domain")
     _check_finite({**spec["fallback"], "column": None}, "the calibration domain's fallback")

@@ -65,7 +65,7 @@ def collect(features, y, model_prediction, fallback_prediction, domain):
     y : ndarray of shape (n_samples, n_outputs)
         Their drift.
     model_prediction, fallback_prediction : ndarray of shape (n_samples, n_outputs)
-        The fold's model (without its outside policy) and the fold's fallback.
+        The fold's model (without its uncalibrated policy) and the fold's fallback.
     domain : CalibrationDomain
         The fold's domain (fitted on the other runs), with temperature and rate columns.
 

@@ -110,7 +110,7 @@ def own_score(model, X, Y, folds):
     The model is fitted once on all of the unit's rows; each fold re-solves its output layer
     without the held-out rows, as the network solves it (its ridge ``alpha`` per row on the
     Gaussian weights, its tail penalty on the tail, the intercept free; plain least squares
-    for a linear model) and predicts them, without the ``outside`` policy. The basis
+    for a linear model) and predicts them, without the ``uncalibrated`` policy. The basis
     (centres and widths) is the one learnt from all the rows, as the lot's is for the shrunk
     layer: both candidates keep their basis and are compared on their output layers.
     ``inf`` when the model is None or a fold leaves fewer rows than output weights.

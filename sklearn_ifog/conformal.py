@@ -28,8 +28,8 @@ only on average over all rows. Three things differ from row-wise conformal predi
    CV+ band alone.
 4. **Outside the calibration domain the band holds the fallback, the slope and the
    extrapolation.** Around a :class:`~sklearn_ifog.pipeline.CompensationPipeline` the fold
-   models are clones with its ``outside`` policy, so their out-of-fold residuals measure the
-   model as it predicts. With ``outside="blend"`` the prediction moves, beyond the domain, to
+   models are clones with its ``uncalibrated`` policy, so their out-of-fold residuals measure the
+   model as it predicts. With ``uncalibrated="blend"`` the prediction moves, beyond the domain, to
    a fallback (a plane in T and dT, a line in T or a constant) that every fold model shares,
    so the fold models agree there and the jackknife term sees nothing. Three terms replace
    it, all zero inside the domain: the fallback's own out-of-fold error quantile (each fold
@@ -128,7 +128,7 @@ from sklearn_ifog._conformal_numerics import (
 )
 from sklearn_ifog.domain import OutsideCalibrationWarning, locate
 from sklearn_ifog.pipeline import CompensationPipeline
-from sklearn_ifog.policy import fallback_weight
+from sklearn_ifog.policy import fallback_weight, policy_for
 
 __all__ = [
     "ConformalRegressor",
@@ -164,7 +164,7 @@ _EXTRAPOLATION_REFERENCE = 0.95
 
 def _blends(model):
     """Whether ``model`` moves to a fallback outside its calibration domain."""
-    return isinstance(model, CompensationPipeline) and model.outside == "blend"
+    return isinstance(model, CompensationPipeline) and policy_for(model.uncalibrated).uses_fallback
 
 
 def _fallback_features(model, X):
@@ -192,7 +192,7 @@ def _fit_fold(estimator, X, y, train, test, predict_all, params):
         return clone(estimator).fit(X, y, **params), None, None, None
     with warnings.catch_warnings():
         # A held-out run outside its fold model's calibration domain is expected: its
-        # residual then measures the model's outside policy, as a new run would.
+        # residual then measures the model's uncalibrated policy, as a new run would.
         warnings.simplefilter("ignore", OutsideCalibrationWarning)
         model = clone(estimator).fit(_safe_indexing(X, train), y[train], **params)
         held_out = _safe_indexing(X, test)
@@ -279,7 +279,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     extrapolates), their jackknife variance widens the band in quadrature (``adaptive``
     only). ``predict`` is the prediction of ``estimator`` refitted on all rows.
 
-    Around a :class:`~sklearn_ifog.pipeline.CompensationPipeline` with ``outside="blend"``
+    Around a :class:`~sklearn_ifog.pipeline.CompensationPipeline` with ``uncalibrated="blend"``
     (``adaptive`` only), rows outside the full model's calibration domain get a wider band:
     the fallback's out-of-fold error quantile (``fallback_quantile_``) times its share of
     the prediction joins in quadrature, so does the calibrated drift per degree
@@ -362,7 +362,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         The variance model ``sigma(x)^2`` on the scaled distance (only when ``adaptive``).
     fallback_scores_ : ndarray of shape (n_samples,) or None
         Absolute out-of-fold error of the fold models' fallbacks (each on the runs it did
-        not see), when ``estimator`` is a CompensationPipeline with ``outside="blend"``
+        not see), when ``estimator`` is a CompensationPipeline with ``uncalibrated="blend"``
         and ``adaptive``; None otherwise.
     fallback_quantile_ : float
         The conformal quantile (level ``confidence``) of the runs' ``coverage`` quantiles of

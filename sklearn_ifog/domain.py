@@ -105,7 +105,7 @@ class OutsideCalibrationWarning(UserWarning):
 
     Given once per ``predict`` call, with the share of rows outside, the largest distance
     and the largest temperature excess in degrees; the predictions themselves follow the
-    model's ``outside`` policy. The flags per row are
+    model's ``uncalibrated`` policy. The flags per row are
     :meth:`~sklearn_ifog.CompensationPipeline.outside_calibration`.
 
     Examples
@@ -969,7 +969,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
     See Also
     --------
     sklearn_ifog.pipeline.CompensationPipeline : Fits a domain on its thermal features and
-        applies its ``outside`` policy beyond it.
+        applies its ``uncalibrated`` policy beyond it.
     sklearn.covariance.EllipticEnvelope : A Gaussian novelty detector (an ellipsoid, blind
         to one-sided ranges such as heating-only rates).
 

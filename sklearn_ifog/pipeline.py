@@ -36,13 +36,11 @@ from sklearn_ifog.domain import (
 )
 from sklearn_ifog.fallback import fit_fallback
 from sklearn_ifog.features import ThermalFeatures
-from sklearn_ifog.policy import apply_policy
+from sklearn_ifog.policy import POLICY_NAMES, policy_for
 from sklearn_ifog.rbf import RBFNetRegressor
 
-__all__ = ["OUTSIDE_POLICIES", "CompensationPipeline", "make_compensation_pipeline"]
+__all__ = ["CompensationPipeline", "make_compensation_pipeline"]
 
-#: The ``outside`` policies of :class:`CompensationPipeline`.
-OUTSIDE_POLICIES = ("blend", "clip", "none")
 # Folds of whole runs (the runs dealt out in turn) of the held-out evidence per kind of
 # novelty: each fold costs one more fit of the steps.
 HANDOVER_FOLDS = 3
@@ -65,7 +63,7 @@ def make_compensation_pipeline(
     time="time",
     run="run",
     terms=None,
-    outside="blend",
+    uncalibrated="blend",
     margin=1.5,
     alpha=0.02,
     handover=False,
@@ -98,12 +96,13 @@ def make_compensation_pipeline(
         120 s, without one the paper's terms and T², ``("T", "dT", "TdT", "T2")``.
         ``("T", "dT", "TdT")`` is the paper's modified model (to reproduce the paper),
         ``("T", "dT")`` its traditional model.
-    outside : {"blend", "clip", "none"}, default="blend"
-        What the model predicts for rows outside its calibration domain
-        (:class:`CompensationPipeline`): ``"blend"`` moves smoothly to its fallback (a plane
-        in T and dT, a line in T or a constant, :func:`~sklearn_ifog.fallback.fit_fallback`)
-        as the row lies farther out; ``"clip"`` predicts at the domain's edge;
-        ``"none"`` leaves the regressor's extrapolation alone.
+    uncalibrated : {"blend", "clip", "none"}, default="blend"
+        What the model predicts where it was not calibrated, for rows outside its
+        calibration domain (:class:`CompensationPipeline`): ``"blend"`` moves smoothly to
+        its fallback (a plane in T and dT, a line in T or a constant,
+        :func:`~sklearn_ifog.fallback.fit_fallback`) as the row lies farther out;
+        ``"clip"`` predicts at the domain's edge; ``"none"`` leaves the regressor's
+        extrapolation alone.
     margin : float, default=1.5
         Smallest distance outside the calibrated box, in decorrelated standard deviations,
         that still counts as inside: the pipeline's ``domain`` is
@@ -183,7 +182,7 @@ def make_compensation_pipeline(
     return CompensationPipeline(
         [("features", features), ("scale", scale), ("regressor", regressor)],
         domain=CalibrationDomain(margin=margin, alpha=alpha),
-        outside=outside,
+        uncalibrated=uncalibrated,
         handover=handover,
     )
 
@@ -283,7 +282,7 @@ class CompensationPipeline(Pipeline):
     extrapolates, else the calibration's mean drift: :func:`~sklearn_ifog.fallback.fit_fallback`).
     At :meth:`predict`, rows inside the domain get the regressor's prediction unchanged;
     rows outside (farther than its threshold from the domain's decorrelated box, or with a
-    temperature beyond its calibrated range) follow ``outside``, and an
+    temperature beyond its calibrated range) follow the policy ``uncalibrated``, and an
     :class:`~sklearn_ifog.domain.OutsideCalibrationWarning` says how many there were and how
     far out. :func:`make_compensation_pipeline` builds one.
 
@@ -308,14 +307,18 @@ class CompensationPipeline(Pipeline):
         step's T and dT columns. Another novelty detector: its outliers are outside, and
         the blend's distance is how far its ``decision_function`` lies below 0
         (:func:`~sklearn_ifog.domain.locate`).
-    outside : {"blend", "clip", "none"}, default="blend"
-        Prediction outside the domain. ``"blend"``: ``(1 - w) * model + w * fallback`` with
-        ``w`` rising smoothly from 0 at the threshold to 1 at the threshold plus ``BLEND_WIDTH``
-        (:func:`~sklearn_ifog.policy.fallback_weight`), so far outside the model gives way
-        to the fallback (no step anywhere). ``"clip"``: the model at the nearest point of the
+    uncalibrated : {"blend", "clip", "none"}, default="blend"
+        What the model predicts where it was not calibrated (rows outside the domain; one
+        object of :mod:`sklearn_ifog.policy` per name, :func:`~sklearn_ifog.policy.policy_for`).
+        ``"blend"`` (:class:`~sklearn_ifog.policy.BlendWithFallback`): ``(1 - w) * model + w *
+        fallback`` with ``w`` rising smoothly from 0 at the threshold to 1 at the threshold
+        plus the blend's width (:func:`~sklearn_ifog.policy.fallback_weight`), so far outside
+        the model gives way to the fallback (no step anywhere). ``"clip"``
+        (:class:`~sklearn_ifog.policy.ClipToDomain`): the model at the nearest point of the
         domain (the box widened by the threshold, every temperature clamped to its calibrated
-        range: the firmware convention of clamping T to [TMIN, TMAX]). ``"none"``: the
-        regressor's own extrapolation (the behaviour before the domain existed). The
+        range: the firmware convention of clamping T to [TMIN, TMAX]). ``"none"``
+        (:class:`~sklearn_ifog.policy.KeepModel`): the regressor's own extrapolation (the
+        behaviour before the domain existed). The
         default is the policy that ``benchmarks/bench_extrapolation.py`` measures as never
         worse than uncompensated.
     handover : bool, default=False
@@ -389,7 +392,7 @@ class CompensationPipeline(Pipeline):
     _parameter_constraints: ClassVar[dict] = {
         **Pipeline._parameter_constraints,
         "domain": [HasMethods(["fit", "predict", "decision_function"]), None],
-        "outside": [StrOptions(set(OUTSIDE_POLICIES))],
+        "uncalibrated": [StrOptions(set(POLICY_NAMES))],
         "handover": ["boolean"],
     }
 
@@ -398,7 +401,7 @@ class CompensationPipeline(Pipeline):
         steps,
         *,
         domain=None,
-        outside="blend",
+        uncalibrated="blend",
         handover=False,
         transform_input=None,
         memory=None,
@@ -406,7 +409,7 @@ class CompensationPipeline(Pipeline):
     ):
         super().__init__(steps, transform_input=transform_input, memory=memory, verbose=verbose)
         self.domain = domain
-        self.outside = outside
+        self.uncalibrated = uncalibrated
         self.handover = handover
 
     @_fit_context(
@@ -614,7 +617,7 @@ class CompensationPipeline(Pipeline):
         return self._where(as_float_rows(self._transform_features(X))).outside
 
     def predict(self, X, **params):
-        """Predict the drift, following ``outside`` for rows outside the domain.
+        """Predict the drift, following ``uncalibrated`` for rows outside the domain.
 
         Parameters
         ----------
@@ -644,8 +647,7 @@ class CompensationPipeline(Pipeline):
             predicted = self._predict_features(_like(features, projected), **params)
             return predicted.reshape(projected.shape[0], -1)
 
-        policed = apply_policy(
-            self.outside,
+        policed = policy_for(self.uncalibrated).apply(
             prediction.reshape(rows.shape[0], -1),
             rows,
             distance,
@@ -682,11 +684,11 @@ class CompensationPipeline(Pipeline):
                     f"; rates up to {excess:.3g} beyond the calibrated "
                     f"{self.feature_names_out_[column]} {low:.3g} to {high:.3g}"
                 )
-        message += f"); their predictions follow outside={self.outside!r}."
+        message += f"); their predictions follow uncalibrated={self.uncalibrated!r}."
         warnings.warn(message, OutsideCalibrationWarning, stacklevel=3)
 
     def score(self, X, y=None, sample_weight=None, **params):
-        """R² of :meth:`predict` (the ``outside`` policy included).
+        """R² of :meth:`predict` (the ``uncalibrated`` policy included).
 
         Parameters
         ----------

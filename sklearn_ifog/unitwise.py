@@ -13,7 +13,8 @@ Every unit's model carries a calibration domain (a
 for a unit that keeps its own model under ``"partial"``) the domain and the fallback of the
 unit's own calibration rows; with ``"full"``, and for a partially pooled (shrunk) unit, the
 lot's, since its weights pool the lot's calibration. Outside it a unit's predictions follow
-its model's ``outside`` policy, and :meth:`UnitwiseRegressor.predict` says so once per call.
+its model's ``uncalibrated`` policy, and :meth:`UnitwiseRegressor.predict` says so once per
+call.
 """
 
 import copy
@@ -122,7 +123,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     rows; with ``"full"``, and for a partially pooled (shrunk) unit under ``"partial"``,
     the lot's (its weights pool the lot's calibration; a unit that keeps its own model keeps
     its own domain). A row
-    outside its unit's domain follows that model's ``outside`` policy; :meth:`predict`
+    outside its unit's domain follows that model's ``uncalibrated`` policy; :meth:`predict`
     warns once per call, naming the units concerned, and :meth:`calibration_distance` and
     :meth:`outside_calibration` give every row's distance and flag from its unit's model.
 
@@ -263,7 +264,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     basis as the network solves it (its ridge ``alpha``), the shrunk layer with its fold's
     prior the lot's output layer re-solved without the held-out rows (the lot model saw
     them). Both are scored as raw
-    linear algebra, without the ``outside`` policy: the comparison is between the two fits,
+    linear algebra, without the ``uncalibrated`` policy: the comparison is between the two fits,
     and whichever is kept gets its domain and fallback at prediction time. When the own
     models' summed squared error is the lower, every one of these units keeps its own
     model. The choice is made for the lot, not unit by unit, because one unit's few
@@ -847,7 +848,7 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         """Predict every row with the model of its unit.
 
         A unit's rows outside its model's calibration domain follow that model's
-        ``outside`` policy (:class:`~sklearn_ifog.pipeline.CompensationPipeline`).
+        ``uncalibrated`` policy (:class:`~sklearn_ifog.pipeline.CompensationPipeline`).
 
         Parameters
         ----------
@@ -903,13 +904,15 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         if present.size > _LISTED_UNITS:
             parts.append(f"and {present.size - _LISTED_UNITS} more units")
         worst = int(np.argmax(np.where(flags, distance, -np.inf)))
-        policies = sorted({str(getattr(self._model_of(unit), "outside", "?")) for unit in present})
+        policies = sorted(
+            {str(getattr(self._model_of(unit), "uncalibrated", "?")) for unit in present}
+        )
         warnings.warn(
             f"Rows lie outside their unit's calibration domain in {present.size} of "
             f"{np.unique(units).size} units ({'; '.join(parts)}); largest distance "
             f"{distance[worst]:.3g} decorrelated standard deviations (unit "
-            f"{plain_label(units[worst])!r}). Their predictions follow each unit model's outside "
-            f"policy ({', '.join(map(repr, policies))}).",
+            f"{plain_label(units[worst])!r}). Their predictions follow each unit model's "
+            f"uncalibrated policy ({', '.join(map(repr, policies))}).",
             OutsideCalibrationWarning,
             stacklevel=3,
         )

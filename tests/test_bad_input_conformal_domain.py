@@ -26,7 +26,7 @@ def band_inputs():
     """A blending model calibrated warm, and the inputs of its band on colder runs."""
     X_warm, y_warm = rate_drift_table(0, (10.0, 40.0))
     X_cold, _ = rate_drift_table(100, (-10.0, 40.0))
-    pipeline = make_compensation_pipeline(LinearRegression(), outside="blend")
+    pipeline = make_compensation_pipeline(LinearRegression(), uncalibrated="blend")
     model = ConformalRegressor(pipeline, coverage=0.9).fit(X_warm, y_warm)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", OutsideCalibrationWarning)

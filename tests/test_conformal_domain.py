@@ -15,8 +15,8 @@ from sklearn_ifog.pipeline import CompensationPipeline
 from sklearn_ifog.policy import fallback_weight
 
 
-def _conformal(outside="blend", **params):
-    pipeline = make_compensation_pipeline(LinearRegression(), outside=outside)
+def _conformal(policy="blend", **params):
+    pipeline = make_compensation_pipeline(LinearRegression(), uncalibrated=policy)
     return ConformalRegressor(pipeline, coverage=0.9, **params)
 
 
@@ -83,7 +83,7 @@ def test_out_of_fold_residuals_measure_the_fold_models_policy(fitted, warm_cold)
     blended = 0
     for fold, held in _folds(fitted, X_warm):
         assert isinstance(fold, CompensationPipeline)
-        assert fold.outside == "blend"
+        assert fold.uncalibrated == "blend"
         X_held = X_warm[held]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", OutsideCalibrationWarning)
@@ -212,11 +212,11 @@ def test_band_outside_grows_with_the_coverage(fitted, warm_cold):
 
 
 @pytest.mark.parametrize(
-    ("outside", "adaptive"), [("clip", True), ("none", True), ("blend", False)]
+    ("policy", "adaptive"), [("clip", True), ("none", True), ("blend", False)]
 )
-def test_no_domain_terms_without_a_fallback_or_adaptivity(warm_cold, outside, adaptive):
+def test_no_domain_terms_without_a_fallback_or_adaptivity(warm_cold, policy, adaptive):
     X_warm, y_warm, X_cold, _ = warm_cold
-    model = _conformal(outside, adaptive=adaptive).fit(X_warm, y_warm)
+    model = _conformal(policy, adaptive=adaptive).fit(X_warm, y_warm)
     assert model.fallback_scores_ is None
     assert model.fallback_quantile_ == 0.0
     with warnings.catch_warnings():

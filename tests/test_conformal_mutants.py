@@ -80,11 +80,11 @@ def test_thermal_slope():
 
 @pytest.fixture(scope="module")
 def blend():
-    """A compensation pipeline with ``outside="blend"`` calibrated on 10 to 40 degC, and the
+    """A compensation pipeline with ``uncalibrated="blend"`` calibrated on 10 to 40 degC, and the
     inputs of the band of other runs reaching -10 degC (many rows outside, many beyond)."""
     X_warm, y_warm = rate_drift_table(0, (10.0, 40.0))
     X_cold, _ = rate_drift_table(100, (-10.0, 40.0))
-    pipeline = make_compensation_pipeline(LinearRegression(), outside="blend")
+    pipeline = make_compensation_pipeline(LinearRegression(), uncalibrated="blend")
     model = ConformalRegressor(pipeline, coverage=0.9).fit(X_warm, y_warm)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", OutsideCalibrationWarning)
@@ -389,7 +389,7 @@ def test_band_around_a_pipeline_whose_features_are_a_dataframe(blend):
     ``_fallback_features``)."""
     model, X_cold, *_ = blend
     X_warm, y_warm = rate_drift_table(0, (10.0, 40.0))
-    pipeline = make_compensation_pipeline(LinearRegression(), outside="blend")
+    pipeline = make_compensation_pipeline(LinearRegression(), uncalibrated="blend")
     framed = ConformalRegressor(pipeline.set_output(transform="pandas"), coverage=0.9)
     framed.fit(X_warm, y_warm)
     assert isinstance(framed.estimator_.steps[0][1].transform(X_cold), pd.DataFrame)

@@ -34,7 +34,7 @@ from sklearn_ifog.fallback import (
     fit_fallback,
     held_out_runs,
 )
-from sklearn_ifog.policy import BLEND_WIDTH, fallback_weight
+from sklearn_ifog.policy import BlendWithFallback, fallback_weight
 
 SMALL = dict(n_units=1, n_runs=2, azimuths=(0.0,), sampling_period=120.0, random_state=0)
 
@@ -261,13 +261,14 @@ def test_domain_errors_name_the_problem():
 
 
 def test_fallback_weight_is_smooth_and_bounded():
-    distance = np.linspace(0.0, 3 * BLEND_WIDTH, 3001)
+    width = BlendWithFallback().width
+    distance = np.linspace(0.0, 3 * width, 3001)
     weight = fallback_weight(distance, margin=1.0)
     assert weight[distance <= 1.0].max() == 0.0
-    assert weight[distance >= 1.0 + BLEND_WIDTH].min() == 1.0
+    assert weight[distance >= 1.0 + width].min() == 1.0
     assert np.all(np.diff(weight) >= 0)
     # No step: the largest change between neighbouring distances is that of a smoothstep.
-    assert np.abs(np.diff(weight)).max() <= 1.5 * (distance[1] - distance[0]) / BLEND_WIDTH
+    assert np.abs(np.diff(weight)).max() <= 1.5 * (distance[1] - distance[0]) / width
 
 
 # -- the fallback ----------------------------------------------------------------------
@@ -512,9 +513,9 @@ def test_fallback_rate_term_is_bounded_to_the_calibrated_rates():
 def test_default_pipeline_is_a_compensation_pipeline():
     model = make_compensation_pipeline()
     assert isinstance(model, CompensationPipeline)
-    assert (model.outside, model.domain.margin, model.domain.alpha) == ("blend", 1.5, 0.02)
+    assert (model.uncalibrated, model.domain.margin, model.domain.alpha) == ("blend", 1.5, 0.02)
     assert [name for name, _ in model.steps] == ["features", "scale", "regressor"]
-    assert clone(model).get_params()["outside"] == "blend"
+    assert clone(model).get_params()["uncalibrated"] == "blend"
     assert type(model[:-1]).__name__ == "Pipeline"
 
 
@@ -528,7 +529,7 @@ def test_inside_rows_are_unchanged_and_policies_apply_outside(
     assert 0.3 < outside.mean() < 1.0  # the rows leave the domain, partly
     predictions = {}
     for policy in ("none", "blend", "clip"):
-        model.set_params(outside=policy)
+        model.set_params(uncalibrated=policy)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", OutsideCalibrationWarning)
             predictions[policy] = model.predict(X_op)
@@ -594,7 +595,7 @@ def test_warning_once_per_call_with_share_and_degrees(fitted, heating_and_cyclin
     assert f"({share:.1%})" in messages[0]
     beyond = X["temperature"].min() - X_op["temperature"].min()
     assert f"up to {beyond:.3g} degC beyond" in messages[0]
-    assert "outside='blend'" in messages[0]
+    assert "uncalibrated='blend'" in messages[0]
     # Cooling after a heating-only calibration: how far the rates went beyond, in dT's unit.
     column = list(fitted.feature_names_out_).index("dT")
     rate = fitted.steps[0][1].transform(X_op)[fitted.outside_calibration(X_op), column]
@@ -605,8 +606,8 @@ def test_warning_once_per_call_with_share_and_degrees(fitted, heating_and_cyclin
 
 def test_bad_input_is_named(heating_and_cycling, fitted):
     X, y, X_op, _ = heating_and_cycling
-    with pytest.raises(InvalidParameterError, match="outside"):
-        make_compensation_pipeline(LinearRegression(), outside="hold").fit(X, y)
+    with pytest.raises(InvalidParameterError, match="uncalibrated"):
+        make_compensation_pipeline(LinearRegression(), uncalibrated="hold").fit(X, y)
     constant = X.assign(temperature=25.0)
     with pytest.raises(ValueError, match="feature 'T' is constant"):
         make_compensation_pipeline(LinearRegression()).fit(constant, y)
@@ -645,7 +646,7 @@ def test_pipeline_flags_new_rates_inside_the_calibrated_temperatures():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", OutsideCalibrationWarning)
         blended = model.predict(X)
-        model.set_params(outside="none")
+        model.set_params(uncalibrated="none")
         free = model.predict(X)
     assert np.all(blended[rate_only] != free[rate_only])
     np.testing.assert_array_equal(
@@ -666,7 +667,7 @@ def test_fits_in_grid_search_and_pickles(heating_and_cycling):
     X, y, X_op, _ = heating_and_cycling
     search = GridSearchCV(
         make_compensation_pipeline(LinearRegression()),
-        {"outside": ["blend", "none"]},
+        {"uncalibrated": ["blend", "none"]},
         cv=GroupKFold(n_splits=2),
     )
     with warnings.catch_warnings():
@@ -689,7 +690,7 @@ def _real_table():
 def test_real_recording_warm_to_cold_never_worse_than_uncompensated(seed):
     """The shipped recording, calibrated on its 12 warmer bursts and used on the 13 colder
     ones: the default is no worse than removing the calibration's mean drift, on every axis.
-    The network alone (``outside="none"``) needs no rescue on x and y since its tail is
+    The network alone (``uncalibrated="none"``) needs no rescue on x and y since its tail is
     penalised along the features' thin directions (issue 41; with a free tail it was
     thousands of times worse, ``bench_extrapolation.py``): below a fifth of uncompensated
     there. On z, where the gyro barely drifts, it is still worse than uncompensated, and
@@ -707,7 +708,7 @@ def test_real_recording_warm_to_cold_never_worse_than_uncompensated(seed):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", OutsideCalibrationWarning)
             default = np.mean((y[~warm] - model.predict(X[~warm])) ** 2)
-            model.set_params(outside="none")
+            model.set_params(uncalibrated="none")
             free = np.mean((y[~warm] - model.predict(X[~warm])) ** 2)
         uncompensated = np.mean((y[~warm] - y[warm].mean()) ** 2)
         assert default <= uncompensated, axis

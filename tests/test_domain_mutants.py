@@ -12,7 +12,7 @@ import pytest
 
 from sklearn_ifog.domain import CalibrationDomain
 from sklearn_ifog.fallback import Fallback, fallback_name, fit_fallback
-from sklearn_ifog.policy import apply_policy, fallback_weight
+from sklearn_ifog.policy import BlendWithFallback, fallback_weight
 
 
 def _heating_runs(rng, n_runs=4, n_rows=150):
@@ -59,10 +59,10 @@ def _smoothstep(s):
 
 
 def test_the_blend_takes_over_within_one_standard_deviation_beyond_the_threshold():
-    """``BLEND_WIDTH`` is 1: half-way (0.5 beyond the threshold) the blend is the mean of
-    the model and its fallback, from 1 beyond on it is the fallback alone. The domain's
-    other tests read the width from ``BLEND_WIDTH`` itself, so ``BLEND_WIDTH = 10`` passed
-    them; this one kills it (and every change of the default width)."""
+    """The blend's default width is 1: half-way (0.5 beyond the threshold) the blend is the
+    mean of the model and its fallback, from 1 beyond on it is the fallback alone. The
+    domain's other tests read the width from ``BlendWithFallback().width`` itself, so a
+    default width of 10 passed them; this one kills it (and every change of the default)."""
     margin = 1.5
     distance = margin + np.array([0.0, 0.25, 0.5, 0.75, 1.0, 3.0])
     np.testing.assert_allclose(
@@ -77,15 +77,13 @@ def test_the_blend_takes_over_within_one_standard_deviation_beyond_the_threshold
     distance = domain.distance(rows)
     np.testing.assert_allclose(distance, margin + beyond, rtol=1e-12)
     fallback = Fallback(np.array([1.0]), np.array([0.0]), 0)
-    blended = apply_policy(
-        "blend",
+    blended = BlendWithFallback().apply(
         np.full((4, 1), 7.0),
         rows,
         distance,
         domain.predict(rows) == -1,
         domain=domain,
         fallback=fallback,
-        evaluate=None,
     )
     weight = _smoothstep(beyond)
     np.testing.assert_allclose(blended[:, 0], 7.0 * (1 - weight) + weight, rtol=1e-12)

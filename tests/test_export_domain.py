@@ -181,21 +181,21 @@ def _rbf():
     return RBFNetRegressor(n_centers=15, max_candidates=100, max_samples=1000, random_state=0)
 
 
-def _two_sensors(outside, **params):
+def _two_sensors(policy, **params):
     """Two temperature columns, two outputs; one rate column per sensor."""
     return make_compensation_pipeline(
         Ridge(1e-3),
         temperature=["temperature", "temperature_2"],
         terms=("T", "dT", "T_lag900s", "gradient"),
-        outside=outside,
+        uncalibrated=policy,
         **params,
     )
 
 
-def _no_temperature(outside, **params):
+def _no_temperature(policy, **params):
     """No T among the features: a constant fallback, no temperature column."""
     return make_compensation_pipeline(
-        Ridge(1e-3), terms=("dT", "T_lag900s", "T_lag3600s"), outside=outside, **params
+        Ridge(1e-3), terms=("dT", "T_lag900s", "T_lag3600s"), uncalibrated=policy, **params
     )
 
 
@@ -206,27 +206,27 @@ MODELS = {
     # T first among the features: the fallback is a line in T, the domain has one
     # temperature column.
     "ridge": (
-        lambda outside: make_compensation_pipeline(Ridge(1e-3), outside=outside, margin=1.0),
+        lambda policy: make_compensation_pipeline(Ridge(1e-3), uncalibrated=policy, margin=1.0),
         ["drift"],
     ),
     "rbf": (
-        lambda outside: make_compensation_pipeline(_rbf(), outside=outside, margin=1.0),
+        lambda policy: make_compensation_pipeline(_rbf(), uncalibrated=policy, margin=1.0),
         ["drift"],
     ),
     # Two temperature columns (rows outside by a temperature alone), two outputs.
     "two-sensors-two-outputs": (
-        lambda outside: _two_sensors(outside, margin=1.0),
+        lambda policy: _two_sensors(policy, margin=1.0),
         ["drift", "drift_2"],
     ),
     # No T among the features: a constant fallback, no temperature column.
-    "no-temperature": (lambda outside: _no_temperature(outside, margin=0.5), ["drift"]),
+    "no-temperature": (lambda policy: _no_temperature(policy, margin=0.5), ["drift"]),
 }
 
 
-def _fit(name, outside, frame, models=MODELS):
+def _fit(name, policy, frame, models=MODELS):
     make, target = models[name]
     y = frame[target].to_numpy() if len(target) > 1 else frame[target[0]]
-    return make(outside).fit(frame, y)
+    return make(policy).fit(frame, y)
 
 
 def _quiet(function, *args):
@@ -308,15 +308,15 @@ def _assert_close(actual, expected, rtol=RTOL):
 def test_schema_carries_the_exact_domain(calibration, tmp_path):
     model = _fit("two-sensors-two-outputs", "clip", calibration)
     document = json.loads(to_json(model, tmp_path / "model.json").read_text())
-    assert document["schema_version"] == SCHEMA_VERSION == 6
+    assert document["schema_version"] == SCHEMA_VERSION == 7
     domain = document["domain"]
     box = model.domain_.box_
     for key in ("center", "scale", "axes", "axis_scale", "lower", "upper"):
         np.testing.assert_array_equal(domain[key], getattr(box, key))
     assert np.shape(domain["axes"]) == (7, 7)  # one axis per row, as Box.axes
     assert domain["margin"] == model.domain_.threshold_
-    assert domain["blend_width"] == policy_module.BLEND_WIDTH
-    assert domain["outside"] == "clip"
+    assert domain["blend_width"] == policy_module.BlendWithFallback().width == 1.0
+    assert domain["uncalibrated"] == "clip"
     assert domain["temperature_columns"] == model.domain_.temperature_columns_ == [0, 3]
     np.testing.assert_array_equal(domain["temperature_low"], model.domain_.data_min_[[0, 3]])
     np.testing.assert_array_equal(domain["temperature_high"], model.domain_.data_max_[[0, 3]])
@@ -372,15 +372,15 @@ def test_domain_c_is_self_contained(adapt, calibration, tmp_path):
 
 def test_export_reads_the_settings_at_export_time(calibration, tmp_path, monkeypatch):
     model = _fit("ridge", "blend", calibration)
-    monkeypatch.setattr(policy_module, "BLEND_WIDTH", 2.5)
+    monkeypatch.setattr(policy_module, "_BLEND_WIDTH", 2.5)  # the blend's default width
     _, target = MODELS["ridge"]
     y = calibration[target].to_numpy() if len(target) > 1 else calibration[target[0]]
     # read at fit
-    model.set_params(domain__margin=0.25, domain__alpha=0.5, outside="none").fit(calibration, y)
+    model.set_params(domain__margin=0.25, domain__alpha=0.5, uncalibrated="none").fit(calibration, y)
     threshold = model.domain_.threshold_
     assert threshold >= 0.25
     domain = describe_pipeline(model)["domain"]
-    assert (domain["blend_width"], domain["margin"], domain["outside"]) == (
+    assert (domain["blend_width"], domain["margin"], domain["uncalibrated"]) == (
         2.5,
         threshold,
         "none",
@@ -393,10 +393,10 @@ def test_export_reads_the_settings_at_export_time(calibration, tmp_path, monkeyp
 
 def test_bad_policy_is_named(calibration, tmp_path):
     model = _fit("ridge", "blend", calibration)
-    model.outside = "extrapolate"  # set behind set_params' validation
-    with pytest.raises(ValueError, match=r"outside must be one of .*'extrapolate'"):
+    model.uncalibrated = "extrapolate"  # set behind set_params' validation
+    with pytest.raises(ValueError, match=r"uncalibrated must be one of .*'extrapolate'"):
         to_c(model, tmp_path)
-    model.outside, model.domain_.threshold_ = "clip", float("nan")
+    model.uncalibrated, model.domain_.threshold_ = "clip", float("nan")
     with pytest.raises(ValueError, match=r"threshold_, the exported margin\) must be a finite"):
         to_json(model, tmp_path / "model.json")
     assert not list(tmp_path.iterdir()), "a refused export writes nothing"
@@ -452,12 +452,12 @@ def _evaluate_domain(domain, features, network, evaluate):
         (features[:, columns] < low) | (features[:, columns] > high), 1
     )
     result = network.reshape(len(features), -1).copy()
-    if domain["outside"] == "blend":
+    if domain["uncalibrated"] == "blend":
         s = np.clip((d - margin) / domain["blend_width"], 0.0, 1.0)
         w = (s * s * (3.0 - 2.0 * s))[:, None]
         line = _evaluate_fallback(domain["fallback"], features)
         result[outside] = ((1.0 - w) * result + w * line)[outside]
-    elif domain["outside"] == "clip":
+    elif domain["uncalibrated"] == "clip":
         x = features[outside].copy()
         for _ in range(domain["projection_rounds"] if columns else 1):
             point, clamped, gap = box(x)  # by the box alone: the rates are not moved
@@ -488,10 +488,10 @@ def _evaluate_domain(domain, features, network, evaluate):
     return result, d, outside
 
 
-@pytest.mark.parametrize("outside", POLICIES)
+@pytest.mark.parametrize("policy", POLICIES)
 @pytest.mark.parametrize("name", ["ridge", "two-sensors-two-outputs", "no-temperature"])
-def test_json_domain_reproduces_predict(name, outside, calibration, excursion, tmp_path):
-    model = _fit(name, outside, calibration)
+def test_json_domain_reproduces_predict(name, policy, calibration, excursion, tmp_path):
+    model = _fit(name, policy, calibration)
     domain = json.loads(to_json(model, tmp_path / "model.json").read_text())["domain"]
     features = np.asarray(model[0].transform(excursion), dtype=np.float64)
     network = model[1:].predict(features)
@@ -501,7 +501,7 @@ def test_json_domain_reproduces_predict(name, outside, calibration, excursion, t
     np.testing.assert_allclose(distance, model.calibration_distance(excursion), rtol=1e-10)
     np.testing.assert_array_equal(flag, model.outside_calibration(excursion))
     assert flag.mean() > 0.3
-    if outside != "none":  # the policy changes the prediction where it applies
+    if policy != "none":  # the policy changes the prediction where it applies
         assert np.max(np.abs(expected.reshape(drift.shape) - network.reshape(drift.shape))) > 1e-3
 
 
@@ -509,10 +509,10 @@ def test_json_domain_reproduces_predict(name, outside, calibration, excursion, t
 
 
 @pytest.mark.skipif(CC is None, reason="no C compiler ('cc') on this machine")
-@pytest.mark.parametrize("outside", POLICIES)
+@pytest.mark.parametrize("policy", POLICIES)
 @pytest.mark.parametrize("name", sorted(MODELS))
-def test_c_follows_the_domain(name, outside, calibration, excursion, tmp_path):
-    model = _fit(name, outside, calibration)
+def test_c_follows_the_domain(name, policy, calibration, excursion, tmp_path):
+    model = _fit(name, policy, calibration)
     c = _run(_build(model, tmp_path), model, excursion)
     expected = _quiet(model.predict, excursion).reshape(len(excursion), -1)
     flag = model.outside_calibration(excursion)
@@ -530,20 +530,20 @@ def test_c_follows_the_domain(name, outside, calibration, excursion, tmp_path):
     network = model[:].predict(excursion).reshape(expected.shape)  # a plain Pipeline
     np.testing.assert_array_equal(expected[~flag], network[~flag])  # inside: unchanged
     changed = np.max(np.abs(expected - network), axis=1) > 1e-6
-    if outside == "none":
+    if policy == "none":
         assert not changed.any()
-    elif name != "two-sensors-two-outputs" or outside == "clip":
+    elif name != "two-sensors-two-outputs" or policy == "clip":
         # (blend moves nothing for rows outside by a temperature alone: its weight is 0)
         assert changed[flag].mean() > 0.3
 
 
 @pytest.mark.skipif(CC is None, reason="no C compiler ('cc') on this machine")
-@pytest.mark.parametrize("outside", POLICIES)
-def test_c_float_follows_the_domain(outside, calibration, excursion, tmp_path):
+@pytest.mark.parametrize("policy", POLICIES)
+def test_c_float_follows_the_domain(policy, calibration, excursion, tmp_path):
     # The domain is computed in double from the front end's double features, whatever the
     # precision: its gradient column is an exact difference of the two sensors, so one axis
     # of the box is degenerate, and features rounded to float would read as a distance.
-    model = _fit("two-sensors-two-outputs", outside, calibration)
+    model = _fit("two-sensors-two-outputs", policy, calibration)
     c = _run(_build(model, tmp_path, precision="float"), model, excursion, real=np.float32)
     expected = _quiet(model.predict, excursion).reshape(len(excursion), -1)
     distance = model.calibration_distance(excursion)
@@ -577,14 +577,14 @@ def cooling():
 # column ("clip" projects once, by the box alone).
 RATE_MODELS = {
     "default": (
-        lambda outside: make_compensation_pipeline(Ridge(1e-3), outside=outside),
+        lambda policy: make_compensation_pipeline(Ridge(1e-3), uncalibrated=policy),
         ["drift"],
     ),
     # alpha=0.5: the threshold at the median held-out distance (the margin here), so that
     # the cooling runs have rows the box alone puts outside (at the default alpha the three
     # heating runs spread along the sensors' gradient axis well beyond them).
     "two-sensors-two-outputs": (
-        lambda outside: _two_sensors(outside, alpha=0.5),
+        lambda policy: _two_sensors(policy, alpha=0.5),
         ["drift", "drift_2"],
     ),
     "no-temperature": (_no_temperature, ["drift"]),
@@ -615,10 +615,10 @@ def _distance_atol(model, distance):
     return max(RTOL * distance.max(), floor)
 
 
-@pytest.mark.parametrize("outside", POLICIES)
+@pytest.mark.parametrize("policy", POLICIES)
 @pytest.mark.parametrize("name", sorted(RATE_MODELS))
-def test_json_follows_the_rate_term(name, outside, heating, cooling, tmp_path):
-    model = _fit(name, outside, heating, RATE_MODELS)
+def test_json_follows_the_rate_term(name, policy, heating, cooling, tmp_path):
+    model = _fit(name, policy, heating, RATE_MODELS)
     domain = json.loads(to_json(model, tmp_path / "model.json").read_text())["domain"]
     box = model.domain_.box_
     assert domain["rate_columns"] == list(box.rate_columns)
@@ -635,10 +635,10 @@ def test_json_follows_the_rate_term(name, outside, heating, cooling, tmp_path):
 
 
 @pytest.mark.skipif(CC is None, reason="no C compiler ('cc') on this machine")
-@pytest.mark.parametrize("outside", POLICIES)
+@pytest.mark.parametrize("policy", POLICIES)
 @pytest.mark.parametrize("name", sorted(RATE_MODELS))
-def test_c_follows_the_rate_term(name, outside, heating, cooling, tmp_path):
-    model = _fit(name, outside, heating, RATE_MODELS)
+def test_c_follows_the_rate_term(name, policy, heating, cooling, tmp_path):
+    model = _fit(name, policy, heating, RATE_MODELS)
     by_rates, pure = _outside_by_rates(model, heating, cooling)
     flag = model.outside_calibration(cooling)
     distance = model.calibration_distance(cooling)
@@ -660,10 +660,10 @@ def test_c_follows_the_rate_term(name, outside, heating, cooling, tmp_path):
     np.testing.assert_array_equal(c["batched"], c["streamed"])
     network = model[:].predict(cooling).reshape(expected.shape)  # a plain Pipeline
     moved = np.max(np.abs(expected - network), axis=1) > 1e-9
-    if outside == "blend":
+    if policy == "blend":
         # weighed by the full distance: the rows outside by their rates move to the fallback
         assert moved[by_rates].mean() > 0.9
-    elif outside == "clip":
+    elif policy == "clip":
         # projected by the box alone: the rows outside by their rates are evaluated as they
         # are (a shrink of margin / distance would have moved them), the others move
         _assert_close(c["streamed"][by_rates], network[by_rates])
@@ -674,10 +674,10 @@ def test_c_follows_the_rate_term(name, outside, heating, cooling, tmp_path):
 
 
 @pytest.mark.skipif(CC is None, reason="no C compiler ('cc') on this machine")
-@pytest.mark.parametrize("outside", POLICIES)
-def test_domain_without_rates_writes_no_rate_code(outside, calibration, excursion, tmp_path):
+@pytest.mark.parametrize("policy", POLICIES)
+def test_domain_without_rates_writes_no_rate_code(policy, calibration, excursion, tmp_path):
     model = make_compensation_pipeline(
-        Ridge(1e-3), terms=("T", "T_lag900s"), outside=outside, margin=1.0
+        Ridge(1e-3), terms=("T", "T_lag900s"), uncalibrated=policy, margin=1.0
     ).fit(calibration, calibration["drift"])
     assert model.domain_.box_.rate_columns == ()
     domain = describe_pipeline(model)["domain"]
@@ -793,12 +793,12 @@ def test_c_recalibration_inside_the_domain_matches_python(name, adapt, calibrati
 
 
 @pytest.mark.skipif(CC is None, reason="no C compiler ('cc') on this machine")
-@pytest.mark.parametrize("outside", POLICIES)
+@pytest.mark.parametrize("policy", POLICIES)
 @pytest.mark.parametrize("adapt", ["bias", "output"])
 def test_c_recalibration_outside_the_domain_matches_python(
-    adapt, outside, calibration, excursion, tmp_path
+    adapt, policy, calibration, excursion, tmp_path
 ):
-    model = _fit("ridge", outside, calibration)
+    model = _fit("ridge", policy, calibration)
     has = _references(len(excursion))
     directory = tmp_path / "adapt"
     c = _run(

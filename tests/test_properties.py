@@ -38,7 +38,7 @@ from sklearn_ifog import (
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.domain import OutsideCalibrationWarning, fit_box, project_to_box
 from sklearn_ifog.fallback import Fallback
-from sklearn_ifog.policy import BLEND_WIDTH, apply_policy, fallback_weight
+from sklearn_ifog.policy import BlendWithFallback, fallback_weight
 from sklearn_ifog.streaming import StreamingCompensator
 
 CC = shutil.which("cc")
@@ -150,7 +150,7 @@ POLICIES = ["blend", "clip", "none"]
 def fitted(calibration):
     """policy -> a Ridge compensation pipeline calibrated on ``calibration``."""
     return {
-        policy: make_compensation_pipeline(Ridge(1e-3), outside=policy, margin=1.0).fit(
+        policy: make_compensation_pipeline(Ridge(1e-3), uncalibrated=policy, margin=1.0).fit(
             calibration[COLUMNS], calibration["drift"]
         )
         for policy in POLICIES
@@ -236,7 +236,7 @@ def test_blend_is_continuous_in_the_distance_and_the_model_inside(
 ):
     """Rows of one model and one fallback prediction at drawn distances: the blended value is
     the model's at or within the threshold (flagged or not), the fallback's from threshold +
-    BLEND_WIDTH, between the two in between, and changes by at most 1.5 / BLEND_WIDTH times
+    the blend's width, between the two in between, and changes by at most 1.5 / width times
     the gap per unit of distance."""
     domain = fitted["blend"].domain_
     threshold = domain.threshold_
@@ -246,26 +246,26 @@ def test_blend_is_continuous_in_the_distance_and_the_model_inside(
     features = np.zeros((d.size, domain.n_features_in_))
     prediction = np.full((d.size, 1), model_value)
     fallback = Fallback(np.array([fallback_value]), np.array([0.0]), None)
-    blended = apply_policy(
-        "blend",
+    policy = BlendWithFallback()
+    width = policy.width
+    blended = policy.apply(
         prediction,
         features,
         d,
         outside,
         domain=domain,
         fallback=fallback,
-        evaluate=None,
     )[:, 0]
     gap = fallback_value - model_value
     np.testing.assert_array_equal(blended[d <= threshold], model_value)
     np.testing.assert_allclose(
-        blended[d >= threshold + BLEND_WIDTH], fallback_value, rtol=1e-12, atol=1e-12
+        blended[d >= threshold + width], fallback_value, rtol=1e-12, atol=1e-12
     )
     low, high = min(model_value, fallback_value), max(model_value, fallback_value)
     assert np.all((blended >= low - 1e-12) & (blended <= high + 1e-12))
     order = np.argsort(d)
     jumps = np.abs(np.diff(blended[order]))
-    assert np.all(jumps <= 1.5 / BLEND_WIDTH * np.diff(d[order]) * abs(gap) + 1e-9)
+    assert np.all(jumps <= 1.5 / width * np.diff(d[order]) * abs(gap) + 1e-9)
 
 
 @_settings(15)
@@ -519,7 +519,7 @@ ESTIMATORS = {
     "CompensationPipeline": (
         lambda: make_compensation_pipeline(Ridge()),
         {
-            "outside": st.sampled_from(POLICIES),
+            "uncalibrated": st.sampled_from(POLICIES),
             "domain__margin": st.floats(0.0, 10.0),
             "domain__alpha": st.floats(0.001, 0.5),
             "regressor__alpha": st.floats(1e-6, 1e3),
@@ -539,7 +539,7 @@ ESTIMATORS = {
         {
             "pooling": st.sampled_from(["none", "partial", "full"]),
             "unit": st.sampled_from(["unit", "gyro"]),
-            "estimator__outside": st.sampled_from(POLICIES),
+            "estimator__uncalibrated": st.sampled_from(POLICIES),
         },
     ),
 }

@@ -116,14 +116,14 @@ def test_per_run_shares_distances_and_degrees_are_the_models(linear_model, partl
     assert f"its temperatures from {coldest:.4g} to {warmest:.4g} °C" in section[0]
     below = coldest - temperature.min()
     assert f"went down to {below:.3g} °C below the coldest calibrated temperature" in section[0]
-    assert "(outside='blend')" in section[0]
+    assert "(uncalibrated='blend')" in section[0]
     assert "| run | samples | rows_outside | outside_share |" in section[1]
 
 
 @pytest.mark.parametrize("policy", ["blend", "clip", "none"])
 @pytest.mark.parametrize("colder", [30.0, 0.5])
 def test_the_paragraph_says_what_the_policy_did(calibration, tmp_path, policy, colder):
-    model = make_compensation_pipeline(LinearRegression(), outside=policy)
+    model = make_compensation_pipeline(LinearRegression(), uncalibrated=policy)
     model.fit(calibration.data, calibration.target)
     # 30 degC colder: far out; 0.5 degC: just below the calibrated temperatures
     frame = calibration.frame.assign(temperature=calibration.frame["temperature"] - colder)
@@ -131,7 +131,7 @@ def test_the_paragraph_says_what_the_policy_did(calibration, tmp_path, policy, c
     paragraph = _section(result.paths["markdown"].read_text())[0]
     adjusted, outside = result.calibration.adjusted, result.calibration.outside
     assert outside.any()
-    assert f"outside='{policy}'" in paragraph
+    assert f"uncalibrated='{policy}'" in paragraph
     # the text counts the rows outside that the policy left at the model's own prediction
     kept, total = int((outside & ~adjusted).sum()), int(outside.sum())
     if policy == "none":

@@ -69,9 +69,9 @@ def fitted(calibration):
     }
 
 
-def _with_policy(model, outside):
-    """A copy of the fitted pipeline with another ``outside`` (a predict-time parameter)."""
-    return copy.deepcopy(model).set_params(outside=outside)
+def _with_policy(model, policy):
+    """A copy of the fitted pipeline with another ``uncalibrated`` (a predict-time parameter)."""
+    return copy.deepcopy(model).set_params(uncalibrated=policy)
 
 
 def _batch(model, frame, method="predict"):
@@ -193,7 +193,7 @@ def test_save_and_restore_outside_the_domain(fitted, wide_run, policy):
 def test_two_sensors_and_two_outputs(calibration, wide_run):
     y = np.column_stack([_drift(calibration), 0.5 * _drift(calibration) + 0.01])
     model = make_compensation_pipeline(
-        Ridge(alpha=1e-3), temperature=["temperature", "temperature_2"], outside="blend"
+        Ridge(alpha=1e-3), temperature=["temperature", "temperature_2"], uncalibrated="blend"
     ).fit(calibration, y)
     assert compile_domain(model).temperature_columns == model.domain_.temperature_columns_
     assert len(model.domain_.temperature_columns_) == 2
@@ -220,7 +220,7 @@ def test_two_sensors_and_two_outputs(calibration, wide_run):
 
 @pytest.mark.parametrize("policy", POLICIES)
 def test_conformal_streams_the_policy_and_the_band(calibration, wide_run, policy):
-    model = ConformalRegressor(make_compensation_pipeline(Ridge(), outside=policy), cv=3)
+    model = ConformalRegressor(make_compensation_pipeline(Ridge(), uncalibrated=policy), cv=3)
     model.fit(calibration, _drift(calibration))
     assert model.estimator_.outside_calibration(wide_run).mean() > 0.3
     if policy == "blend":

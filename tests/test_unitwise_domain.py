@@ -184,7 +184,7 @@ def test_predict_follows_each_units_policy(two_ranges):
             np.testing.assert_array_equal(prediction[rows], unit_model.predict(part))
             # the same model without its policy differs exactly where the fallback has a
             # share of the prediction (farther than the margin), and nowhere else
-            raw = copy.deepcopy(unit_model).set_params(outside="none").predict(part)
+            raw = copy.deepcopy(unit_model).set_params(uncalibrated="none").predict(part)
             blended = unit_model.calibration_distance(part) > unit_model.domain_.margin
             assert blended.sum() >= 5
             assert np.all(prediction[rows][blended] != raw[blended])
@@ -218,7 +218,7 @@ def test_one_warning_per_predict_call_names_the_units_outside(two_ranges, poolin
 
 
 def test_policy_leaves_the_partial_pooling_choice_unchanged():
-    """The own model's held-out scores are those of its fit (outside="none" in the folds),
+    """The own model's held-out scores are those of its fit (uncalibrated="none" in the folds),
     so the choice is the same whatever the policy, and fit itself does not warn."""
     lot = make_thermal_campaign(
         n_units=3,
@@ -231,12 +231,12 @@ def test_policy_leaves_the_partial_pooling_choice_unchanged():
     )
     X, y = lot.data, lot.target.to_numpy()
     fits = {}
-    for outside in ("blend", "none"):
+    for policy in ("blend", "none"):
         regressor = RBFNetRegressor(refine=None, tail="linear", max_samples=300, random_state=0)
-        estimator = make_compensation_pipeline(regressor, outside=outside)
+        estimator = make_compensation_pipeline(regressor, uncalibrated=policy)
         with warnings.catch_warnings():
             warnings.simplefilter("error", OutsideCalibrationWarning)
-            fits[outside] = UnitwiseRegressor(estimator, pooling="partial").fit(X, y)
+            fits[policy] = UnitwiseRegressor(estimator, pooling="partial").fit(X, y)
     blend, raw = fits["blend"], fits["none"]
     assert all(np.isfinite(score) for score in blend.own_scores_.values())
     assert blend.own_scores_ == raw.own_scores_

@@ -166,7 +166,7 @@ def _add_compensate(commands):
         "CSV. For a model that knows its calibration domain (any model fitted by this "
         "version), also add 'outside_calibration' (True where the row lies outside the "
         "temperatures, rates and thermal states the model was calibrated on; its "
-        "prediction there follows the model's outside policy) and 'calibration_distance' "
+        "prediction there follows the model's uncalibrated policy) and 'calibration_distance' "
         "(decorrelated standard deviations from the calibrated box), and print one line "
         "per run with rows outside.",
     )

@@ -142,13 +142,14 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
     would alone cost about 1e-4 relative.
 
     A :class:`~sklearn_ifog.pipeline.CompensationPipeline` also brings its calibration domain
-    and ``outside`` policy (``{PREFIX}_HAS_DOMAIN`` is 1; 0 for a plain Pipeline): every
+    and ``uncalibrated`` policy (``{PREFIX}_HAS_DOMAIN`` is 1; 0 for a plain Pipeline): every
     sample's distance outside the domain and its flag, as ``calibration_distance`` and
     ``outside_calibration`` give them, and its drift under the same policy as ``predict``
-    (``"blend"``, ``"clip"`` or ``"none"``, with the pipeline's ``margin`` and the current
-    :data:`~sklearn_ifog.policy.BLEND_WIDTH`). After ``{prefix}_step``,
-    ``{prefix}_compensate`` or ``{prefix}_adapt``, ``state.last_distance`` and
-    ``state.last_outside`` hold the sample's distance and flag;
+    (``"blend"``, ``"clip"`` or ``"none"``, with the pipeline's ``margin`` and the blend's
+    ``width``, :class:`~sklearn_ifog.policy.BlendWithFallback`; each policy object hands the
+    writer its C, :meth:`~sklearn_ifog.policy.UncalibratedPolicy.c_fragment`). After
+    ``{prefix}_step``, ``{prefix}_compensate`` or ``{prefix}_adapt``, ``state.last_distance``
+    and ``state.last_outside`` hold the sample's distance and flag;
     ``{prefix}_calibration_distance(features)`` is the stateless distance and
     ``{prefix}_predict_features`` applies the policy. The distance carries the domain's rate
     term (:func:`~sklearn_ifog.domain.box_distance`: a rate beyond its calibrated range adds
@@ -189,7 +190,7 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
         If a step is of a type the exporter does not know (the message names the step).
     ValueError
         On a bad ``precision`` or ``prefix``, a first step that is not ThermalFeatures, a
-        parameter that is not finite, or a CompensationPipeline whose ``outside`` or
+        parameter that is not finite, or a CompensationPipeline whose ``uncalibrated`` or
         ``margin`` is not one it could predict with.
 
     Examples
@@ -212,7 +213,12 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
 
     >>> from sklearn_ifog import make_compensation_pipeline
     >>> model = make_compensation_pipeline(
-    ...     LinearRegression(), temperature=1, time=0, run=None, terms=("T", "dT"), outside="clip"
+    ...     LinearRegression(),
+    ...     temperature=1,
+    ...     time=0,
+    ...     run=None,
+    ...     terms=("T", "dT"),
+    ...     uncalibrated="clip",
     ... ).fit(X, X[:, 1] / 100)
     >>> with tempfile.TemporaryDirectory() as directory:
     ...     text = to_c(model, directory)[0].read_text()
@@ -272,7 +278,7 @@ def to_c_units(model, directory, precision="double", prefix="ifog"):
     that cannot be in a C identifier become ``_``). Firmware flashes one gyro's pair; every
     unit keeps its own state and functions, so several can be linked together. A unit whose
     model is a :class:`~sklearn_ifog.pipeline.CompensationPipeline` carries that model's
-    own calibration domain, fallback and ``outside`` policy, the ones its ``predict`` uses
+    own calibration domain, fallback and ``uncalibrated`` policy, the ones its ``predict`` uses
     (:class:`~sklearn_ifog.UnitwiseRegressor` says which rows each unit's domain is fitted
     on).
 

@@ -20,7 +20,6 @@ from sklearn_ifog.export._templates._adapt import (
     DESIGN_FUNCTION,
     DESIGN_PLAIN,
     DRIFT_BIAS,
-    DRIFT_BLEND,
     DRIFT_OUTPUT,
     DRIFT_PROTOTYPE,
     EVALUATE_GUARDED,
@@ -31,10 +30,6 @@ from sklearn_ifog.export._templates._adapt import (
     STEP_ADAPTED,
 )
 from sklearn_ifog.export._templates._domain import (
-    BLEND_CALL,
-    BLEND_FUNCTION,
-    CLIP_ONCE,
-    CLIP_ROUNDS,
     DOMAIN_BEYOND,
     DOMAIN_BOX,
     DOMAIN_COMMENT,
@@ -43,13 +38,10 @@ from sklearn_ifog.export._templates._domain import (
     DOMAIN_FLAG,
     DOMAIN_GUARDED,
     DOMAIN_PRECISION,
-    DOMAIN_PROJECT,
     DOMAIN_PROTOTYPES,
-    DOMAIN_PULL_BACK,
     DOMAIN_RATES,
     DOMAIN_RESET,
     POLICY_NOTE,
-    POLICY_TEXT,
     RATE_DEFINE,
     TEMPERATURE_DEFINE,
     TEMPERATURE_NOVELTY,
@@ -69,6 +61,7 @@ from sklearn_ifog.export._templates._source import (
     STEP_EVALUATE,
     STEP_GUARDED,
 )
+from sklearn_ifog.policy import policy_for
 
 
 def features_body(features, prefix):
@@ -200,14 +193,24 @@ def _fallback_expression(writer, fallback):
     return expression, True
 
 
-def _domain_functions(writer, domain, prefix):
-    """The C functions of the calibration domain, for its policy (see _templates)."""
+def _policy_fragment(writer, domain, prefix, feature_names):
+    """The C of the domain's policy, from the policy object (``c_fragment``)."""
+    return policy_for(domain["uncalibrated"]).c_fragment(
+        prefix,
+        temperatures=bool(domain["temperature_columns"]),
+        fallback=lambda: _fallback_expression(writer, domain["fallback"]),
+        fallback_words=_fallback_text(domain, feature_names),
+    )
+
+
+def _domain_functions(writer, domain, prefix, feature_names):
+    """The C functions of the calibration domain, with its policy's (see _templates), and
+    the policy's fragment."""
     names = {"prefix": prefix, "PREFIX": prefix.upper()}
-    policy = domain["outside"]
     for key in ("center", "scale", "axes", "axis_scale", "lower", "upper"):
         writer.array(f"domain_{key}", domain[key], double=True)
     parts = [DOMAIN_BOX.substitute(names)]
-    beyond_test, clip_block, blend_call = "", "", ""
+    beyond_test = ""
     # The full distance from the box's (``box``): with rate columns, plus their term (the
     # arithmetic of box_distance); without them, no rate code at all.
     distance, row_distance = "box", "box"
@@ -231,26 +234,20 @@ def _domain_functions(writer, domain, prefix):
         parts.append(DOMAIN_RATES.substitute(names, temperature_novelty=novelty))
         distance = f"{prefix}_with_rates(features, box)"
         row_distance = f"{prefix}_with_rates(row, box)"
-    if policy == "clip":
-        parts.append(DOMAIN_PROJECT.substitute(names))
-        if domain["temperature_columns"]:
-            parts.append(DOMAIN_PULL_BACK.substitute(names))
-        rounds = CLIP_ROUNDS if domain["temperature_columns"] else CLIP_ONCE
-        clip_block = rounds.substitute(names)
+    fragment = _policy_fragment(writer, domain, prefix, feature_names)
+    parts.append(fragment.functions)
     parts.append(
         DOMAIN_FLAG.substitute(
-            names, distance=distance, beyond_test=beyond_test, clip_block=clip_block
+            names, distance=distance, beyond_test=beyond_test, clip_block=fragment.flag_block
         )
     )
-    if policy == "blend":
-        expression, reads = _fallback_expression(writer, domain["fallback"])
-        unused = "" if reads else "    (void)features;\n"
-        parts.append(BLEND_FUNCTION.substitute(names, fallback=expression, unused=unused))
-        blend_call = BLEND_CALL.substitute(names)
+    parts.append(fragment.after_flag)
     parts.append(
-        DOMAIN_GUARDED.substitute(names, blend_call=blend_call, row_distance=row_distance)
+        DOMAIN_GUARDED.substitute(
+            names, blend_call=fragment.guarded_call, row_distance=row_distance
+        )
     )
-    return "".join(parts)
+    return "".join(parts), fragment
 
 
 def domain_parts(writer, spec, prefix, adapt):
@@ -271,7 +268,7 @@ def domain_parts(writer, spec, prefix, adapt):
             "predict_features_body": PREDICT_EVALUATE.substitute(names),
             "policy_note": "",
         }
-    names = {"prefix": prefix, "PREFIX": upper, "policy": domain["outside"]}
+    names = {"prefix": prefix, "PREFIX": upper, "policy": domain["uncalibrated"]}
     feature_names = spec["features"]["feature_names"]
     temperatures = domain["temperature_columns"]
     temperature_define = temperature_note = rate_define = rate_note = ""
@@ -300,9 +297,7 @@ def domain_parts(writer, spec, prefix, adapt):
             " * weight) is one more term of the norm (where a heating-only calibration's\n"
             " * cooling samples lie)"
         )
-    description = POLICY_TEXT[domain["outside"]].substitute(
-        PREFIX=upper, fallback=_fallback_text(domain, feature_names)
-    )
+    functions, fragment = _domain_functions(writer, domain, prefix, feature_names)
     return {
         "domain_define": DOMAIN_DEFINE.substitute(
             names,
@@ -313,7 +308,7 @@ def domain_parts(writer, spec, prefix, adapt):
         ),
         "domain_comment": DOMAIN_COMMENT.substitute(
             names,
-            description=description,
+            description=fragment.description,
             temperature_note=temperature_note,
             rate_note=rate_note,
             adapt_note="" if adapt is None else f" (or {prefix}_adapt)",
@@ -321,7 +316,7 @@ def domain_parts(writer, spec, prefix, adapt):
         "domain_fields": DOMAIN_FIELDS.substitute(names),
         "domain_reset": DOMAIN_RESET,
         "domain_prototypes": DOMAIN_PROTOTYPES.substitute(names),
-        "domain_functions": _domain_functions(writer, domain, prefix),
+        "domain_functions": functions,
         "domain_precision": DOMAIN_PRECISION,
         "predict_features_body": PREDICT_GUARDED.substitute(names),
         "policy_note": POLICY_NOTE,
@@ -333,22 +328,22 @@ def _record(domain, call):
     return (RECORD_NOTHING if domain is None else RECORD_DOMAIN).substitute(call=call)
 
 
-def _drift_lines(names, adapt, domain):
+def _drift_lines(names, adapt, domain, fragment):
     """The body of the recalibrated ``{prefix}_drift``: the model, then the domain's policy.
 
     ``"output"``: the recalibrated output layer at the row the policy evaluates (``"clip"``:
-    the domain's edge), then ``"blend"``'s fallback; ``"bias"``: the fitted model under the
+    the domain's edge), then the policy's change of a row outside (``fragment``'s
+    ``recalibrated_call``: ``"blend"``'s fallback); ``"bias"``: the fitted model under the
     policy, then the offset (added after the policy).
     """
     if adapt == "bias":
         evaluate = EVALUATE_PLAIN if domain is None else EVALUATE_GUARDED
         return DRIFT_BIAS.substitute(names, evaluate_line=evaluate.substitute(names))
-    blends = domain is not None and domain["outside"] == "blend"
     return DRIFT_OUTPUT.substitute(
         names,
         evaluated_line="" if domain is None else EVALUATED_LINE.substitute(names),
         design_lines=(DESIGN_PLAIN if domain is None else DESIGN_DOMAIN).substitute(names),
-        blend_lines=DRIFT_BLEND.substitute(names) if blends else "",
+        blend_lines="" if fragment is None else fragment.recalibrated_call,
     )
 
 
@@ -393,6 +388,9 @@ def adaptation_parts(writer, spec, prefix, adapt, forgetting, prior, degree):
         DRIFT_PROTOTYPE.substitute(names),
     ]
     lam = format_c_literal(forgetting)
+    fragment = None
+    if domain is not None:
+        fragment = _policy_fragment(writer, domain, prefix, spec["features"]["feature_names"])
     functions = [_design_function(writer, spec, names, degree)] if adapt == "output" else []
     functions.append(
         ADAPT_FUNCTIONS.substitute(
@@ -400,7 +398,7 @@ def adaptation_parts(writer, spec, prefix, adapt, forgetting, prior, degree):
             lam=lam,
             sqrt_lam=format_c_literal(math.sqrt(forgetting)),
             trace0=format_c_literal(float(prior.trace)),
-            drift_lines=_drift_lines(names, adapt, domain),
+            drift_lines=_drift_lines(names, adapt, domain, fragment),
             record_domain="" if domain is None else _record(domain, "outside"),
         )
     )

@@ -14,8 +14,8 @@ def to_json(pipeline, path):
     languages: the ThermalFeatures rules (sensor columns, time column, terms, the smoothing
     and the lags' time constants in seconds, time unit), then every step in order with its
     operation and parameters, under a ``"schema"`` name and a ``"schema_version"``
-    (currently 3), and for a :class:`~sklearn_ifog.pipeline.CompensationPipeline` its
-    calibration domain and ``outside`` policy (``"domain"``; null for a plain Pipeline).
+    (currently 7), and for a :class:`~sklearn_ifog.pipeline.CompensationPipeline` its
+    calibration domain and ``uncalibrated`` policy (``"domain"``; null for a plain Pipeline).
     Per sensor and per time constant ``tau`` of ``time_constants``, the
     deficit ``e`` of the temperature ``u`` behind its first-order lag is 0 at a run's first
     row, then ``x = (t - t_prev) / tau``, ``a = exp(-x)``, ``g = -expm1(-x) / x`` (1 when
@@ -39,7 +39,7 @@ def to_json(pipeline, path):
     the temperature columns and their calibrated ranges (``temperature_columns``,
     ``temperature_low``, ``temperature_high``), the rate columns with their calibrated ranges
     and scales (``rate_columns``, ``rate_low``, ``rate_high``, ``rate_scale``; empty lists
-    for a model without them), ``projection_rounds``, the policy ``outside`` and the
+    for a model without them), ``projection_rounds``, the policy ``uncalibrated`` and the
     ``fallback`` (``intercept``, ``slope``, ``column``, the calibrated ``low`` and ``high``
     with ``hold_below`` / ``hold_above``, ``rate_column``, ``rate_slope``, ``rate_bound``):
     a row's distance is ``sqrt(sum_k (e_k / axis_scale_k)^2 + sum_r (g_r /
@@ -88,7 +88,7 @@ def to_json(pipeline, path):
     >>> with tempfile.TemporaryDirectory() as directory:
     ...     spec = json.loads(to_json(model, Path(directory) / "model.json").read_text())
     >>> spec["schema_version"], [step["op"] for step in spec["steps"]], spec["domain"]
-    (6, ['linear'], None)
+    (7, ['linear'], None)
 
     A CompensationPipeline also writes where it was calibrated:
 
@@ -100,7 +100,7 @@ def to_json(pipeline, path):
     ...     spec = json.loads(to_json(model, Path(directory) / "model.json").read_text())
     >>> domain = spec["domain"]
     >>> (
-    ...     domain["outside"],
+    ...     domain["uncalibrated"],
     ...     domain["margin"],
     ...     domain["temperature_high"],
     ...     domain["fallback"]["column"],

@@ -56,7 +56,7 @@ def compensation_report(
     when that model knows its calibration domain (a
     :class:`~sklearn_ifog.CompensationPipeline`, or a meta-estimator around them), a
     "Calibration domain" section says whether rows lay outside it and what the model's
-    ``outside`` policy did there, with a table per run (:func:`per_run_calibration`), and
+    ``uncalibrated`` policy did there, with a table per run (:func:`per_run_calibration`), and
     the figures shade the stretches outside.
 
     Parameters

@@ -6,13 +6,12 @@
 section and by the command line (``sklearn-ifog compensate`` and ``report``).
 """
 
-import copy
-import warnings
-
 import numpy as np
 
 from sklearn_ifog import _table
 from sklearn_ifog._per_run import ALL_RUNS
+from sklearn_ifog.domain import locate
+from sklearn_ifog.policy import policy_for
 
 __all__ = ["calibration_status", "per_run_calibration"]
 
@@ -44,15 +43,13 @@ def _domain_pipelines(model, X, rows):
     return parts
 
 
-def _adjusted_rows(pipeline, X):
-    """Rows whose prediction the ``outside`` policy changed from the regressor's own."""
-    if pipeline.outside == "none":
-        return np.zeros(_table.as_table(X).shape[0], dtype=bool)
-    free = copy.copy(pipeline).set_params(outside="none")  # the fitted steps are shared
-    with_policy = np.asarray(pipeline.predict(X), dtype=np.float64)
-    without = np.asarray(free.predict(X), dtype=np.float64)
-    changed = with_policy != without
-    return changed.reshape(changed.shape[0], -1).any(axis=1)
+def _adjusted_rows(pipeline, features):
+    """Rows whose prediction the pipeline's policy changed from the regressor's own, asked
+    of the policy object from where the rows lie (no second prediction)."""
+    domain = pipeline.domain_
+    return policy_for(pipeline.uncalibrated).changed_rows(
+        features, locate(domain, features), domain
+    )
 
 
 def calibration_status(model, X):
@@ -64,8 +61,8 @@ def calibration_status(model, X):
     the distance of :meth:`~sklearn_ifog.CompensationPipeline.outside_calibration` and
     :meth:`~sklearn_ifog.CompensationPipeline.calibration_distance`, how far the
     temperature lies beyond the calibrated range (:meth:`~sklearn_ifog.CalibrationDomain.
-    excess` of the T feature, ``fallback_.column``), and whether the model's ``outside``
-    policy changed the row's prediction.
+    excess` of the T feature, ``fallback_.column``), and whether the model's policy
+    (``uncalibrated``) changed the row's prediction.
 
     Parameters
     ----------
@@ -94,12 +91,12 @@ def calibration_status(model, X):
           its domain;
         - ``rate_min``, ``rate_max``: float, the calibrated rates of the row's model (NaN
           without a dT feature);
-        - ``policy``: str, the ``outside`` policy of the row's model;
+        - ``policy``: str, the ``uncalibrated`` policy of the row's model;
         - ``fallback``: str, ``"plane"`` (a line in T and the rate dT), ``"line"`` (a line
           in T) or ``"constant"`` (the calibration's mean drift), what ``"blend"`` falls
           back towards (:func:`~sklearn_ifog.fallback.fallback_name`);
         - ``adjusted``: bool, whether the policy changed the row's prediction from the
-          regressor's own (the model predicted again with ``outside="none"``).
+          regressor's own (:meth:`~sklearn_ifog.policy.UncalibratedPolicy.changed_rows`).
 
     Raises
     ------
@@ -136,7 +133,6 @@ def calibration_status(model, X):
     """
     from sklearn.utils import Bunch
 
-    from sklearn_ifog.domain import OutsideCalibrationWarning
     from sklearn_ifog.fallback import fallback_name
 
     X = _table.as_table(X)
@@ -160,19 +156,16 @@ def calibration_status(model, X):
     for pipeline, X_part, rows in parts:
         status.outside[rows] = pipeline.outside_calibration(X_part)
         status.distance[rows] = pipeline.calibration_distance(X_part)
-        status.policy[rows] = pipeline.outside
+        status.policy[rows] = pipeline.uncalibrated
         fallback = pipeline.fallback_
         status.fallback[rows] = fallback_name(fallback)
-        with warnings.catch_warnings():
-            # the caller was warned when it predicted; this only measures what changed
-            warnings.simplefilter("ignore", OutsideCalibrationWarning)
-            status.adjusted[rows] = _adjusted_rows(pipeline, X_part)
+        features = _table.as_float_rows(pipeline.steps[0][1].transform(X_part))
+        status.adjusted[rows] = _adjusted_rows(pipeline, features)
         column = fallback.column
         rates = list(getattr(pipeline.domain_, "rate_columns_", []))
         if column is None and not rates:
             continue
         domain = pipeline.domain_
-        features = _table.as_float_rows(pipeline.steps[0][1].transform(X_part))
         excess = domain.excess(features)
         if column is not None:
             status.temperature_excess[rows] = excess[:, column]

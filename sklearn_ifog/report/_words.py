@@ -9,12 +9,14 @@ same thing in the same words.
 import numpy as np
 
 from sklearn_ifog.domain import ROUNDOFF_SHARE
+from sklearn_ifog.policy import policy_for
 
 __all__ = ["number_text", "policy_actions"]
 
 
 def policy_actions(status):
-    """What the ``outside`` policies did to the rows outside, one clause per policy."""
+    """What the policies did to the rows outside, one clause per policy and fallback (the
+    words of each policy object: :meth:`~sklearn_ifog.policy.UncalibratedPolicy.describe`)."""
     outside = status.outside
     clauses = []
     pairs = np.column_stack([status.policy[outside], status.fallback[outside]]).astype(str)
@@ -22,41 +24,7 @@ def policy_actions(status):
         rows = outside & (status.policy == policy) & (status.fallback == fallback)
         total = int(rows.sum())
         kept = int((rows & ~status.adjusted).sum())
-        if policy == "none":
-            clauses.append(
-                "the model extrapolated freely, nothing bounding its error (outside='none')"
-            )
-            continue
-        if policy == "clip":
-            clause = (
-                "the model was held at the domain's edge, its prediction at the nearest "
-                "calibrated point (outside='clip')"
-            )
-        else:
-            towards = {
-                "plane": "a line in T and the rate dT fitted on the calibration runs",
-                "line": "a line in T fitted on the calibration",
-                "constant": (
-                    "the calibration's mean drift (a constant: no slope in T extrapolated better)"
-                ),
-            }[fallback]
-            if kept == total:
-                clauses.append(
-                    f"each of these {total} rows kept the model's own prediction: "
-                    f"outside='blend' gives way to its fallback, {towards}, only farther "
-                    "from the calibrated combinations than these rows lie"
-                )
-                continue
-            clause = (
-                f"the model fell back towards {towards}, the farther out the more "
-                "(outside='blend')"
-            )
-        if kept:
-            clause += (
-                f", for {total - kept} of these {total} rows; the other {kept} kept the "
-                "model's own prediction"
-            )
-        clauses.append(clause)
+        clauses.append(policy_for(policy).describe(total, kept, fallback))
     return clauses
 
 

@@ -9,7 +9,7 @@ computes the features of a chunk with the same plain functions as the batch tran
 started from that state, and hands the rows to the fitted steps after ThermalFeatures
 unchanged. Its output is the batch Pipeline's, whatever the chunking. A
 :class:`~sklearn_ifog.pipeline.CompensationPipeline` also brings its calibration domain:
-the same distance of every feature row and the same ``outside`` policy as its ``predict``
+the same distance of every feature row and the same ``uncalibrated`` policy as its ``predict``
 (:class:`sklearn_ifog._compiled.CompiledDomain`), and a flag per row instead of a warning.
 
 A package: the compensator (``_compensator``), its feature state machine (``_features``:

@@ -157,7 +157,7 @@ class StreamingCompensator:
     :class:`~sklearn_ifog.pipeline.CompensationPipeline` (what
     :func:`~sklearn_ifog.make_compensation_pipeline` returns, also as a ConformalRegressor's
     ``estimator_``), the compensator tests every sample against the pipeline's calibration
-    domain and applies its ``outside`` policy (``"blend"``, ``"clip"`` or ``"none"``, with
+    domain and applies its ``uncalibrated`` policy (``"blend"``, ``"clip"`` or ``"none"``, with
     its ``margin``, both read here, at construction) exactly as the batch ``predict`` does,
     so the output stays the batch one for rows outside too. A row is outside, as in batch,
     when it lies farther than ``margin`` from the domain's decorrelated box or a
@@ -323,7 +323,7 @@ class StreamingCompensator:
         self._names_in = getattr(_first_step(self._rest), "feature_names_in_", None)
         self._compiled = compile_steps(pipeline)
         self.compiled = self._compiled is not None
-        # The calibration domain and outside policy (None for a plain Pipeline); each fold
+        # The calibration domain and its policy (None for a plain Pipeline); each fold
         # model of a ConformalRegressor has its own, as its predict applies it.
         self._domain = compile_domain(pipeline)
         self._band = None
@@ -460,7 +460,7 @@ class StreamingCompensator:
             output.
         drift : float or ndarray of shape (n_outputs,)
             Predicted drift, deg/h (before this sample's own update; outside the
-            calibration domain, under the pipeline's ``outside`` policy). Sets
+            calibration domain, under the pipeline's ``uncalibrated`` policy). Sets
             :attr:`last_outside` and :attr:`last_distance` (one row) for a pipeline with a
             domain; never warns.
         """
@@ -508,7 +508,7 @@ class StreamingCompensator:
         outside = False
         if domain is not None:
             distance, outside = domain.row_where(row)
-            if outside and domain.policy != "none":
+            if outside and not domain.policy.keeps_model:
                 drift = self._row_policy(row, drift, distance, rls, fast)
         if adapt == "bias":
             base = drift
@@ -649,8 +649,8 @@ class StreamingCompensator:
         compensated : ndarray or None
             ``rate - drift`` (None when ``rate`` is None).
         drift : ndarray of shape (n_samples,) or (n_samples, n_outputs)
-            Predicted drift, deg/h, as ``pipeline.predict`` gives it, its ``outside``
-            policy included (each sample's before its own update). Sets
+            Predicted drift, deg/h, as ``pipeline.predict`` gives it, its
+            ``uncalibrated`` policy included (each sample's before its own update). Sets
             :attr:`last_outside` and :attr:`last_distance` for a pipeline with a domain;
             never warns.
         """
@@ -693,7 +693,7 @@ class StreamingCompensator:
         distance, outside = self._where(features)
         if self.adapt == "output":
             design = self._compiled.design(features)
-            if domain is not None and domain.policy == "clip" and outside.any():
+            if domain is not None and domain.policy.moves_rows and outside.any():
                 # Outside rows never update, so their design row only predicts: the
                 # recalibrated network at the domain's edge, with the weights of its time.
                 design[outside] = self._compiled.design(domain.project(features[outside]))
@@ -724,7 +724,8 @@ class StreamingCompensator:
             prediction, rls = rls.learn_rows(design, target, learns, self.forgetting, self._prior)
             if self.adapt == "output":
                 drift = prediction
-                if domain is not None and domain.policy == "blend":
+                if domain is not None and not domain.policy.moves_rows:
+                    # (A policy that moves rows had them moved in the design above.)
                     drift = domain.apply(features, prediction, distance, outside)
             else:
                 drift = base + prediction

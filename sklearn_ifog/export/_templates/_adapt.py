@@ -181,8 +181,8 @@ DRIFT_PROTOTYPE = Template(
 
 # The body of ``${prefix}_drift`` (``$drift_lines`` of ADAPT_FUNCTIONS). "output": the
 # recalibrated output layer at ``$design_lines``'s row (the domain's edge under "clip"), then
-# ``$blend_lines``; "bias": the fitted model under the policy (``$evaluate_line``), then the
-# offset.
+# ``$blend_lines`` (the policy's ``recalibrated_call``); "bias": the fitted model under the
+# policy (``$evaluate_line``), then the offset.
 DRIFT_OUTPUT = Template(
     "$evaluated_line"
     "    double phi[${PREFIX}_N_WEIGHTS];\n"
@@ -210,9 +210,6 @@ DESIGN_DOMAIN = Template(
 
 EVALUATED_LINE = Template("    double evaluated[${PREFIX}_N_FEATURES];\n")
 
-DRIFT_BLEND = Template(
-    "\n    if (outside) {\n        ${prefix}_blend(features, *distance, drift);\n    }"
-)
 
 DRIFT_BIAS = Template(
     "    double phi[${PREFIX}_N_WEIGHTS];\n"

@@ -2,8 +2,9 @@
 
 from string import Template
 
-# The calibration domain (a CompensationPipeline's ``domain_``, ``margin`` and ``outside``),
-# after the network in the source, in pieces that _c.py puts together for the policy. In
+# The calibration domain (a CompensationPipeline's ``domain_``, ``margin`` and
+# ``uncalibrated``), after the network in the source, in pieces that _c.py puts together
+# with the policy's own C (``c_fragment`` of the policy object, sklearn_ifog.policy). In
 # double whatever the precision, as the front end: the decorrelated coordinates divide by
 # the spread of nearly degenerate axes (a gradient term is an exact difference of two
 # sensors), where single-precision rounding of the features alone would read as a distance.
@@ -130,39 +131,11 @@ TEMPERATURE_NOVELTY = Template(
 )
 
 
-# "clip": a row farther than the margin moves from the box towards itself until its
-# distance is the margin (its coordinates on the axes given, overwritten).
-DOMAIN_PROJECT = Template(
-    """
-/* "clip": the point at the margin on the way from the box (inside) to the row (coordinates),
- * rotated back and unstandardised into projected. */
-static void ${prefix}_project(
-    double coordinates[${PREFIX}_N_FEATURES],
-    const double inside[${PREFIX}_N_FEATURES], double distance,
-    double projected[${PREFIX}_N_FEATURES])
-{
-    const double shrink = ${PREFIX}_MARGIN / distance;
-    int j;
-    int k;
-    for (k = 0; k < ${PREFIX}_N_FEATURES; ++k) {
-        coordinates[k] = inside[k] + (coordinates[k] - inside[k]) * shrink;
-    }
-    for (j = 0; j < ${PREFIX}_N_FEATURES; ++j) {
-        double total = 0.0;
-        for (k = 0; k < ${PREFIX}_N_FEATURES; ++k) {
-            total += coordinates[k] * ${prefix}_domain_axes[k][j];
-        }
-        projected[j] = total * ${prefix}_domain_scale[j] + ${prefix}_domain_center[j];
-    }
-}
-"""
-)
-
-
 # ``${prefix}_domain``: the flag, the distance, and the row the network is evaluated at.
 # ``$distance``: the full distance from the box's (``box``; ``${prefix}_with_rates(features,
 # box)`` with rate columns); ``$beyond_test``: `` && !${prefix}_beyond(features)`` with
-# temperature columns; ``$clip_block``: CLIP_ONCE or CLIP_ROUNDS under "clip", else nothing.
+# temperature columns; ``$clip_block``: the policy's ``flag_block`` (the projection under
+# "clip", else nothing).
 DOMAIN_FLAG = Template(
     """
 /* Whether a row of features lies outside the calibration domain (returns 1; *distance: its
@@ -189,107 +162,9 @@ $clip_block    return 1;
 )
 
 
-# Without temperature columns, "clip" projects once, by the box's distance alone: a row
-# outside by its rates only stays as it is (its box distance is within the margin, where
-# margin / distance would move it outward).
-CLIP_ONCE = Template(
-    """\
-    if (box > ${PREFIX}_MARGIN) {
-        ${prefix}_project(coordinates, inside, box, evaluated);
-    }
-"""
-)
-
-
-# With temperature columns, "clip" alternates the projection onto the box widened by the
-# margin and the clamp of every temperature to its range: both sets are convex, so the row
-# converges into their intersection, slowly where they meet at a narrow angle. The rounds
-# end on the box; then a row with a temperature beyond its range moves along the segment to
-# the box's centre (the calibration's mean: inside the box and every range) until every
-# temperature is within it, as ``pull_back_to_ranges`` does, and the temperatures are
-# clamped (a rounding error's change).
-DOMAIN_PULL_BACK = Template(
-    """
-/* "clip": the row moved onto the box widened by the margin when it lies beyond it. */
-static void ${prefix}_onto_box(double row[${PREFIX}_N_FEATURES])
-{
-    double coordinates[${PREFIX}_N_FEATURES];
-    double inside[${PREFIX}_N_FEATURES];
-    const double point = ${prefix}_box(row, coordinates, inside);
-    if (point > ${PREFIX}_MARGIN) {
-        ${prefix}_project(coordinates, inside, point, row);
-    }
-}
-
-/* "clip": every temperature of the row clamped to its calibrated range. */
-static void ${prefix}_clamp_temperatures(double row[${PREFIX}_N_FEATURES])
-{
-    int t;
-    for (t = 0; t < ${PREFIX}_N_TEMPERATURES; ++t) {
-        const int column = ${prefix}_temperature_columns[t];
-        if (row[column] < ${prefix}_temperature_low[t]) {
-            row[column] = ${prefix}_temperature_low[t];
-        } else if (row[column] > ${prefix}_temperature_high[t]) {
-            row[column] = ${prefix}_temperature_high[t];
-        }
-    }
-}
-
-/* "clip" with temperature columns: a row with a temperature beyond its calibrated range
- * moves towards the box's centre until every temperature lies within its range. */
-static void ${prefix}_pull_back(double row[${PREFIX}_N_FEATURES])
-{
-    double share = 1.0;
-    int j;
-    int t;
-    for (t = 0; t < ${PREFIX}_N_TEMPERATURES; ++t) {
-        const int column = ${prefix}_temperature_columns[t];
-        const double middle = ${prefix}_domain_center[column];
-        double bound;
-        double ratio;
-        if (row[column] > ${prefix}_temperature_high[t]) {
-            bound = ${prefix}_temperature_high[t];
-        } else if (row[column] < ${prefix}_temperature_low[t]) {
-            bound = ${prefix}_temperature_low[t];
-        } else {
-            continue;
-        }
-        ratio = (bound - middle) / (row[column] - middle);
-        if (ratio < share) {
-            share = ratio;
-        }
-    }
-    if (share == 1.0) {
-        return;
-    }
-    for (j = 0; j < ${PREFIX}_N_FEATURES; ++j) {
-        row[j] = ${prefix}_domain_center[j] + share * (row[j] - ${prefix}_domain_center[j]);
-    }
-    ${prefix}_clamp_temperatures(row);
-}
-"""
-)
-
-
-# With temperature columns: the rounds (box, then the temperatures' clamp), the box once
-# more, the pull-back (DOMAIN_PULL_BACK).
-CLIP_ROUNDS = Template(
-    """    {
-        int round;
-        for (round = 0; round < ${PREFIX}_PROJECTION_ROUNDS; ++round) {
-            ${prefix}_onto_box(evaluated);
-            ${prefix}_clamp_temperatures(evaluated);
-        }
-        ${prefix}_onto_box(evaluated);
-        ${prefix}_pull_back(evaluated);
-    }
-"""
-)
-
-
-# The drift under the policy (``$blend_call``: "blend"'s change of a row outside, else
-# nothing), and the public distance (``$row_distance``: DOMAIN_FLAG's ``$distance`` of
-# ``row``).
+# The drift under the policy (``$blend_call``: the policy's ``guarded_call``, "blend"'s
+# change of a row outside, else nothing), and the public distance (``$row_distance``:
+# DOMAIN_FLAG's ``$distance`` of ``row``).
 DOMAIN_GUARDED = Template(
     """
 /* The drift of one row of features under the domain's policy; returns 1 when the row lies
@@ -321,37 +196,9 @@ double ${prefix}_calibration_distance(const ${prefix}_real features[${PREFIX}_N_
 )
 
 
-# "blend": the drift of a row outside moves smoothly to the fallback. ``$fallback``: the
-# fallback's expression for output ``k`` (a line in one feature, or a constant).
-BLEND_FUNCTION = Template(
-    """
-/* "blend": drift = (1 - w) drift + w fallback, with s = (distance - margin) / BLEND_WIDTH
- * clamped to [0, 1] and w = s^2 (3 - 2 s) (a smoothstep: no step at the margin or beyond). */
-static void ${prefix}_blend(
-    const double features[${PREFIX}_N_FEATURES], double distance,
-    ${prefix}_real drift[${PREFIX}_N_OUTPUTS])
-{
-    double s = (distance - ${PREFIX}_MARGIN) / ${PREFIX}_BLEND_WIDTH;
-    double weight;
-    int k;
-    if (s < 0.0) {
-        s = 0.0;
-    } else if (s > 1.0) {
-        s = 1.0;
-    }
-    weight = s * s * (3.0 - 2.0 * s);
-    for (k = 0; k < ${PREFIX}_N_OUTPUTS; ++k) {
-        const double fallback = $fallback;
-        drift[k] = (${prefix}_real)((1.0 - weight) * (double)drift[k] + weight * fallback);
-    }
-$unused}
-"""
-)
-
-
 # The calibration domain's parts of the header (with a domain; without one the header only
-# defines ``${PREFIX}_HAS_DOMAIN 0``). ``$policy``: the ``outside`` policy; ``$description``:
-# what it does (one of POLICY_TEXT); ``$margin``, ``$blend_width``: literals;
+# defines ``${PREFIX}_HAS_DOMAIN 0``). ``$policy``: the policy's name; ``$description``:
+# what it does (the policy's ``description``); ``$margin``, ``$blend_width``: literals;
 # ``$temperature_define``, ``$rate_define``: TEMPERATURE_DEFINE, RATE_DEFINE or nothing.
 DOMAIN_DEFINE = Template(
     """\
@@ -438,27 +285,8 @@ double ${prefix}_calibration_distance(const ${prefix}_real features[${PREFIX}_N_
 )
 
 
-# What each ``outside`` policy does, for the header comment (``$fallback``: the fallback).
-POLICY_TEXT = {
-    "blend": Template(
-        "(1 - w) * model + w * fallback,\n"
-        " * w rising smoothly (a smoothstep) from 0 at ${PREFIX}_MARGIN to 1 at\n"
-        " * ${PREFIX}_MARGIN + ${PREFIX}_BLEND_WIDTH (0 for a sample outside by its temperature\n"
-        " * alone); the fallback is $fallback"
-    ),
-    "clip": Template(
-        "the model at the\n"
-        " * nearest point of the domain (at the margin, every temperature within its range)"
-    ),
-    "none": Template("the model's own\n * extrapolation (the sample is only flagged)"),
-}
-
-# The state's reset of the domain's fields, the call of ``"blend"`` on a row outside, and the
-# note of the predict_features prototype.
+# The state's reset of the domain's fields, and the note of the predict_features prototype.
 DOMAIN_RESET = "    state->last_distance = 0.0;\n    state->last_outside = 0;\n"
 
-BLEND_CALL = Template(
-    "    if (outside) {\n        ${prefix}_blend(features, *distance, drift);\n    }\n"
-)
 
 POLICY_NOTE = ", then the calibration domain's policy"
