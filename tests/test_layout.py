@@ -13,6 +13,11 @@
   the package. The allowed exceptions are in ``ALLOWED_PRIVATE`` (each with its reason).
 - The version has one home, ``sklearn_ifog/_version.py``: no module but the package root
   reads ``__version__`` from the package root (issue 43).
+- The policy has one home, ``sklearn_ifog/policy.py``: no other module compares a policy
+  name (``"blend"``, ``"clip"``) with anything, directly or as a member of a tuple, list or
+  set of policy names, nor matches one in a ``case`` (issue 43, point 2: the modules ask
+  the policy object instead). ``POLICY_COMPARERS`` lists the modules allowed to, at most
+  two.
 
 Each checker is also run on a small source with a violation (``test_*_catches_*``), so a
 checker that stopped seeing anything would fail here rather than pass silently.
@@ -37,6 +42,12 @@ ALLOWED_PRIVATE = {"_asdict", "_fields", "_make", "_replace", "_validate_params"
 
 # Where importing the code generator is allowed.
 EXPORT_USERS = ("export", "cli")
+
+# The policy names a module may not compare, and the modules that may (issue 43, point 2:
+# "policy names are compared in at most two modules"; policy.py's ``policy_for`` resolves
+# the pipeline's ``uncalibrated`` to its object).
+POLICY_NAMES = ("blend", "clip")
+POLICY_COMPARERS = ("policy.py",)
 
 
 def _modules(paths=None):
@@ -211,6 +222,36 @@ def root_version_reads(source, label):
     return found
 
 
+def _policy_names_in(node):
+    """The policy names ``node`` is, or holds as a tuple, list or set of policy names only
+    (``key in {"name", "clip"}`` is about keys, not the policy)."""
+    if isinstance(node, ast.Constant):
+        return [node.value] if node.value in POLICY_NAMES else []
+    if isinstance(node, (ast.Tuple, ast.List, ast.Set)) and node.elts:
+        names = [element.value for element in node.elts if isinstance(element, ast.Constant)]
+        if len(names) == len(node.elts) and all(name in (*POLICY_NAMES, "none") for name in names):
+            return [name for name in names if name in POLICY_NAMES]
+    return []
+
+
+def policy_comparisons(source, label):
+    """``label:line`` for every comparison with a policy name in ``source``, and every
+    ``case`` that matches one."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Compare):
+            names = [
+                name for part in (node.left, *node.comparators) for name in _policy_names_in(part)
+            ]
+        elif isinstance(node, ast.MatchValue):
+            names = _policy_names_in(node.value)
+        else:
+            continue
+        if names:
+            found.append(f"{label}:{node.lineno} compares {', '.join(map(repr, names))}")
+    return found
+
+
 # -- the rules on the package -----------------------------------------------------------------
 
 
@@ -243,6 +284,15 @@ def test_no_private_names_of_other_modules():
     found = []
     for path in _modules():
         found += [where for _, where in private_accesses(path.read_text(), _name(path))]
+    assert not found, "\n".join(found)
+
+
+def test_policy_names_are_compared_in_the_policy_module_only():
+    assert len(POLICY_COMPARERS) <= 2
+    found = []
+    for path in _modules():
+        if _name(path) not in POLICY_COMPARERS:
+            found += policy_comparisons(path.read_text(), _name(path))
     assert not found, "\n".join(found)
 
 
@@ -316,3 +366,26 @@ def test_the_private_check_catches_another_modules_name():
     assert found == ["_hidden", "_number", "_prior"]
     # A private module imported as a module is not a private name.
     assert private_accesses("from sklearn_ifog import _table\n", "m.py") == []
+
+
+def test_the_policy_check_catches_every_form():
+    source = (
+        "def f(model, policy, key, domain):\n"
+        "    if model.uncalibrated == 'blend':\n"
+        "        return 1\n"
+        "    if 'clip' != policy:\n"
+        "        return 2\n"
+        "    if policy in ('blend', 'none'):\n"
+        "        return 3\n"
+        "    if domain['uncalibrated'] not in {'clip'}:\n"
+        "        return 4\n"
+        "    match policy:\n"
+        "        case 'blend':\n"
+        "            return 5\n"
+        "    if key in {'name', 'clip', 'op'} or domain['clip'] is None:\n"
+        "        return 6\n"  # a step's "clip" key, not the policy
+        "    return policy == 'none' or {'blend': 1}[policy]\n"
+    )
+    found = policy_comparisons(source, "report/_words.py")
+    assert [line.split(":")[1].split()[0] for line in found] == ["2", "4", "6", "8", "11"]
+    assert found[0] == "report/_words.py:2 compares 'blend'"

@@ -35,9 +35,13 @@ domain)
     # only they would kill counts as a survivor here.
     tests="tests/test_domain.py tests/test_domain_threshold.py tests/test_domain_mutants.py"
     ;;
-fallback | policy)
-    source_file=sklearn_ifog/$module.py
+fallback)
+    source_file=sklearn_ifog/fallback.py
     tests="tests/test_domain.py tests/test_domain_mutants.py"
+    ;;
+policy)
+    source_file=sklearn_ifog/policy.py
+    tests="tests/test_policy.py tests/test_domain.py tests/test_domain_mutants.py"
     ;;
 features)
     source_file=sklearn_ifog/features.py
