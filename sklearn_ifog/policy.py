@@ -17,6 +17,8 @@ fragment of C (the same arithmetic):
 - :class:`KeepModel` (``"none"``) keeps the model's own extrapolation.
 """
 
+import math
+import numbers
 from string import Template
 from typing import NamedTuple
 
@@ -385,8 +387,12 @@ class BlendWithFallback(UncalibratedPolicy):
 
     def __init__(self, width=None):
         width = _BLEND_WIDTH if width is None else width
-        if isinstance(width, bool) or not isinstance(width, (int, float)) or not width > 0:
-            raise ValueError(f"width must be a number > 0, got {width!r}.")
+        if (
+            isinstance(width, bool)
+            or not isinstance(width, numbers.Real)
+            or not (math.isfinite(width) and width > 0)
+        ):
+            raise ValueError(f"width must be a finite number > 0, got {width!r}.")
         self.width = float(width)
 
     def __repr__(self):

@@ -79,8 +79,9 @@ def test_the_flags_say_what_each_policy_needs():
 def test_the_blend_width_is_checked():
     assert BlendWithFallback().width == 1.0
     assert BlendWithFallback(width=2).width == 2.0
-    for bad in (0.0, -1.0, float("nan"), True, "1"):
-        with pytest.raises(ValueError, match="width must be a number > 0"):
+    assert BlendWithFallback(width=np.float32(0.5)).width == 0.5
+    for bad in (0.0, -1.0, float("nan"), float("inf"), True, "1"):
+        with pytest.raises(ValueError, match="width must be a finite number > 0"):
             BlendWithFallback(width=bad)
 
 
