@@ -76,21 +76,43 @@ def fallback_weight(distance, margin, width=_BLEND_WIDTH):
 class CFragment(NamedTuple):
     """A policy's part of the exported C (text with the writer's ``prefix`` substituted).
 
-    Read by the C export (:func:`sklearn_ifog.export.to_c`), which puts each part in its
-    place around the calibration domain's own functions.
+    Made by :meth:`UncalibratedPolicy.c_fragment` and read by the C export
+    (:func:`sklearn_ifog.export.to_c`), which puts each part in its place around the
+    calibration domain's own functions. An empty string: nothing there.
+
+    Parameters
+    ----------
+    functions : str
+        Static functions written before the domain's flag function (``{prefix}_domain``).
+    flag_block : str
+        Lines of ``{prefix}_domain`` for a row outside: where the network is evaluated.
+    after_flag : str
+        Static functions written after the flag function.
+    guarded_call : str
+        Lines of ``{prefix}_guarded`` after the network's drift: the change of a row
+        outside.
+    recalibrated_call : str
+        Lines after the recalibrated output layer's drift (``adapt="output"``).
+    description : str
+        What the policy does, in words, for the header comment.
+
+    Examples
+    --------
+    >>> fragment = policy_for("none").c_fragment(
+    ...     "ifog", temperatures=True, fallback=None, fallback_words=""
+    ... )
+    >>> fragment.functions, fragment.flag_block
+    ('', '')
+    >>> print(fragment.description)
+    the model's own
+     * extrapolation (the sample is only flagged)
     """
 
-    #: Static functions written before the domain's flag function (``{prefix}_domain``).
     functions: str
-    #: Lines of ``{prefix}_domain`` for a row outside: where the network is evaluated.
     flag_block: str
-    #: Static functions written after the flag function.
     after_flag: str
-    #: Lines of ``{prefix}_guarded`` after the network's drift: the change of a row outside.
     guarded_call: str
-    #: Lines after the recalibrated output layer's drift (``adapt="output"``).
     recalibrated_call: str
-    #: What the policy does, in words, for the header comment.
     description: str
 
 
@@ -99,6 +121,7 @@ class UncalibratedPolicy:
 
     The base class of the policies that :func:`policy_for` resolves the pipeline's
     ``uncalibrated`` parameter to. A policy leaves the rows inside the domain as they are.
+    Its public methods are here; a policy fills in their private parts.
 
     Attributes
     ----------
@@ -138,6 +161,10 @@ class UncalibratedPolicy:
     ):
         """The prediction of every row under the policy (rows inside unchanged).
 
+        The one implementation, shared by
+        :meth:`~sklearn_ifog.pipeline.CompensationPipeline.predict` and the streaming
+        compensator (the C export writes the same arithmetic).
+
         Parameters
         ----------
         prediction : ndarray of shape (n_samples, n_outputs)
@@ -161,6 +188,14 @@ class UncalibratedPolicy:
         prediction : ndarray of shape (n_samples, n_outputs)
             ``prediction`` itself when no row changes, else a new array.
         """
+        if self.keeps_model or not outside.any():
+            return prediction
+        return self._apply(
+            prediction.copy(), features, distance, outside, domain, fallback, evaluate
+        )
+
+    def _apply(self, prediction, features, distance, outside, domain, fallback, evaluate):
+        """The policy's change of the rows outside, in ``prediction`` (a copy)."""
         raise NotImplementedError
 
     def fallback_share(self, distance, threshold):
@@ -178,7 +213,9 @@ class UncalibratedPolicy:
         share : ndarray of shape (n_samples,)
             0 for a policy without a fallback.
         """
-        return np.zeros(np.shape(distance), dtype=np.float64)
+        if not self.uses_fallback:
+            return np.zeros(np.shape(distance), dtype=np.float64)
+        return self._share(distance, threshold)
 
     def changed_rows(self, features, where, domain):
         """Which rows the policy changes from the model's own prediction.
@@ -200,7 +237,10 @@ class UncalibratedPolicy:
         -------
         changed : ndarray of shape (n_samples,), dtype=bool
         """
-        return np.zeros(np.shape(where.outside), dtype=bool)
+        changed = np.array(where.outside, dtype=bool)
+        if self.keeps_model or not changed.any():
+            return np.zeros(changed.shape, dtype=bool)
+        return self._changed(features, where, domain, changed)
 
     def describe(self, total, kept, fallback):
         """What the policy did to rows outside, in words (one clause, for the report).
@@ -218,16 +258,21 @@ class UncalibratedPolicy:
         -------
         clause : str
         """
-        clause = self._action(fallback)
-        if kept:
+        clause = self._action(total, kept, fallback)
+        if self._counts_kept(total, kept):
             clause += (
                 f", for {total - kept} of these {total} rows; the other {kept} kept the "
                 "model's own prediction"
             )
         return clause
 
-    def _action(self, fallback):
+    def _action(self, total, kept, fallback):
+        """The clause of :meth:`describe`, before the count of the rows kept."""
         raise NotImplementedError
+
+    def _counts_kept(self, total, kept):
+        """Whether :meth:`describe` adds how many rows kept the model's prediction."""
+        return kept > 0
 
     def c_fragment(self, prefix, *, temperatures, fallback, fallback_words):
         """The policy's C, for the C export.
@@ -250,7 +295,11 @@ class UncalibratedPolicy:
         """
         names = {"prefix": prefix, "PREFIX": prefix.upper()}
         description = _C_DESCRIPTION[self.name].substitute(names, fallback=fallback_words)
-        return CFragment("", "", "", "", "", description)
+        return self._c_fragment(names, temperatures, fallback)._replace(description=description)
+
+    def _c_fragment(self, names, temperatures, fallback):
+        """:meth:`c_fragment` without its description."""
+        return CFragment("", "", "", "", "", "")
 
 
 class KeepModel(UncalibratedPolicy):
@@ -268,12 +317,10 @@ class KeepModel(UncalibratedPolicy):
     name = "none"
     keeps_model = True
 
-    def apply(
-        self, prediction, features, distance, outside, *, domain, fallback=None, evaluate=None
-    ):
-        return prediction
+    def _counts_kept(self, total, kept):
+        return False
 
-    def describe(self, total, kept, fallback):
+    def _action(self, total, kept, fallback):
         return f"the model extrapolated freely, nothing bounding its error ({self.parameter_text})"
 
 
@@ -309,36 +356,28 @@ class ClipToDomain(UncalibratedPolicy):
     name = "clip"
     moves_rows = True
 
-    def apply(
-        self, prediction, features, distance, outside, *, domain, fallback=None, evaluate=None
-    ):
-        if not outside.any():
-            return prediction
-        prediction = prediction.copy()
+    def _apply(self, prediction, features, distance, outside, domain, fallback, evaluate):
         prediction[outside] = evaluate(domain.project(features[outside]))
         return prediction
 
-    def changed_rows(self, features, where, domain):
-        changed = np.array(where.outside, dtype=bool)
-        if changed.any():
-            rows = features[changed]
-            changed[changed] = (domain.project(rows) != rows).any(axis=1)
+    def _changed(self, features, where, domain, changed):
+        # The rows the projection moves (a row outside by its rate alone stays as it is).
+        rows = features[changed]
+        changed[changed] = (domain.project(rows) != rows).any(axis=1)
         return changed
 
-    def _action(self, fallback):
+    def _action(self, total, kept, fallback):
         return (
             "the model was held at the domain's edge, its prediction at the nearest "
             f"calibrated point ({self.parameter_text})"
         )
 
-    def c_fragment(self, prefix, *, temperatures, fallback, fallback_words):
-        names = {"prefix": prefix, "PREFIX": prefix.upper()}
+    def _c_fragment(self, names, temperatures, fallback):
         functions = _C_PROJECT.substitute(names)
         if temperatures:
             functions += _C_PULL_BACK.substitute(names)
         rounds = _C_CLIP_ROUNDS if temperatures else _C_CLIP_ONCE
-        description = _C_DESCRIPTION[self.name].substitute(names, fallback=fallback_words)
-        return CFragment(functions, rounds.substitute(names), "", "", "", description)
+        return CFragment(functions, rounds.substitute(names), "", "", "", "")
 
 
 class BlendWithFallback(UncalibratedPolicy):
@@ -398,41 +437,36 @@ class BlendWithFallback(UncalibratedPolicy):
     def __repr__(self):
         return f"BlendWithFallback(width={self.width!r})"
 
-    def apply(
-        self, prediction, features, distance, outside, *, domain, fallback=None, evaluate=None
-    ):
-        if not outside.any():
-            return prediction
-        prediction = prediction.copy()
+    def _apply(self, prediction, features, distance, outside, domain, fallback, evaluate):
         weight = fallback_weight(distance[outside], domain.threshold_, self.width)[:, None]
         blended = fallback.predict(features[outside])
         prediction[outside] = (1.0 - weight) * prediction[outside] + weight * blended
         return prediction
 
-    def fallback_share(self, distance, threshold):
+    def _share(self, distance, threshold):
         return fallback_weight(distance, threshold, self.width)
 
-    def changed_rows(self, features, where, domain):
-        share = self.fallback_share(where.distance, domain.threshold_)
-        return np.asarray(where.outside, dtype=bool) & (share > 0.0)
+    def _changed(self, features, where, domain, changed):
+        # The rows outside that the fallback takes a share of (0 within the threshold).
+        return changed & (self._share(where.distance, domain.threshold_) > 0.0)
 
-    def describe(self, total, kept, fallback):
+    def _action(self, total, kept, fallback):
+        towards = _FALLBACK_WORDS[fallback]
         if kept == total:
             return (
                 f"each of these {total} rows kept the model's own prediction: "
-                f"{self.parameter_text} gives way to its fallback, {_FALLBACK_WORDS[fallback]}, "
-                "only farther from the calibrated combinations than these rows lie"
+                f"{self.parameter_text} gives way to its fallback, {towards}, only farther "
+                "from the calibrated combinations than these rows lie"
             )
-        return super().describe(total, kept, fallback)
-
-    def _action(self, fallback):
         return (
-            f"the model fell back towards {_FALLBACK_WORDS[fallback]}, the farther out the "
-            f"more ({self.parameter_text})"
+            f"the model fell back towards {towards}, the farther out the more "
+            f"({self.parameter_text})"
         )
 
-    def c_fragment(self, prefix, *, temperatures, fallback, fallback_words):
-        names = {"prefix": prefix, "PREFIX": prefix.upper()}
+    def _counts_kept(self, total, kept):
+        return 0 < kept < total  # every row kept: the clause says so itself
+
+    def _c_fragment(self, names, temperatures, fallback):
         expression, reads = fallback()
         unused = "" if reads else "    (void)features;\n"
         return CFragment(
@@ -441,7 +475,7 @@ class BlendWithFallback(UncalibratedPolicy):
             _C_BLEND.substitute(names, fallback=expression, unused=unused),
             _C_BLEND_CALL.substitute(names),
             _C_RECALIBRATED_BLEND.substitute(names),
-            _C_DESCRIPTION[self.name].substitute(names, fallback=fallback_words),
+            "",
         )
 
 
