@@ -43,15 +43,6 @@ def _domain_pipelines(model, X, rows):
     return parts
 
 
-def _adjusted_rows(pipeline, features):
-    """Rows whose prediction the pipeline's policy changed from the regressor's own, asked
-    of the policy object from where the rows lie (no second prediction)."""
-    domain = pipeline.domain_
-    return policy_for(pipeline.uncalibrated).changed_rows(
-        features, locate(domain, features), domain
-    )
-
-
 def calibration_status(model, X):
     """Where every row of ``X`` lies with respect to the calibration domain of ``model``.
 
@@ -154,18 +145,23 @@ def calibration_status(model, X):
         adjusted=np.empty(n_samples, dtype=bool),
     )
     for pipeline, X_part, rows in parts:
-        status.outside[rows] = pipeline.outside_calibration(X_part)
-        status.distance[rows] = pipeline.calibration_distance(X_part)
+        # One pass through the feature step: the flag and the distance of
+        # outside_calibration and calibration_distance, and the rows the policy changed
+        # (asked of the policy object, without predicting again).
+        domain = pipeline.domain_
+        features = _table.as_float_rows(pipeline.steps[0][1].transform(X_part))
+        where = locate(domain, features)
+        status.outside[rows] = where.outside
+        status.distance[rows] = where.distance
         status.policy[rows] = pipeline.uncalibrated
+        policy = policy_for(pipeline.uncalibrated)
+        status.adjusted[rows] = policy.changed_rows(features, where, domain)
         fallback = pipeline.fallback_
         status.fallback[rows] = fallback_name(fallback)
-        features = _table.as_float_rows(pipeline.steps[0][1].transform(X_part))
-        status.adjusted[rows] = _adjusted_rows(pipeline, features)
         column = fallback.column
-        rates = list(getattr(pipeline.domain_, "rate_columns_", []))
+        rates = list(getattr(domain, "rate_columns_", []))
         if column is None and not rates:
             continue
-        domain = pipeline.domain_
         excess = domain.excess(features)
         if column is not None:
             status.temperature_excess[rows] = excess[:, column]
