@@ -60,7 +60,7 @@ def _print_held_out_outside(counted, n_folds):
         print(
             f"In {len(counted)} of the {n_folds} folds, held-out rows lay outside the "
             "calibration domain of the model fitted without them: their cross-validated MSD "
-            "includes the model's policy outside it (uncalibrated=...)."
+            "includes the model's uncalibrated policy."
         )
 
 
