@@ -586,7 +586,7 @@ def require_box(domain, what):
     domain : estimator
         A fitted CalibrationDomain or another novelty detector.
     what : str
-        What needs the box, as the message's subject (e.g. ``'outside="clip"'``).
+        What needs the box, as the message's subject (e.g. ``"uncalibrated='clip'"``).
 
     Raises
     ------

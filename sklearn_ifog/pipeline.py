@@ -293,7 +293,7 @@ class CompensationPipeline(Pipeline):
     outlier, ``decision_function``; e.g. :class:`~sklearn.covariance.EllipticEnvelope` or
     ``LocalOutlierFactor(novelty=True)``) may take its place, fitted on the thermal
     features. Only a CalibrationDomain knows the calibrated temperatures, can project a
-    row (``outside="clip"``), widen with ``handover`` and be streamed or exported.
+    row (``uncalibrated="clip"``), widen with ``handover`` and be streamed or exported.
 
     Parameters
     ----------

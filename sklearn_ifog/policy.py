@@ -357,11 +357,13 @@ class ClipToDomain(UncalibratedPolicy):
     moves_rows = True
 
     def _apply(self, prediction, features, distance, outside, domain, fallback, evaluate):
+        require_box(domain, "uncalibrated='clip'")
         prediction[outside] = evaluate(domain.project(features[outside]))
         return prediction
 
     def _changed(self, features, where, domain, changed):
         # The rows the projection moves (a row outside by its rate alone stays as it is).
+        require_box(domain, "uncalibrated='clip'")
         rows = features[changed]
         changed[changed] = (domain.project(rows) != rows).any(axis=1)
         return changed
@@ -438,7 +440,7 @@ class BlendWithFallback(UncalibratedPolicy):
         return f"BlendWithFallback(width={self.width!r})"
 
     def _apply(self, prediction, features, distance, outside, domain, fallback, evaluate):
-        weight = fallback_weight(distance[outside], domain.threshold_, self.width)[:, None]
+        weight = fallback_weight(distance[outside], threshold_of(domain), self.width)[:, None]
         blended = fallback.predict(features[outside])
         prediction[outside] = (1.0 - weight) * prediction[outside] + weight * blended
         return prediction
@@ -448,7 +450,7 @@ class BlendWithFallback(UncalibratedPolicy):
 
     def _changed(self, features, where, domain, changed):
         # The rows outside that the fallback takes a share of (0 within the threshold).
-        return changed & (self._share(where.distance, domain.threshold_) > 0.0)
+        return changed & (self._share(where.distance, threshold_of(domain)) > 0.0)
 
     def _action(self, total, kept, fallback):
         towards = _FALLBACK_WORDS[fallback]

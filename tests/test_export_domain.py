@@ -376,7 +376,8 @@ def test_export_reads_the_settings_at_export_time(calibration, tmp_path, monkeyp
     _, target = MODELS["ridge"]
     y = calibration[target].to_numpy() if len(target) > 1 else calibration[target[0]]
     # read at fit
-    model.set_params(domain__margin=0.25, domain__alpha=0.5, uncalibrated="none").fit(calibration, y)
+    model.set_params(domain__margin=0.25, domain__alpha=0.5, uncalibrated="none")
+    model.fit(calibration, y)
     threshold = model.domain_.threshold_
     assert threshold >= 0.25
     domain = describe_pipeline(model)["domain"]

@@ -124,11 +124,11 @@ def test_another_novelty_detector_decides_what_is_outside(heating_and_cold):
     # About the contamination of the calibration's own rows are flagged.
     assert model.outside_calibration(X).mean() <= 0.05
     # "blend" weighs the fallback by how far the decision function lies below 0.
-    with pytest.warns(OutsideCalibrationWarning, match="outside="):
+    with pytest.warns(OutsideCalibrationWarning, match="uncalibrated="):
         blended = model.predict(cold)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", OutsideCalibrationWarning)
-        free = model.set_params(outside="none").predict(cold)
+        free = model.set_params(uncalibrated="none").predict(cold)
     fallback = model.fallback_.predict(features)[:, 0]
     weight = np.where(expected_outside, fallback_weight(expected_distance, 0.0), 0.0)
     np.testing.assert_allclose(blended, (1.0 - weight) * free + weight * fallback, rtol=1e-12)
@@ -156,9 +156,9 @@ def test_what_only_a_calibration_domain_can_do_says_so(heating_and_cold, tmp_pat
     model = _fit(make_compensation_pipeline(LinearRegression()).set_params(domain=detector), X, y)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", OutsideCalibrationWarning)
-        with pytest.raises(ValueError, match=r'outside="clip" needs .*CalibrationDomain.*'):
-            model.set_params(outside="clip").predict(cold)
-    model.set_params(outside="blend")
+        with pytest.raises(ValueError, match=r"uncalibrated='clip' needs .*CalibrationDomain"):
+            model.set_params(uncalibrated="clip").predict(cold)
+    model.set_params(uncalibrated="blend")
     with pytest.raises(ValueError, match=r"Streaming compensation .*EllipticEnvelope"):
         StreamingCompensator(model)
     with pytest.raises(ValueError, match=r"C and JSON exports .*EllipticEnvelope"):
