@@ -403,7 +403,7 @@ def test_compare_regressors_reports_coverage_and_width():
 
 def test_report_table_has_per_run_coverage(tmp_path):
     pytest.importorskip("matplotlib")
-    from sklearn_ifog.report import compensation_report
+    from sklearn_ifog.report import RunColumns, compensation_report
 
     time = np.tile(np.arange(0.0, 600.0, 1.0), 2)
     run = np.repeat(["a", "b"], 600)
@@ -413,30 +413,22 @@ def test_report_table_has_per_run_coverage(tmp_path):
     # run a: band always holds the drift; run b: band misses the second half
     interval = np.column_stack([drift - 1.0, drift + 1.0])
     interval[900:] += 5.0
-    result = compensation_report(
-        tmp_path,
+    columns = RunColumns(
         rate=rate,
         drift=drift,
         reference=reference,
         temperature=20.0 + 0 * time,
         time=time,
         run=run,
-        interval=interval,
     )
+    result = compensation_report(tmp_path, columns, interval=interval)
     table = result.table
     assert table.loc["a", "coverage"] == 1.0
     assert table.loc["b", "coverage"] == 0.5
     assert table.loc["(all runs)", "coverage"] == 0.75
     assert table.loc["a", "width"] == pytest.approx(2.0)
     with pytest.raises(ValueError, match="interval has shape"):
-        compensation_report(
-            tmp_path,
-            rate=rate,
-            drift=drift,
-            reference=reference,
-            temperature=20.0 + 0 * time,
-            interval=interval[:10],
-        )
+        compensation_report(tmp_path, columns, interval=interval[:10])
 
 
 def test_streaming_carries_the_interval():

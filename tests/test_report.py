@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from sklearn_ifog.metrics import allan_deviation, bias_stability, mean_squared_deviation
-from sklearn_ifog.report import Report, compensation_report
+from sklearn_ifog.report import Report, RunColumns, compensation_report
 
 pytest.importorskip("matplotlib", reason="the compensation report draws figures")
 
@@ -88,7 +88,7 @@ def _two_interleaved_runs():
 def test_compensation_report_numbers_match_the_metrics(tmp_path):
     """The reduction above 10 held on noise seeds 0-9 (checked once)."""
     data = _two_interleaved_runs()
-    result = compensation_report(tmp_path, **data, max_runs=1)
+    result = compensation_report(tmp_path, RunColumns(**data), max_runs=1)
     table = result.table
     assert list(table.index) == ["A", "B", "(all runs)"]
     for label in ("A", "B"):
@@ -125,14 +125,14 @@ def test_compensation_report_numbers_match_the_metrics(tmp_path):
 def test_compensation_report_without_uniform_sampling_says_so(tmp_path):
     time = np.cumsum(np.r_[0.0, np.tile([1.0, 3.0], 300)])
     n = time.size
-    result = compensation_report(
-        tmp_path,
+    columns = RunColumns(
         rate=np.full(n, 1.0) + 0.01 * np.sin(time / 50.0),
         drift=0.01 * np.sin(time / 50.0),
         reference=1.0,
         temperature=np.linspace(10.0, 30.0, n),
         time=time,
     )
+    result = compensation_report(tmp_path, columns)
     assert np.isnan(result.table.loc["(all runs)", "bias_stab_before"])
     assert np.isnan(result.table.loc["(all runs)", "bias_stab_after"])
     assert [path.name for path in result.figures] == ["compensation_1.png"]
@@ -143,8 +143,79 @@ def test_compensation_report_without_uniform_sampling_says_so(tmp_path):
 
 
 def test_compensation_report_rejects_mismatched_lengths(tmp_path):
-    with pytest.raises(ValueError, match="drift has shape"):
+    with pytest.raises(ValueError, match=r"drift has shape \(9,\), rate has shape \(10,\)"):
         compensation_report(
-            tmp_path, rate=np.ones(10), drift=np.ones(9), reference=0.0, temperature=np.ones(10)
+            tmp_path,
+            RunColumns(rate=np.ones(10), drift=np.ones(9), reference=0.0, temperature=np.ones(10)),
         )
+    assert list(tmp_path.iterdir()) == []
+
+
+def _columns(n=10, **changes):
+    fields = {
+        "rate": np.ones(n),
+        "drift": np.zeros(n),
+        "reference": 1.0,
+        "temperature": np.linspace(10.0, 30.0, n),
+    }
+    return {**fields, **changes}
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"rate": np.ones((10, 2))}, r"rate must be one-dimensional .* got shape \(10, 2\)"),
+        ({"rate": ["a"] * 10}, "rate must be numeric"),
+        ({"drift": ["x"] * 10}, "drift must be numeric"),
+        ({"temperature": np.ones(9)}, r"temperature has shape \(9,\), rate has shape \(10,\)"),
+        ({"time": np.arange(11.0)}, r"time has shape \(11,\), rate has shape \(10,\)"),
+        ({"reference": np.ones(3)}, r"reference has shape \(3,\), rate has shape \(10,\)"),
+        ({"reference": "north"}, "reference must be numeric"),
+        ({"run": np.zeros(9)}, r"run has shape \(9,\), rate has shape \(10,\)"),
+        ({"unit": np.zeros((10, 2))}, r"unit has shape \(10, 2\), rate has shape \(10,\)"),
+    ],
+)
+def test_run_columns_name_the_bad_field(changes, message):
+    with pytest.raises(ValueError, match=f"^RunColumns: {message}"):
+        RunColumns(**_columns(**changes))
+
+
+def test_run_columns_hold_arrays():
+    columns = RunColumns(
+        **_columns(4, rate=[1.0, 2.0, 3.0, 4.0], run=pd.Series(["a", "a", "b", "b"]), time=None)
+    )
+    assert columns.rate.dtype == np.float64
+    np.testing.assert_array_equal(columns.rate, [1.0, 2.0, 3.0, 4.0])
+    assert columns.reference.shape == ()
+    assert columns.time is None
+    assert columns.unit is None
+    assert columns.run.tolist() == ["a", "a", "b", "b"]
+    assert columns.n_samples == 4
+    with pytest.raises(AttributeError):
+        columns.rate = np.zeros(4)  # frozen: checked once, kept as checked
+
+
+def test_compensation_report_title_and_report(tmp_path):
+    rate = 1.0 + np.random.default_rng(0).normal(0.0, 0.01, 600)
+    columns = RunColumns(**_columns(600, rate=rate, time=np.arange(600.0)))
+    assert compensation_report(tmp_path, columns).report.title == "Thermal compensation report"
+    titled = compensation_report(tmp_path, columns, title="Gyro 7")
+    assert titled.paths["markdown"].read_text().startswith("# Gyro 7\n")
+    mine = Report("My lot")
+    mine.add_paragraph("Before the compensation.")
+    (tmp_path / "appended").mkdir()
+    appended = compensation_report(tmp_path / "appended", columns, report=mine, heading="Gyro 7")
+    assert appended.report is mine
+    markdown = appended.paths["markdown"].read_text()
+    assert markdown.startswith("# My lot\n\nBefore the compensation.\n\n## Gyro 7\n")
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(ValueError, match=r"title and report were both given.*\('My lot'\)"):
+        compensation_report(empty, columns, title="Gyro 8", report=mine)
+    assert list(empty.iterdir()) == []
+
+
+def test_compensation_report_wants_run_columns(tmp_path):
+    with pytest.raises(TypeError, match=r"columns must be a RunColumns .* got dict"):
+        compensation_report(tmp_path, _columns())
     assert list(tmp_path.iterdir()) == []

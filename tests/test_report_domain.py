@@ -18,7 +18,12 @@ from sklearn_ifog import (
     make_compensation_pipeline,
 )
 from sklearn_ifog.datasets import make_thermal_campaign
-from sklearn_ifog.report import calibration_status, compensation_report, per_run_calibration
+from sklearn_ifog.report import (
+    RunColumns,
+    calibration_status,
+    compensation_report,
+    per_run_calibration,
+)
 
 pytest.importorskip("matplotlib", reason="the report and the plots draw with matplotlib")
 
@@ -60,18 +65,15 @@ def _report(directory, model, frame, **kwargs):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", OutsideCalibrationWarning)
         drift = model.predict(X)
-    result = compensation_report(
-        directory,
+    columns = RunColumns(
         rate=frame["rate"],
         drift=drift,
         reference=frame["reference"],
         temperature=frame["temperature"],
         time=frame["time"],
         run=frame["run"],
-        model=model,
-        X=X,
-        **kwargs,
     )
+    result = compensation_report(directory, columns, model=model, X=X, **kwargs)
     return result, X
 
 
@@ -293,11 +295,13 @@ def test_rbf_model_without_runs_and_a_model_without_a_domain(calibration, tmp_pa
         drift = model.predict(warmer[columns])
     result = compensation_report(
         tmp_path,
-        rate=warmer["rate"],
-        drift=drift,
-        reference=warmer["reference"],
-        temperature=warmer["temperature"],
-        time=warmer["time"],
+        RunColumns(
+            rate=warmer["rate"],
+            drift=drift,
+            reference=warmer["reference"],
+            temperature=warmer["temperature"],
+            time=warmer["time"],
+        ),
         model=model,
         X=warmer[columns],
     )
@@ -318,10 +322,12 @@ def test_rbf_model_without_runs_and_a_model_without_a_domain(calibration, tmp_pa
     assert calibration_status(plain, one_run[columns]) is None
     result = compensation_report(
         tmp_path,
-        rate=one_run["rate"],
-        drift=plain.predict(one_run[columns]),
-        reference=one_run["reference"],
-        temperature=one_run["temperature"],
+        RunColumns(
+            rate=one_run["rate"],
+            drift=plain.predict(one_run[columns]),
+            reference=one_run["reference"],
+            temperature=one_run["temperature"],
+        ),
         model=plain,
         X=one_run[columns],
     )
@@ -334,18 +340,18 @@ def test_rbf_model_without_runs_and_a_model_without_a_domain(calibration, tmp_pa
 
 def test_bad_model_and_rows_are_named(linear_model, calibration, tmp_path):
     frame = calibration.frame
-    arrays = {
-        "rate": frame["rate"],
-        "drift": np.zeros(len(frame)),
-        "reference": frame["reference"],
-        "temperature": frame["temperature"],
-    }
+    columns = RunColumns(
+        rate=frame["rate"],
+        drift=np.zeros(len(frame)),
+        reference=frame["reference"],
+        temperature=frame["temperature"],
+    )
     with pytest.raises(ValueError, match="model was given without X"):
-        compensation_report(tmp_path, **arrays, model=linear_model)
+        compensation_report(tmp_path, columns, model=linear_model)
     with pytest.raises(ValueError, match="X was given without model"):
-        compensation_report(tmp_path, **arrays, X=calibration.data)
+        compensation_report(tmp_path, columns, X=calibration.data)
     with pytest.raises(ValueError, match=f"X has 10 rows, rate has {len(frame)}"):
-        compensation_report(tmp_path, **arrays, model=linear_model, X=calibration.data[:10])
+        compensation_report(tmp_path, columns, model=linear_model, X=calibration.data[:10])
     status = calibration_status(linear_model, calibration.data)
     with pytest.raises(ValueError, match=f"run has 3 labels; the status has {len(frame)} rows"):
         per_run_calibration(status, run=[0, 1, 2])

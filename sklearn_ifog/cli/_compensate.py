@@ -195,7 +195,7 @@ def command_compensate(args):
 def command_report(args):
     """``report``: per-run metrics, figures and the report, in one staged directory."""
     from sklearn_ifog._io import staged_directory
-    from sklearn_ifog.report import compensation_report
+    from sklearn_ifog.report import RunColumns, compensation_report
 
     model_path, data_path = Path(args.model), Path(args.data)
     check_output_directory(args.out)
@@ -214,13 +214,15 @@ def command_report(args):
     with staged_directory(args.out) as staging:
         written = compensation_report(
             staging,
-            rate=rate,
-            drift=drift,
-            reference=reference,
-            temperature=frame[columns.temperature[0]].to_numpy(float),
-            time=time_values,
-            run=runs,
-            unit=units,
+            RunColumns(
+                rate=rate,
+                drift=drift,
+                reference=reference,
+                temperature=frame[columns.temperature[0]].to_numpy(float),
+                time=time_values,
+                run=runs,
+                unit=units,
+            ),
             title=f"Thermal compensation of {data_path.name}",
             model_metadata=metadata,
             data_name=str(data_path),

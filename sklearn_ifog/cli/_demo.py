@@ -316,20 +316,23 @@ def _save_model(campaign, fitted, path):
 
 def _write_compensation_report(fitted, metadata, report, staging):
     """The first unit's runs at 90°, compensated: the report's last sections, written."""
-    from sklearn_ifog.report import compensation_report
+    from sklearn_ifog.report import RunColumns, compensation_report
 
     test_frame = fitted.test_frame
     X = test_frame[_MODEL_COLUMNS.model_columns()]
-    return compensation_report(
-        staging,
+    columns = RunColumns(
         rate=test_frame["rate"].to_numpy(),
         drift=fitted.model.predict(X),
-        model=fitted.model,
-        X=X,
         reference=test_frame["reference"].to_numpy(),
         temperature=test_frame["temperature"].to_numpy(),
         time=test_frame["time"].to_numpy(),
         run=test_frame["run"].to_numpy(),
+    )
+    return compensation_report(
+        staging,
+        columns,
+        model=fitted.model,
+        X=X,
         model_metadata=metadata,
         data_name=f"unit {fitted.unit} at azimuth 90°",
         report=report,

@@ -10,6 +10,7 @@ import numpy as np
 
 from sklearn_ifog import _table
 from sklearn_ifog._per_run import ALL_RUNS, compensation_arrays
+from sklearn_ifog.report._columns import RunColumns
 from sklearn_ifog.report._document import Report
 from sklearn_ifog.report._sections import (
     _add_allan_deviation,
@@ -22,24 +23,20 @@ from sklearn_ifog.report._status import calibration_status, per_run_calibration
 
 __all__ = ["compensation_report", "per_unit_table"]
 
+DEFAULT_TITLE = "Thermal compensation report"
+
 
 def compensation_report(
     directory,
+    columns,
     *,
-    rate,
-    drift,
-    reference,
-    temperature,
-    time=None,
-    run=None,
-    unit=None,
-    title="Thermal compensation report",
-    model_metadata=None,
-    data_name=None,
-    max_runs=4,
-    bias_window=100.0,
+    title=None,
     report=None,
     heading="Compensation",
+    data_name=None,
+    model_metadata=None,
+    max_runs=4,
+    bias_window=100.0,
     interval=None,
     model=None,
     X=None,
@@ -52,7 +49,7 @@ def compensation_report(
     IEEE Std 952 practice; n/a where the run is too short or not uniformly sampled); the raw
     and compensated rate with the temperature for the first ``max_runs`` runs; and the Allan
     deviation of the error (output minus reference) before and after compensation, for the
-    longest run. Given the ``model`` and the rows ``X`` it predicted ``drift`` from, and
+    longest run. Given the ``model`` and the rows ``X`` it predicted the drift from, and
     when that model knows its calibration domain (a
     :class:`~sklearn_ifog.CompensationPipeline`, or a meta-estimator around them), a
     "Calibration domain" section says whether rows lay outside it and what the model's
@@ -63,33 +60,29 @@ def compensation_report(
     ----------
     directory : str or path-like
         Existing directory for the report and its PNG figures.
-    rate, drift, reference, temperature : array-like of shape (n_samples,)
-        Gyro output (deg/h), predicted drift (deg/h), true input rate (deg/h), coil
-        temperature (deg C).
-    time : array-like of shape (n_samples,), default=None
-        Time, seconds (None: the sample index, at an assumed 1 s period).
-    run : array-like of shape (n_samples,), default=None
-        Run label of each row; None means one run. Rows of a run are in time order.
-    unit : array-like of shape (n_samples,), default=None
-        Unit (gyro) label of each row, e.g. for a :class:`~sklearn_ifog.UnitwiseRegressor`:
-        a per-unit table (MSD before and after, their ratio, runs and samples) is added
-        before the per-run one.
-    title : str, default="Thermal compensation report"
-        Report title (ignored when ``report`` is given).
+    columns : RunColumns
+        The run's columns: gyro output, predicted drift, reference and coil temperature of
+        every sample, and optionally its time, run and unit (with ``unit``, a per-unit
+        table, MSD before and after, their ratio, runs and samples, is added before the
+        per-run one).
+    title : str, default=None
+        Title of the new report; None: ``"Thermal compensation report"``. Only for a new
+        report: with ``report`` given, that report keeps its own title and giving ``title``
+        too is an error.
+    report : Report, default=None
+        A report to append the sections to (e.g. with sections of your own before); None
+        starts a new one, titled ``title``.
+    heading : str, default="Compensation"
+        Heading of the section this function adds.
+    data_name : str, default=None
+        Name of the data set, shown in the summary.
     model_metadata : dict, default=None
         Metadata of the model (from :func:`~sklearn_ifog.persistence.load_model`), shown
         in a "Model" section.
-    data_name : str, default=None
-        Name of the data set, shown in the summary.
     max_runs : int, default=4
         Number of runs drawn (the first ones, in order of appearance).
     bias_window : float, default=100.0
         Averaging window of the bias stability, seconds.
-    report : Report, default=None
-        A report to append the sections to (e.g. with sections of your own before); None
-        starts a new one.
-    heading : str, default="Compensation"
-        Heading of the section this function adds.
     interval : array-like of shape (n_samples, 2), default=None
         Lower and upper bound of the drift (deg/h), e.g. from
         :meth:`~sklearn_ifog.ConformalRegressor.predict_interval`. The table then gains the
@@ -97,11 +90,11 @@ def compensation_report(
         ``rate - reference``, lies inside) and ``width`` (mean width, deg/h), and the
         figures shade the band.
     model : estimator, default=None
-        The fitted drift model that predicted ``drift`` (with ``X``): its calibration
-        domain is read by :func:`calibration_status`. A model without one gets a line
-        saying so.
+        The fitted drift model that predicted ``columns.drift`` (with ``X``): its
+        calibration domain is read by :func:`calibration_status`. A model without one gets
+        a line saying so.
     X : array-like or DataFrame of shape (n_samples, n_columns), default=None
-        The rows ``model`` predicted ``drift`` from, in the order of ``rate``.
+        The rows ``model`` predicted the drift from, in the order of ``columns``.
 
     Returns
     -------
@@ -116,31 +109,37 @@ def compensation_report(
 
     Raises
     ------
+    TypeError
+        If ``columns`` is not a :class:`RunColumns`.
     ValueError
-        If the arrays differ in length, ``model`` is given without ``X`` (or the
-        reverse), or ``X`` does not have one row per sample.
+        If ``title`` and ``report`` are both given, ``interval`` does not have one
+        (lower, upper) pair per sample, ``model`` is given without ``X`` (or the
+        reverse), or ``X`` does not have one row per sample. Nothing is written then.
+
+    See Also
+    --------
+    RunColumns : The record of the run's columns, checked when it is made.
+    sklearn_ifog.metrics.per_run_metrics : The per-run table alone.
 
     Examples
     --------
     >>> import tempfile
     >>> import numpy as np
-    >>> from sklearn_ifog.report import compensation_report
+    >>> from sklearn_ifog.report import RunColumns, compensation_report
     >>> time = np.arange(0.0, 3600.0, 1.0)
     >>> temperature = 20.0 + 10.0 * np.sin(time / 600.0)
     >>> drift = 0.02 * (temperature - 20.0)
     >>> noise = np.random.default_rng(0).normal(0.0, 0.001, time.size)
     >>> rate = 7.5 + drift + noise
+    >>> columns = RunColumns(
+    ...     rate=rate, drift=drift, reference=7.5, temperature=temperature, time=time
+    ... )
     >>> with tempfile.TemporaryDirectory() as directory:
-    ...     result = compensation_report(
-    ...         directory,
-    ...         rate=rate,
-    ...         drift=drift,
-    ...         reference=7.5,
-    ...         temperature=temperature,
-    ...         time=time,
-    ...     )
+    ...     result = compensation_report(directory, columns, title="Gyro 7, one run")
     ...     sorted(path.name for path in result.paths.values())
     ['report.html', 'report.md']
+    >>> result.report.title
+    'Gyro 7, one run'
     >>> bool(result.table.loc["(all runs)", "reduction"] > 100)
     True
 
@@ -165,37 +164,55 @@ def compensation_report(
     >>> frame = cold.frame
     >>> with warnings.catch_warnings(), tempfile.TemporaryDirectory() as directory:
     ...     warnings.simplefilter("ignore", OutsideCalibrationWarning)  # the report says it
-    ...     result = compensation_report(
-    ...         directory,
+    ...     columns = RunColumns(
     ...         rate=frame["rate"],
     ...         drift=model.predict(cold.data),
     ...         reference=frame["reference"],
     ...         temperature=frame["temperature"],
     ...         time=frame["time"],
     ...         run=frame["run"],
-    ...         model=model,
-    ...         X=cold.data,
     ...     )
+    ...     result = compensation_report(directory, columns, model=model, X=cold.data)
     >>> result.calibration_table["outside_share"].tolist()
     [1.0, 1.0, 1.0]
+
+    A report of your own keeps its title; ``title`` is for a new one only:
+
+    >>> with tempfile.TemporaryDirectory() as directory:
+    ...     compensation_report(directory, columns, title="Lot 3", report=Report("Lot 3"))
+    Traceback (most recent call last):
+    ...
+    ValueError: title and report were both given: report keeps its own title ('Lot 3'); ...
     """
     from sklearn.utils import Bunch
 
     from sklearn_ifog.metrics import per_run_metrics
 
+    if not isinstance(columns, RunColumns):
+        raise TypeError(
+            "columns must be a RunColumns (rate, drift, reference, temperature and optionally "
+            f"time, run, unit), got {type(columns).__name__}."
+        )
+    if title is not None and report is not None:
+        raise ValueError(
+            f"title and report were both given: report keeps its own title ({report.title!r}); "
+            "give title only to start a new report, or make the report with Report(title)."
+        )
     directory = Path(directory)
+    run = columns.run
     table = per_run_metrics(
-        rate=rate,
-        drift=drift,
-        reference=reference,
-        temperature=temperature,
-        time=time,
+        rate=columns.rate,
+        drift=columns.drift,
+        reference=columns.reference,
+        temperature=columns.temperature,
+        time=columns.time,
         run=run,
         bias_window=bias_window,
     )
     rate, drift, reference, temperature, time_values = compensation_arrays(
-        rate, drift, reference, temperature, time
+        columns.rate, columns.drift, columns.reference, columns.temperature, columns.time
     )
+    n_samples = rate.shape[0]
     data = Bunch(
         rate=rate,
         compensated=rate - drift,
@@ -205,7 +222,7 @@ def compensation_report(
         # {run label: row positions in time order}, in order of first appearance.
         segments={
             ALL_RUNS if label is None else label: rows
-            for label, rows in _table.run_segments(run, rate.shape[0])
+            for label, rows in _table.run_segments(run, n_samples)
         },
         has_runs=run is not None,
         interval=None,
@@ -213,12 +230,17 @@ def compensation_report(
     )
     if interval is not None:
         _add_interval(table, data, interval, run)
-    status, calibration_table = _calibration(model, X, rate.shape[0], run)
+    status, calibration_table = _calibration(model, X, n_samples, run)
     data.outside = None if status is None else status.outside
-    unit_table = None if unit is None else per_unit_table(rate, drift, reference, unit, run)
+    unit_table = (
+        None
+        if columns.unit is None
+        else per_unit_table(rate, drift, columns.reference, columns.unit, run)
+    )
     if report is None:
-        report = Report(title)
-    _add_summary(report, heading, data, table, data_name, bias_window, time is None, unit_table)
+        report = Report(DEFAULT_TITLE if title is None else title)
+    no_time = columns.time is None
+    _add_summary(report, heading, data, table, data_name, bias_window, no_time, unit_table)
     if model is not None:
         _add_calibration(report, data, status, calibration_table)
     figures = _add_compensation_figures(report, directory, data, max_runs)
