@@ -72,7 +72,7 @@ SEEDS = {
         "tuning": (0, 1, 2),
         "retired": (8, 9, 10),
         "judged": (4211, 4212, 4213),
-        "chose": "ConformalRegressor's difficulty model, its reference and confidence "
+        "chose": "ConformalRegressor's difficulty model, its reference and run_probability "
         "(conformal_difficulty_check.py); the calibration domain's margin and blend were "
         "chosen on 0-7 (bench_extrapolation.py --tune). 8-10 judged until issue 42 and are "
         "bench_extrapolation's retired gyros; 4211-4213: fresh in issue 42, run once at "

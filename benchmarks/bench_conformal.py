@@ -15,8 +15,8 @@ coverage, on campaigns of one unit, four azimuths, three runs each, 300 s sample
 physics preset (lumped, layered, layered_glass) and seeds 0, 1, 2 and 4211, 4212, 4213
 (``_cases.conformal_campaign``, ``_cases.SEEDS["bench_conformal"]``; the judged seeds are
 fresh in issue 42, 8-10 judged before and are retired). A seed draws
-the gyro: ConformalRegressor's difficulty model, its reference and ``confidence`` were
-chosen on seeds 0-2 (``benchmarks/conformal_difficulty_check.py``) and the calibration
+the gyro: ConformalRegressor's difficulty model, its reference and ``run_probability``
+were chosen on seeds 0-2 (``benchmarks/conformal_difficulty_check.py``) and the calibration
 domain's margin and blend on seeds 0-7 (``benchmarks/bench_extrapolation.py --tune``), so
 seeds 4211-4213 are held out from every choice (the two groups are summarised apart). The
 methods:
@@ -28,7 +28,7 @@ methods:
   whole heading held out per fold as in the test, the runs still the scoring groups; the
   real recording, which has no heading, keeps ``GroupKFold(5)``);
 - ``ours_flat``: the same with ``adaptive=False`` (run-wise, absolute scores);
-- ``ours_c08``: ``ours`` with ``confidence=0.8`` (the per-run promise of the issue on a lot
+- ``ours_c08``: ``ours`` with ``run_probability=0.8`` (the per-run promise of the issue on a lot
   and its intervals);
 - ``mapie_rows``: MAPIE ``CrossConformalRegressor(cv=KFold(5, shuffle))``, CV+;
 - ``mapie_runs``: MAPIE ``CrossConformalRegressor(cv=GroupKFold(5))`` with the runs as groups.
@@ -57,7 +57,7 @@ fold >= 0.85, mean width <= 1.2 x oracle, out-of-range coverage >= 0.85 pooled a
 run group (each cold run of the out-of-range split; the worst one is printed, and any below
 fails), and coverage on rows outside the domain >= coverage - 0.05 (0.85) on every split with
 at least MIN_OUTSIDE_ROWS such rows. The issue on a lot and its intervals adds, per seed group
-(:func:`lot_interval_targets`): with ``confidence=0.8`` at least 95 % of the held-out runs
+(:func:`lot_interval_targets`): with ``run_probability=0.8`` at least 95 % of the held-out runs
 covered >= 0.85, and ``ours``' mean width over the held-out folds <= 1.15 x the oracle's on
 smooth physics (lumped) and <= 1.3 x on nonlinear physics (layered, layered_glass).
 Results go to ``benchmarks/results/conformal[_quick][_cvruns|_cvheadings].md`` and
@@ -98,10 +98,10 @@ OUTSIDE_TOLERANCE = 0.05
 MIN_OUTSIDE_ROWS = 30
 METHODS = ("ours", "ours_flat", "ours_c08", "mapie_rows", "mapie_runs")
 # The issue on a lot and its intervals states the per-run promise as a probability over runs:
-# with confidence=0.8, at least RUN_SHARE of the held-out runs covered >= RUN_COVERAGE; and
+# with run_probability=0.8, at least RUN_SHARE of the held-out runs covered >= RUN_COVERAGE; and
 # the mean width over the held-out folds at most WIDTH_LIMITS times the oracle's (smooth
 # physics: the lumped preset; nonlinear: layered and layered_glass), per seed group.
-LOT_CONFIDENCE = 0.8
+LOT_RUN_PROBABILITY = 0.8
 RUN_COVERAGE = 0.85
 RUN_SHARE = 0.95
 WIDTH_LIMITS = {"lumped": 1.15, "layered": 1.3, "layered_glass": 1.3}
@@ -116,7 +116,7 @@ OURS_CV = {
 }
 SETTINGS = {"ours_cv": "groupkfold5"}
 # A seed of make_thermal_campaign draws the gyro itself. ConformalRegressor's difficulty
-# model, reference and confidence were chosen on seeds 0-2 of these campaigns
+# model, reference and run_probability were chosen on seeds 0-2 of these campaigns
 # (benchmarks/conformal_difficulty_check.py), the calibration domain's margin and blend on
 # seeds 0-7 (benchmarks/bench_extrapolation.py --tune): seeds 4211-4213 judge them on gyros none
 # of that saw. Both groups are run and reported apart; every target holds on every campaign.
@@ -137,7 +137,7 @@ def fit_predict(method, X_train, y_train, groups, X_test, base):
             coverage=NOMINAL,
             cv=OURS_CV[SETTINGS["ours_cv"]](X_train),
             adaptive=method != "ours_flat",
-            **({"confidence": LOT_CONFIDENCE} if method == "ours_c08" else {}),
+            **({"run_probability": LOT_RUN_PROBABILITY} if method == "ours_c08" else {}),
         )
         model.fit(X_train, y_train, groups=groups)
         return model.predict(X_test), model.predict_interval(X_test)
@@ -426,7 +426,7 @@ def _physics_of(key):
 def lot_interval_targets(results, quick=False):
     """The issue's targets on a lot's intervals, per seed group: (lines, verdicts).
 
-    With ``confidence=0.8`` (``ours_c08``), the share of the held-out runs (every run of
+    With ``run_probability=0.8`` (``ours_c08``), the share of the held-out runs (every run of
     every held-out fold) covered at least RUN_COVERAGE; and, per physics, the mean over the
     held-out folds of ``ours``' width over the oracle's against WIDTH_LIMITS. With
     ``quick`` the share is not judged (INFO): one campaign's 12 runs cannot resolve a 95 %
@@ -437,7 +437,8 @@ def lot_interval_targets(results, quick=False):
         "## A lot's intervals: the per-run promise and the width",
         "",
         f"Held-out runs covered >= {RUN_COVERAGE} (every run of every held-out fold) with "
-        f"`ours` (confidence 0.6, the default) and `ours_c08` (confidence {LOT_CONFIDENCE}); "
+        f"`ours` (run_probability 0.6, the default) and `ours_c08` (run_probability "
+        f"{LOT_RUN_PROBABILITY}); "
         "mean width over the held-out folds / oracle, per physics (target: "
         + ", ".join(f"{physics} <= {limit}" for physics, limit in WIDTH_LIMITS.items())
         + f"; runs: >= {RUN_SHARE:.0%} with ours_c08).",
@@ -484,8 +485,9 @@ def lot_interval_targets(results, quick=False):
         verdicts.append(
             verdict_line(
                 share >= RUN_SHARE,
-                f"seeds {label}: with confidence={LOT_CONFIDENCE}, held-out runs covered >= "
-                f"{RUN_COVERAGE}: {share:.3f} of {len(pooled['ours_c08'])} >= {RUN_SHARE}",
+                f"seeds {label}: with run_probability={LOT_RUN_PROBABILITY}, held-out runs "
+                f"covered >= {RUN_COVERAGE}: {share:.3f} of {len(pooled['ours_c08'])} >= "
+                f"{RUN_SHARE}",
                 not quick,
             )
         )

@@ -24,8 +24,8 @@ out-of-fold residuals, at 90 % nominal:
 - ``distance, ref q0.5``, ``distance, ref max``: the widening above the median and above
   the largest fold-prediction variance of the calibration rows instead of its 0.95 quantile
   (``_EXTRAPOLATION_REFERENCE``): how much the reference matters;
-- ``distance c=0.7``, ``distance c=0.8``: the same with a higher ``confidence``: what it costs
-  in width to bring the last folds to 0.85;
+- ``distance c=0.7``, ``distance c=0.8``: the same with a higher ``run_probability`` (``c``):
+  what it costs in width to bring the last folds to 0.85;
 - ``normalised (kNN residuals)``: normalised conformal with crepes' difficulty estimator on
   residuals: the residual divided by the mean absolute out-of-fold residual of the 25 nearest
   calibration rows of the other folds (standardised features), plus 1 % of the mean absolute
@@ -256,7 +256,7 @@ def _jackknife(split, band, level=_EXTRAPOLATION_REFERENCE):
 
 def bounds(variant, split):
     residual = np.abs(split["y_train"] - split["oof"])
-    confidence = 0.6
+    run_probability = 0.6
     if variant.startswith("CQR"):
         scores, test_low, test_high = _cqr_scores(
             split, "linear" if "linear" in variant else "boosting"
@@ -267,7 +267,7 @@ def bounds(variant, split):
             np.ones(split["y_test"].shape[0]),
             group_scores,
             _group_folds(split, labels),
-            confidence,
+            run_probability,
         ) + np.column_stack([test_low, test_high])
         return _jackknife(split, band) if "jackknife" in variant else band
     if variant == "flat":
@@ -279,14 +279,14 @@ def bounds(variant, split):
     else:
         sigma, test_sigma, _, _ = _distance_scale(split, residual)
         if "c=" in variant:
-            confidence = float(variant.split("c=")[1])
+            run_probability = float(variant.split("c=")[1])
     labels, group_scores = run_quantile_scores(residual / sigma, split["groups"], NOMINAL)
     band = plus_interval(
         split["test_predictions"],
         test_sigma,
         group_scores,
         _group_folds(split, labels),
-        confidence,
+        run_probability,
     )
     if not variant.startswith("distance") or "no jackknife" in variant:
         return band

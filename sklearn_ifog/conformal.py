@@ -9,8 +9,10 @@ only on average over all rows. Three things differ from row-wise conformal predi
    correlated (the residual of a model is a slow function of the thermal history), so rows
    are not exchangeable, runs are. The out-of-fold scores of each calibration run are reduced
    to one number, the run's ``coverage`` quantile, and the conformal quantile (level
-   ``confidence``) is then taken over runs: a new run like the calibration runs holds its
-   drift at least ``coverage`` of its time with probability at least ``confidence``.
+   ``run_probability``) is then taken over runs: a new run like the calibration runs holds
+   its drift at least ``coverage`` of its time with probability at least
+   ``run_probability``. (``coverage`` is the analogue of MAPIE's ``confidence_level``, per
+   run's time; ``run_probability`` has no MAPIE analogue.)
 2. **The band is adaptive.** The score of a row is its absolute out-of-fold residual divided
    by a difficulty estimate ``sigma(x)``, computed causally from the model's own features
    (for the compensation pipeline: T, dT, T·dT and the temperature lags, standardised):
@@ -72,7 +74,7 @@ split at least 0.942 on seeds 0-2 (``python benchmarks/bench_conformal.py`` row 
 one calibration r.m.s. error (a turn-on bias, a thermal history the model fits badly):
 nothing visible at prediction time ranks them (the same script's fold-level correlations),
 so no difficulty model can widen the band for them alone; only a wider band everywhere (a
-higher ``confidence``) covers them, at a cost in width that the script also measures.
+higher ``run_probability``) covers them, at a cost in width that the script also measures.
 
 Why not MAPIE: MAPIE 1.x takes the conformal quantile over rows (there is no per-group
 aggregation of scores before the quantile), and its adaptive score
@@ -298,8 +300,9 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         output of its steps before the last (the thermal features, scaled); otherwise it
         reads the numeric columns of X.
     coverage : float, default=0.9
-        Nominal coverage in (0, 1): the fraction of a run's time its drift should lie
-        inside the band.
+        Like MAPIE's ``confidence_level``, per run's time: the nominal fraction, in (0, 1),
+        of a run's time its drift should lie inside the band (see ``run_probability`` for
+        the probability over runs that a run meets it).
     cv : int, cross-validation generator or iterable, default=None
         How the calibration runs are split. None: one fold per group (run), i.e.
         :class:`~sklearn.model_selection.LeaveOneGroupOut`. An int ``k``:
@@ -311,11 +314,12 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         that did not see it); ``"base"``: the full model's prediction plus/minus
         ``sigma(x) * q``; ``"minmax"``: from the lowest to the highest fold prediction,
         widened by ``sigma(x) * q`` (conservative).
-    confidence : float, default=0.6
-        Level in (0, 1) of the conformal quantile taken over the runs' scores: a new run
-        like the calibration runs holds its drift inside the band at least ``coverage`` of
-        its time with probability at least ``confidence`` (the band widens as
-        ``confidence`` grows). With ``coverage=0.9``, ``confidence=0.6`` gives mean held-out
+    run_probability : float, default=0.6
+        The probability, in (0, 1), that a new run like the calibration runs meets
+        ``coverage`` (holds its drift inside the band at least ``coverage`` of its time).
+        It is the level of the conformal quantile taken over the runs' scores, and the band
+        widens as it grows; MAPIE has no such level (its ``confidence_level`` is
+        ``coverage``). With ``coverage=0.9``, ``run_probability=0.6`` gives mean held-out
         coverages of 0.900-0.948 on the campaigns it was chosen on (seeds 0-2) and
         0.877-0.949 on held-out ones (seeds 8-10) in ``python benchmarks/bench_conformal.py``
         (``benchmarks/results/conformal.md`` rows "ours" column "mean coverage").
@@ -365,7 +369,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         not see), when ``estimator`` is a CompensationPipeline with ``uncalibrated="blend"``
         and ``adaptive``; None otherwise.
     fallback_quantile_ : float
-        The conformal quantile (level ``confidence``) of the runs' ``coverage`` quantiles of
+        The conformal quantile (level ``run_probability``) of the runs' ``coverage`` quantiles of
         ``fallback_scores_`` (0 without them): the fallback's error band, which widens the
         band in proportion to the fallback's share of a prediction outside the domain.
     thermal_slope_ : float
@@ -430,7 +434,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         "coverage": [Interval(numbers.Real, 0, 1, closed="neither")],
         "cv": ["cv_object", None],
         "method": [StrOptions({"plus", "base", "minmax"})],
-        "confidence": [Interval(numbers.Real, 0, 1, closed="neither")],
+        "run_probability": [Interval(numbers.Real, 0, 1, closed="neither")],
         "adaptive": ["boolean"],
         "n_jobs": [numbers.Integral, None],
     }
@@ -445,7 +449,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         coverage=0.9,
         cv=None,
         method="plus",
-        confidence=0.6,
+        run_probability=0.6,
         adaptive=True,
         n_jobs=None,
     ):
@@ -453,7 +457,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         self.coverage = coverage
         self.cv = cv
         self.method = method
-        self.confidence = confidence
+        self.run_probability = run_probability
         self.adaptive = adaptive
         self.n_jobs = n_jobs
 
@@ -543,7 +547,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         self.groups_ = labels
         self.group_scores_ = group_scores
         self.group_fold_ = np.array([fold_of[first_row[label]] for label in labels])
-        self.quantile_ = float(conformal_quantile(group_scores, self.confidence))
+        self.quantile_ = float(conformal_quantile(group_scores, self.run_probability))
         return self
 
     def _fit_input(self, X, y, groups):
@@ -680,7 +684,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         if getattr(self, "fallback_scores_", None) is None:  # None, or fitted before them
             return 0.0
         _, group_scores = run_quantile_scores(self.fallback_scores_, self.score_groups_, coverage)
-        return float(conformal_quantile(group_scores, self.confidence))
+        return float(conformal_quantile(group_scores, self.run_probability))
 
     def _outside_terms(self, X):
         """(fallback share, degrees beyond the calibrated temperatures) of every row, or
@@ -869,7 +873,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             if not (isinstance(coverage, numbers.Real) and 0.0 < coverage < 1.0):
                 raise ValueError(f"coverage must be a float in (0, 1), got {coverage!r}.")
             _, group_scores = run_quantile_scores(self.scores_, self.score_groups_, coverage)
-            quantile = float(conformal_quantile(group_scores, self.confidence))
+            quantile = float(conformal_quantile(group_scores, self.run_probability))
             fallback_quantile = self._fallback_quantile(coverage)
         scale = self._scale(raw)
         if scale is None:
@@ -884,7 +888,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             )
         else:
             bounds = plus_interval(
-                predictions, scale, group_scores, self.group_fold_, self.confidence
+                predictions, scale, group_scores, self.group_fold_, self.run_probability
             )
         if not self.adaptive:
             return bounds

@@ -236,23 +236,25 @@ def _runs_with_offsets(rng, n_runs, per_run=40):
     return x.reshape(-1, 1), y.ravel(), np.repeat(np.arange(n_runs), per_run)
 
 
-@pytest.mark.parametrize("confidence", [0.6, 0.9])
-def test_run_level_guarantee_on_exchangeable_runs(confidence):
+@pytest.mark.parametrize("run_probability", [0.6, 0.9])
+def test_run_level_guarantee_on_exchangeable_runs(run_probability):
     """A new run holds its drift at least `coverage` of its time with probability about
-    `confidence` (the conformal rank over 10 calibration runs: ceil(11 c) / 11), averaged
+    `run_probability` (the conformal rank over 10 calibration runs: ceil(11 p) / 11), averaged
     over 40 seeds of 10 calibration and 20 new runs (Monte Carlo sd of the mean ~0.03)."""
     fractions = []
     for seed in range(40):
         rng = np.random.RandomState(seed)
         X, y, runs = _runs_with_offsets(rng, 10)
         X_new, y_new, runs_new = _runs_with_offsets(rng, 20)
-        model = ConformalRegressor(LinearRegression(), adaptive=False, confidence=confidence)
+        model = ConformalRegressor(
+            LinearRegression(), adaptive=False, run_probability=run_probability
+        )
         bounds = model.fit(X, y, groups=runs).predict_interval(X_new)
         per_run = [
             interval_coverage(y_new[runs_new == run], bounds[runs_new == run]) for run in range(20)
         ]
         fractions.append(np.mean(np.array(per_run) >= 0.9))
-    guaranteed = np.ceil(11 * confidence) / 11
+    guaranteed = np.ceil(11 * run_probability) / 11
     assert guaranteed - 0.1 <= np.mean(fractions) <= guaranteed + 1 / 11 + 0.1
 
 
@@ -320,6 +322,32 @@ def test_bad_coverage(coverage):
     X, y, runs = _heteroscedastic(0)
     with pytest.raises(ValueError, match="coverage"):
         ConformalRegressor(LinearRegression(), coverage=coverage).fit(X, y, groups=runs)
+
+
+@pytest.mark.parametrize("run_probability", [0.0, 1.0, 1.5, "0.6"])
+def test_bad_run_probability_is_named(run_probability):
+    X, y, runs = _heteroscedastic(0)
+    model = ConformalRegressor(LinearRegression(), run_probability=run_probability)
+    with pytest.raises(ValueError, match="The 'run_probability' parameter of ConformalRegressor"):
+        model.fit(X, y, groups=runs)
+
+
+def test_the_two_levels_are_coverage_and_run_probability():
+    """`coverage` is the level within a run (MAPIE's confidence_level), `run_probability` the
+    one over runs; the old name `confidence` is gone (no release had it)."""
+    params = ConformalRegressor(LinearRegression()).get_params()
+    assert (params["coverage"], params["run_probability"]) == (0.9, 0.6)
+    assert "confidence" not in params
+    with pytest.raises(TypeError, match="confidence"):
+        ConformalRegressor(LinearRegression(), confidence=0.6)
+    X, y, runs = _heteroscedastic(0)
+    low, high = (
+        ConformalRegressor(LinearRegression(), adaptive=False, run_probability=level)
+        .fit(X, y, groups=runs)
+        .quantile_
+        for level in (0.5, 0.95)
+    )
+    assert low < high  # a higher run_probability widens the band
 
 
 def test_bad_groups():

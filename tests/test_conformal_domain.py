@@ -106,7 +106,7 @@ def test_fallback_scores_are_each_fold_fallbacks_held_out_errors(fitted, warm_co
             fitted.fallback_scores_[held], np.abs(y_warm[held] - fallback), rtol=1e-12
         )
     _, run_scores = run_quantile_scores(fitted.fallback_scores_, X_warm["run"], 0.9)
-    assert fitted.fallback_quantile_ == conformal_quantile(run_scores, fitted.confidence)
+    assert fitted.fallback_quantile_ == conformal_quantile(run_scores, fitted.run_probability)
     assert fitted.fallback_quantile_ > 0
 
 

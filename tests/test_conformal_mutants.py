@@ -263,7 +263,7 @@ def test_base_and_minmax_bands_are_the_quantile_about_the_predictions(coverage):
         quantile = model.quantile_
         if coverage is not None:
             _, scores = run_quantile_scores(model.scores_, model.score_groups_, coverage)
-            quantile = float(conformal_quantile(scores, model.confidence))
+            quantile = float(conformal_quantile(scores, model.run_probability))
             assert quantile != model.quantile_
         assert quantile != 1.0
         folds = np.stack([fold.predict(X_new) for fold in model.estimators_])

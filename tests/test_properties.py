@@ -529,7 +529,7 @@ ESTIMATORS = {
         lambda: ConformalRegressor(Ridge()),
         {
             "coverage": st.floats(0.5, 0.99),
-            "confidence": st.floats(0.5, 0.99),
+            "run_probability": st.floats(0.5, 0.99),
             "adaptive": st.booleans(),
             "estimator__alpha": st.floats(1e-6, 1e3),
         },
