@@ -76,13 +76,13 @@ choice.
 The width was first chosen as 10 on seeds 0-2, where it met the new-rates target on every
 case; seed 3 then showed it keeping a network 11-18 x worse than the line (``--tune``) (a glass
 transition seen heating only), so safety decided for the narrowest width of the sweep.
-The fallback's plane in T and dT (``sklearn_ifog.fallback.REPEATED_RATIO``, 0.75) was chosen
+The fallback's plane in T and dT (``sklearn_ifog._tuning.REPEATED_RATIO``, 0.75) was chosen
 the same way: on seeds 0-7, from the ``repeated_ratio`` sweep of ``--tune``, as the ratio
 with the fewest first-rule failures, then the fewest outside-T failures; and then the held-out
 scale at which a plane with a ratio between it and 1 is trusted too
-(``sklearn_ifog.fallback.CARRIED_SCALE``, 0.9), from the ``carried_scale`` sweep by the same
+(``sklearn_ifog._tuning.CARRIED_SCALE``, 0.9), from the ``carried_scale`` sweep by the same
 order, a tie going to the value that trusts the plane less. The weight of a rate's excess in
-the domain's distance (``sklearn_ifog.domain.RATE_WEIGHT``, 2) came last, from the
+the domain's distance (``sklearn_ifog._tuning.RATE_WEIGHT``, 2) came last, from the
 ``rate weight`` sweep of ``--tune`` (0, no rate term, to 4): the largest weight that keeps
 the shared-profile rows inside the calibrated temperatures flagged at most 2 % on every
 tuning seed (3 and 4 do not).
@@ -110,11 +110,10 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import PolynomialFeatures
 
 from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
+from sklearn_ifog._tuning import CARRIED_SCALE, RATE_WEIGHT, REPEATED_RATIO
 from sklearn_ifog.datasets import noise_floor
-from sklearn_ifog.domain import RATE_WEIGHT, box_distance
+from sklearn_ifog.domain import box_distance
 from sklearn_ifog.fallback import (
-    CARRIED_SCALE,
-    REPEATED_RATIO,
     extremes_held_out,
     fit_fallback,
     held_out_runs,
@@ -148,15 +147,15 @@ SWEEP_MARGINS = (0.1, 0.5, 1.0, 1.5, 2.0)
 # rows (about their centre), on every row.
 CLAMP_FACTORS = (1.0, 1.5, 2.0, 3.0)
 # Held-out-run ratios at which ``fit_fallback`` would trust the plane in T and dT
-# (``repeated_ratio``; the default, ``sklearn_ifog.fallback.REPEATED_RATIO``, was chosen on the
+# (``repeated_ratio``; the default, ``sklearn_ifog._tuning.REPEATED_RATIO``, was chosen on the
 # tuning seeds from this sweep).
 REPEATED_RATIOS = (0.5, 0.6, 0.75, 0.9, 1.0)
 # Held-out scales at which ``fit_fallback`` would also trust a plane whose ratio lies between
-# REPEATED_RATIO and 1 (``carried_scale``; the default, ``sklearn_ifog.fallback.CARRIED_SCALE``,
+# REPEATED_RATIO and 1 (``carried_scale``; the default, ``sklearn_ifog._tuning.CARRIED_SCALE``,
 # was chosen on the tuning seeds from this sweep; inf: never, the rule before it).
 CARRIED_SCALES = (0.8, 0.85, 0.9, 0.95, np.inf)
 # Weights of a rate's excess beyond its calibrated range in the domain's distance (the
-# default, ``sklearn_ifog.domain.RATE_WEIGHT``, was chosen on the tuning seeds from this
+# default, ``sklearn_ifog._tuning.RATE_WEIGHT``, was chosen on the tuning seeds from this
 # sweep; 0: no rate term, the domain before it).
 RATE_WEIGHTS = (0.0, 1.0, 2.0, 3.0, 4.0)
 

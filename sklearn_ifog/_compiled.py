@@ -26,7 +26,8 @@ import numpy as np
 
 from sklearn_ifog._description import describe_pipeline
 from sklearn_ifog._output_layer import layer_kind, read_layer
-from sklearn_ifog.domain import NOVELTY_RAMP, RATE_WEIGHT, locate, require_box
+from sklearn_ifog._tuning import NOVELTY_RAMP, RATE_WEIGHT
+from sklearn_ifog.domain import locate, require_box
 from sklearn_ifog.policy import policy_for
 from sklearn_ifog.rbf._basis import predict_network, tail_features
 

@@ -158,7 +158,7 @@ from sklearn import preprocessing
 from sklearn.pipeline import Pipeline
 from sklearn.utils.validation import check_is_fitted
 
-from sklearn_ifog import _version
+from sklearn_ifog import _tuning, _version
 from sklearn_ifog import domain as _domain
 from sklearn_ifog._contract import (
     get_term,
@@ -542,9 +542,9 @@ def describe_domain(pipeline, n_features, n_outputs):
         "boost_temperature_high": _floats(box.temperature_high),
         # Standard deviations (over RATE_WEIGHT, as rate_scale is) of a rate, and of a
         # temperature, beyond its range at which the boost is added in full.
-        "boost_rate_ramp": float(_domain.RATE_WEIGHT * _domain.NOVELTY_RAMP),
-        "boost_temperature_ramp": float(_domain.NOVELTY_RAMP),
-        "projection_rounds": int(_domain.PROJECTION_ROUNDS),
+        "boost_rate_ramp": float(_tuning.RATE_WEIGHT * _tuning.NOVELTY_RAMP),
+        "boost_temperature_ramp": float(_tuning.NOVELTY_RAMP),
+        "projection_rounds": int(_tuning.PROJECTION_ROUNDS),
         "uncalibrated": policy.name,
         "fallback": _describe_fallback(fallback, n_outputs),
     }

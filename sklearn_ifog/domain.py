@@ -34,12 +34,9 @@ from sklearn.base import BaseEstimator, OutlierMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from sklearn_ifog._compat import Interval, _fit_context
+from sklearn_ifog._tuning import NOVELTY_RAMP, PROJECTION_ROUNDS, RATE_WEIGHT
 
 __all__ = [
-    "NOVELTY_RAMP",
-    "PROJECTION_ROUNDS",
-    "RATE_WEIGHT",
-    "ROUNDOFF_SHARE",
     "CalibrationDomain",
     "OutsideCalibrationWarning",
     "SmallCalibrationWarning",
@@ -64,40 +61,6 @@ __all__ = [
 # (an exact linear relation between features, e.g. a duplicated column); their scale is
 # floored there so that round-off cannot read as a distance.
 _AXIS_FLOOR = 1e-6
-
-#: Rounds of alternating projection (box, then temperature ranges) of
-#: :meth:`CalibrationDomain.project`, the ``"clip"`` policy (the exports repeat them).
-PROJECTION_ROUNDS = 8
-#: Weight of a rate's excess in the distance: a rate feature (``rate`` of
-#: :class:`CalibrationDomain`) that lies beyond its calibrated range adds its excess, in
-#: standard deviations of that feature times this weight, to the distance as one more
-#: axis. The decorrelated axes spread a rate excess over several of them and a heating-only
-#: calibration covers its rates one-sidedly, so a cooling row of such a calibration would
-#: otherwise stay within the margin while its network extrapolates to rates it never saw.
-#: Chosen on the tuning seeds 0-7 of ``benchmarks/bench_extrapolation.py --tune`` (its
-#: sweep): the largest weight that keeps the shared-profile rows inside the calibrated
-#: temperatures flagged at most 2 % there; judged on seeds 8-12 (since retired, see
-#: ``benchmarks/_cases.SEEDS``).
-RATE_WEIGHT = 2.0
-#: The boost (``Box.boost``) is added in full from a novelty of this many standard
-#: deviations of the rate or the temperature beyond its calibrated range: a short ramp,
-#: only so that the distance stays continuous where a row leaves them (the exports repeat
-#: it).
-NOVELTY_RAMP = 0.01
-#: A rate dT beyond its calibrated range by at most this share of that range is round-off,
-#: not a rate the calibration never saw: the pipeline's warning, the report and the command
-#: line do not word it (an excess as :meth:`CalibrationDomain.excess` reads it; no flag or
-#: prediction depends on this share).
-#: Why relative to the calibrated range: the excess is the difference of a rate recomputed
-#: from a new log (a difference of temperatures over a time step, through the lags) and the
-#: calibrated extreme, each carrying a few units in the last place of numbers of the size
-#: of that range; so round-off scales with the range, in whatever unit dT is read (degC per
-#: minute or per second: an absolute tolerance would be 60 times off in one of them). It
-#: cannot be relative to the extreme itself: the slowest rate of a heating-only calibration
-#: is a soak's, about 0, where any round-off (a 1.47e-14 below it) is infinitely many times
-#: the value. 1e-9 of the range is ten million times a double's round-off and far below any
-#: rate excess a calibration could be faulted for.
-ROUNDOFF_SHARE = 1e-9
 
 
 class OutsideCalibrationWarning(UserWarning):
@@ -167,7 +130,7 @@ class Box(NamedTuple):
     rate_low, rate_high : ndarray of shape (n_rates,), default=empty
         Calibrated range of each rate feature, in its own units.
     rate_scale : ndarray of shape (n_rates,), default=empty
-        The rate feature's standard deviation over ``RATE_WEIGHT``: its excess is divided
+        The rate feature's standard deviation over the rate weight (2): its excess is divided
         by it.
     boost : float, default=0.0
         Added to the distance of a row beyond the calibrated rates or temperatures, in
@@ -319,7 +282,7 @@ def box_distance(box, X):
     ``g² = sum_r (rate_excess_r / rate_scale_r)²``, ``excess_k`` the row's coordinate
     beyond ``[lower_k, upper_k]`` along axis ``k`` and ``rate_excess_r`` its rate feature
     ``r`` beyond ``[rate_low_r, rate_high_r]`` (0 inside the ranges; no rate term for a box
-    without ``rate_columns``), and the novelty ``n² = (g / (RATE_WEIGHT ρ))² + sum_t
+    without ``rate_columns``), and the novelty ``n² = (g / (2 ρ))² + sum_t
     (t_excess_t / (ρ scale_t))²`` over the ``temperature_columns`` (their excess beyond the
     calibrated range over the feature's standard deviation), ``ρ = 0.01``: the boost is
     added in full a hundredth of a standard deviation beyond the calibrated rates or
@@ -918,7 +881,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
     rate : int, list of int or None, default=None
         Column(s) holding a temperature rate, whose excess beyond its calibrated range is one
         more term of the distance: in the rate's standard deviations times
-        :data:`RATE_WEIGHT` (a heating-only calibration's cooling rows lie there). None: no
+        a weight of 2 (a heating-only calibration's cooling rows lie there). None: no
         rate term.
 
     Attributes
@@ -946,7 +909,7 @@ class CalibrationDomain(OutlierMixin, BaseEstimator):
         The calibrated range of each rate column (as ``data_min_`` and ``data_max_``
         give it, widened by :meth:`extend` where held-out evidence says so).
     rate_scale_ : ndarray of shape (n_rates,)
-        Standard deviation of each rate column over :data:`RATE_WEIGHT`: the unit of its
+        Standard deviation of each rate column over the rate weight (2): the unit of its
         excess in the distance.
     threshold_ : float
         Distance beyond which a row is outside: the ``1 - alpha`` quantile of the held-out

@@ -17,10 +17,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from sklearn_ifog._statistics import within_one_standard_error
+from sklearn_ifog._tuning import CARRIED_SCALE, REPEATED_RATIO
 
 __all__ = [
-    "CARRIED_SCALE",
-    "REPEATED_RATIO",
     "Fallback",
     "extremes_held_out",
     "fallback_name",
@@ -39,21 +38,6 @@ _MIN_FALLBACK_ROWS = 10
 # extrapolates worse than a constant. On the shipped recording the x and y axes' ratios are
 # 0.001-0.06 and the z axis's (no thermal drift) 0.47-5.8, for every half of the recording.
 _REAL_SLOPE_RATIO = 0.25
-#: Largest held-out-run error ratio of the plane in T and dT (:func:`held_out_runs`, its
-#: squared error over a constant's) at which :func:`fit_fallback` trusts it: chosen on the
-#: tuning seeds 0-7 of ``benchmarks/bench_extrapolation.py --tune`` (its sweep of 0.5-1.0),
-#: judged on seeds 8-12 (since retired, see ``benchmarks/_cases.SEEDS``).
-REPEATED_RATIO = 0.75
-#: Smallest held-out-run scale of the plane in T and dT (:func:`held_out_runs` with
-#: ``return_scale=True``: the least-squares factor by which the held-out runs' drift, about
-#: the other runs' mean, follows the plane's prediction of it) at which :func:`fit_fallback`
-#: also trusts a plane whose held-out-run ratio lies between ``REPEATED_RATIO`` and 1. A
-#: plane whose predictions the held-out runs bear out in full (a scale near 1) is a thermal
-#: relation drowned in run-to-run noise; one that overshoots them (a smaller scale)
-#: extrapolates worse than a constant. Chosen on the tuning seeds 0-7 of
-#: ``benchmarks/bench_extrapolation.py --tune`` (its sweep), judged on seeds 8-12 (since
-#: retired, see ``benchmarks/_cases.SEEDS``).
-CARRIED_SCALE = 0.9
 
 
 class Fallback(NamedTuple):
@@ -387,12 +371,14 @@ def fit_fallback(
         Column of the model's features that holds dT (stored in the result).
     runs : array-like of shape (n_samples,), default=None
         The rows' recording runs (None or a single run: a line in T only).
-    repeated_ratio : float, default=REPEATED_RATIO
+    repeated_ratio : float, default=0.75
         Largest held-out-run error ratio (:func:`held_out_runs`) at which the plane is
-        trusted.
-    carried_scale : float, default=CARRIED_SCALE
+        trusted. The default was chosen on the tuning seeds of
+        ``benchmarks/bench_extrapolation.py --tune`` (its sweep of 0.5-1.0).
+    carried_scale : float, default=0.9
         Smallest held-out scale (:func:`held_out_runs`) at which a plane with a ratio
-        between ``repeated_ratio`` and 1 is trusted (``np.inf``: never).
+        between ``repeated_ratio`` and 1 is trusted (``np.inf``: never). The default was
+        chosen on the same tuning seeds (its sweep).
 
     Returns
     -------

@@ -27,8 +27,8 @@ from sklearn_ifog._compat import (
 )
 from sklearn_ifog._contract import get_term, sensor_keys
 from sklearn_ifog._table import as_float_rows, label_column
+from sklearn_ifog._tuning import HANDOVER_FOLDS, ROUNDOFF_SHARE
 from sklearn_ifog.domain import (
-    ROUNDOFF_SHARE,
     CalibrationDomain,
     OutsideCalibrationWarning,
     check_varies,
@@ -41,9 +41,6 @@ from sklearn_ifog.rbf import RBFNetRegressor
 
 __all__ = ["CompensationPipeline", "make_compensation_pipeline"]
 
-# Folds of whole runs (the runs dealt out in turn) of the held-out evidence per kind of
-# novelty: each fold costs one more fit of the steps.
-HANDOVER_FOLDS = 3
 
 
 def _is_regressor(estimator):

@@ -18,17 +18,15 @@ from sklearn_ifog import (
     make_compensation_pipeline,
 )
 from sklearn_ifog._compat import InvalidParameterError
+from sklearn_ifog._tuning import CARRIED_SCALE, RATE_WEIGHT, REPEATED_RATIO
 from sklearn_ifog.datasets import load_psim_tvc, make_thermal_campaign
 from sklearn_ifog.domain import (
-    RATE_WEIGHT,
     box_distance,
     fit_box,
     project_to_box,
     pull_back_to_ranges,
 )
 from sklearn_ifog.fallback import (
-    CARRIED_SCALE,
-    REPEATED_RATIO,
     Fallback,
     fallback_name,
     fit_fallback,

@@ -645,7 +645,8 @@ def test_fit_box_keeps_its_rate_columns_and_their_term():
     :func:`~sklearn_ifog.domain.box_distance` adds a rate's excess (in standard deviations
     over ``RATE_WEIGHT``) under the root. Kills ``Box(..., None, ...)`` for
     ``rate_columns`` (the domain builds its own Box, so no other test saw it)."""
-    from sklearn_ifog.domain import RATE_WEIGHT, box_distance, fit_box
+    from sklearn_ifog._tuning import RATE_WEIGHT
+    from sklearn_ifog.domain import box_distance, fit_box
 
     X, _ = _calibration()
     box = fit_box(X, rate_columns=[np.int64(1)])

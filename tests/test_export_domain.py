@@ -33,6 +33,7 @@ from sklearn_ifog import domain as domain_module
 from sklearn_ifog import fallback as fallback_module
 from sklearn_ifog import policy as policy_module
 from sklearn_ifog._description import SCHEMA_VERSION, describe_pipeline
+from sklearn_ifog._tuning import PROJECTION_ROUNDS
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.domain import OutsideCalibrationWarning
 from sklearn_ifog.export import to_c, to_c_units, to_json
@@ -325,7 +326,7 @@ def test_schema_carries_the_exact_domain(calibration, tmp_path):
     for key in ("rate_low", "rate_high", "rate_scale"):
         np.testing.assert_array_equal(domain[key], getattr(box, key))
     np.testing.assert_array_equal(domain["rate_low"], model.domain_.data_min_[[1, 4]])
-    assert domain["projection_rounds"] == domain_module.PROJECTION_ROUNDS
+    assert domain["projection_rounds"] == PROJECTION_ROUNDS
     fallback = domain["fallback"]
     np.testing.assert_array_equal(fallback["intercept"], model.fallback_.intercept)
     np.testing.assert_array_equal(fallback["slope"], model.fallback_.slope)

@@ -12,10 +12,11 @@ from sklearn.linear_model import LinearRegression
 from sklearn.utils import Bunch
 
 from sklearn_ifog import ThermalFeatures, UnitwiseRegressor, make_compensation_pipeline
+from sklearn_ifog._tuning import ROUNDOFF_SHARE
 from sklearn_ifog.cli import main
 from sklearn_ifog.cli._compensate import _outside_lines
 from sklearn_ifog.datasets import make_thermal_campaign
-from sklearn_ifog.domain import ROUNDOFF_SHARE, OutsideCalibrationWarning
+from sklearn_ifog.domain import OutsideCalibrationWarning
 from sklearn_ifog.report import per_run_calibration
 from sklearn_ifog.report._sections import _rate_clause
 from sklearn_ifog.report._words import rate_beyond_text

@@ -8,7 +8,7 @@ same thing in the same words.
 
 import numpy as np
 
-from sklearn_ifog.domain import ROUNDOFF_SHARE
+from sklearn_ifog._tuning import ROUNDOFF_SHARE
 from sklearn_ifog.policy import policy_for
 
 __all__ = ["number_text", "policy_actions"]
@@ -31,7 +31,7 @@ def policy_actions(status):
 def rate_beyond_text(below, above, low, high):
     """:func:`beyond_text` for the rate dT, without what is round-off.
 
-    ``below`` and ``above`` count only beyond :data:`~sklearn_ifog.domain.ROUNDOFF_SHARE`
+    ``below`` and ``above`` count only beyond ``sklearn_ifog._tuning.ROUNDOFF_SHARE``
     times the calibrated range ``high - low`` (the domain's rule of what is round-off).
 
     Parameters
