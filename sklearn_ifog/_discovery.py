@@ -3,10 +3,13 @@
 import importlib
 import inspect
 import pkgutil
+from pathlib import Path
 
 from sklearn.base import BaseEstimator
 
-import sklearn_ifog
+# The package's folder: the walk below imports every module (the package root first), so
+# this module itself needs none of them.
+_PACKAGE_PATH = [str(Path(__file__).resolve().parent)]
 
 
 def all_estimators():
@@ -24,7 +27,7 @@ def all_estimators():
     True
     """
     found = {}
-    for module_info in pkgutil.walk_packages(sklearn_ifog.__path__, prefix="sklearn_ifog."):
+    for module_info in pkgutil.walk_packages(_PACKAGE_PATH, prefix="sklearn_ifog."):
         if module_info.name.endswith(("__main__", ".cli")):
             continue
         module = importlib.import_module(module_info.name)

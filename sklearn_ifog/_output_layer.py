@@ -29,9 +29,8 @@ import numpy as np
 from sklearn import linear_model
 from sklearn.pipeline import Pipeline
 
-from sklearn_ifog.rbf import RBFNetRegressor
 from sklearn_ifog.rbf._basis import Network, gaussian_design, tail_features
-from sklearn_ifog.rbf._network import network_of
+from sklearn_ifog.rbf._network import RBFNetRegressor, network_of
 
 __all__ = [
     "LINEAR_REGRESSORS",

@@ -21,7 +21,7 @@ from sklearn_ifog._output_layer import (
     supported_names,
 )
 from sklearn_ifog._shrinkage import solve_shrunk
-from sklearn_ifog.rbf import RBFNetRegressor
+from sklearn_ifog.rbf._network import RBFNetRegressor
 
 __all__ = [
     "MIN_UNIT_ROWS",

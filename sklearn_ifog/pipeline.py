@@ -37,7 +37,7 @@ from sklearn_ifog.domain import (
 from sklearn_ifog.fallback import fit_fallback
 from sklearn_ifog.features import ThermalFeatures
 from sklearn_ifog.policy import POLICY_NAMES, policy_for
-from sklearn_ifog.rbf import RBFNetRegressor
+from sklearn_ifog.rbf._network import RBFNetRegressor
 
 __all__ = ["CompensationPipeline", "make_compensation_pipeline"]
 

@@ -18,8 +18,6 @@ from typing import NamedTuple
 import numpy as np
 import scipy.linalg
 
-from sklearn_ifog.rbf._tail_penalty import transformed
-
 # Rows per block of a prediction: 2**14 rows times a few dozen centres stays within a few
 # megabytes, in cache (about 10% faster than 2**16 rows on 1e6 rows and 40 centres, with
 # the blocks' arrays reused).
@@ -227,6 +225,25 @@ def _monomial_pairs(n_features):
     # Row-major upper triangle: (0, 0), (0, 1), ..., (0, d-1), (1, 1), ... which is the order
     # of sklearn's PolynomialFeatures(degree=2).
     return np.triu_indices(n_features)
+
+
+def transformed(T, M):
+    """``T @ M``, or ``T`` itself when ``M`` is None (the plain ridge): the tail columns
+    reparametrised for the tail penalty (``M`` from
+    :func:`sklearn_ifog.rbf._tail_penalty.tail_transform`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> T = np.array([[1.0, 2.0]])
+    >>> transformed(T, np.array([[2.0, 0.0], [0.0, 3.0]]))
+    array([[2., 6.]])
+    >>> transformed(T, None) is T
+    True
+    """
+    if M is None or T is None:
+        return T
+    return T @ M
 
 
 def tail_features(Z, degree):

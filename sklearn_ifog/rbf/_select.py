@@ -22,6 +22,7 @@ from sklearn_ifog.rbf._basis import (
     n_tail_features,
     squared_distances,
     tail_features,
+    transformed,
 )
 from sklearn_ifog.rbf._ols import (
     Workspace,
@@ -32,7 +33,7 @@ from sklearn_ifog.rbf._ols import (
     prefix_fits,
     width_grid,
 )
-from sklearn_ifog.rbf._tail_penalty import tail_transform, transformed
+from sklearn_ifog.rbf._tail_penalty import tail_transform
 
 # Largest number of centres when ``n_centers="auto"``; the criterion picks along the path.
 AUTO_MAX_CENTERS = 40

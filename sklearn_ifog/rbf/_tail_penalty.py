@@ -17,7 +17,9 @@ well-spread directions as by least squares, the thin ones shrunk to nothing.
 The numerics solve it as a plain ridge on reparametrised tail columns ``T M`` with
 ``M = V diag(sqrt(lambda))`` (``||w'||**2`` on the new weights ``w'`` is the penalty above
 for ``w = M w'``), so every solver that knows a ridge on the tail knows this one; the tail
-weights are mapped back with ``M`` and the fitted network is the same as ever.
+weights are mapped back with ``M`` and the fitted network is the same as ever. The
+reparametrised columns themselves are the basis's
+(:func:`sklearn_ifog.rbf._basis.transformed`), since its output-weight solve builds them.
 """
 
 import numpy as np
@@ -67,10 +69,3 @@ def tail_transform(T, sample_weight, penalty):
     spread, directions = np.linalg.eigh(covariance)
     floor = SPREAD_FLOOR * max(float(spread.max()), np.finfo(float).tiny)
     return directions * np.sqrt(np.maximum(spread, floor))
-
-
-def transformed(T, M):
-    """``T @ M``, or ``T`` itself when ``M`` is None (the plain ridge)."""
-    if M is None or T is None:
-        return T
-    return T @ M
