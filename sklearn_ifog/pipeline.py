@@ -42,7 +42,6 @@ from sklearn_ifog.rbf._network import RBFNetRegressor
 __all__ = ["CompensationPipeline", "make_compensation_pipeline"]
 
 
-
 def _is_regressor(estimator):
     """scikit-learn's is_regressor, False (not an error) for what is no estimator at all."""
     if not hasattr(estimator, "fit"):

@@ -536,6 +536,8 @@ def test_the_policy_check_catches_every_form():
     found = policy_comparisons(source, "report/_words.py")
     assert [line.split(":")[1].split()[0] for line in found] == ["2", "4", "6", "8", "11"]
     assert found[0] == "report/_words.py:2 compares 'blend'"
+
+
 def test_the_floor_count_catches_every_form():
     sources = {
         "__init__.py": "from sklearn_ifog.top import run\n",
