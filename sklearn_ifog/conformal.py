@@ -98,6 +98,7 @@ from sklearn.model_selection import GroupKFold, KFold, LeaveOneGroupOut, check_c
 from sklearn.pipeline import Pipeline
 from sklearn.utils import check_array
 from sklearn.utils.metadata_routing import MetadataRouter, MethodMapping, process_routing
+from sklearn.utils.metaestimators import available_if
 from sklearn.utils.parallel import Parallel, delayed
 from sklearn.utils.validation import (
     check_consistent_length,
@@ -129,8 +130,7 @@ from sklearn_ifog._conformal_numerics import (
     thermal_slope,
 )
 from sklearn_ifog.domain import OutsideCalibrationWarning, locate
-from sklearn_ifog.pipeline import CompensationPipeline
-from sklearn_ifog.policy import fallback_weight, policy_for
+from sklearn_ifog.policy import fallback_weight
 
 __all__ = [
     "ConformalRegressor",
@@ -166,7 +166,8 @@ _EXTRAPOLATION_REFERENCE = 0.95
 
 def _blends(model):
     """Whether ``model`` moves to a fallback outside its calibration domain."""
-    return isinstance(model, CompensationPipeline) and policy_for(model.uncalibrated).uses_fallback
+    # The calibration protocol: a model whose policy takes a fallback offers its share.
+    return hasattr(model, "fallback_share") and hasattr(model, "fallback_predict")
 
 
 def _fallback_features(model, X):
@@ -179,7 +180,8 @@ def _fallback_features(model, X):
 
 def _fallback_prediction(model, X):
     """The fallback's prediction (first output) of a fitted CompensationPipeline for X."""
-    return model.fallback_.predict(_fallback_features(model, X))[:, 0]
+    predicted = np.asarray(model.fallback_predict(X), dtype=np.float64)
+    return predicted if predicted.ndim == 1 else predicted[:, 0]
 
 
 def _fit_fold(estimator, X, y, train, test, predict_all, params):
@@ -657,6 +659,90 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             if slope == 0.0:
                 slope = thermal_slope(self._thermal_rows(X)[:, fallback.column], y)
             self.thermal_slope_ = slope
+
+    @available_if(lambda self: hasattr(self.estimator, "outside_calibration"))
+    def outside_calibration(self, X):
+        """Whether every row lies outside the calibration domain of ``estimator_``.
+
+        The calibration protocol, delegated to the model fitted on every calibration row
+        (:meth:`CompensationPipeline.outside_calibration
+        <sklearn_ifog.pipeline.CompensationPipeline.outside_calibration>`); available when
+        ``estimator`` has the method.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_columns)
+            Rows in the layout of :meth:`fit`.
+
+        Returns
+        -------
+        outside : ndarray of shape (n_samples,), dtype=bool
+        """
+        check_is_fitted(self)
+        return self.estimator_.outside_calibration(X)
+
+    @available_if(lambda self: hasattr(self.estimator, "calibration_distance"))
+    def calibration_distance(self, X):
+        """Distance of every row outside the calibration domain of ``estimator_``.
+
+        The calibration protocol, delegated to the model fitted on every calibration row
+        (:meth:`CompensationPipeline.calibration_distance
+        <sklearn_ifog.pipeline.CompensationPipeline.calibration_distance>`); available when
+        ``estimator`` has the method.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_columns)
+            Rows in the layout of :meth:`fit`.
+
+        Returns
+        -------
+        distance : ndarray of shape (n_samples,)
+        """
+        check_is_fitted(self)
+        return self.estimator_.calibration_distance(X)
+
+    @available_if(lambda self: hasattr(self.estimator, "fallback_share"))
+    def fallback_share(self, X):
+        """The fallback's share of every row's prediction by ``estimator_``.
+
+        The calibration protocol, delegated to the model fitted on every calibration row
+        (:meth:`CompensationPipeline.fallback_share
+        <sklearn_ifog.pipeline.CompensationPipeline.fallback_share>`); available when
+        ``estimator`` has the method.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_columns)
+            Rows in the layout of :meth:`fit`.
+
+        Returns
+        -------
+        share : ndarray of shape (n_samples,)
+        """
+        check_is_fitted(self)
+        return self.estimator_.fallback_share(X)
+
+    @available_if(lambda self: hasattr(self.estimator, "calibrated_parts"))
+    def calibrated_parts(self, X):
+        """Which fitted pipeline behind ``estimator_`` predicts which rows of ``X``.
+
+        The calibration protocol, delegated to the model fitted on every calibration row
+        (:meth:`CompensationPipeline.calibrated_parts
+        <sklearn_ifog.pipeline.CompensationPipeline.calibrated_parts>`); available when
+        ``estimator`` has the method.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_columns)
+            Rows in the layout of :meth:`fit`.
+
+        Returns
+        -------
+        parts : list of tuple (pipeline, X_part, rows)
+        """
+        check_is_fitted(self)
+        return self.estimator_.calibrated_parts(X)
 
     def get_metadata_routing(self):
         """The metadata routing of this object: ``fit`` parameters go to ``estimator.fit``.

@@ -15,6 +15,7 @@ from sklearn.base import clone, is_regressor
 from sklearn.metrics import r2_score
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
+from sklearn.utils.metaestimators import available_if
 from sklearn.utils.validation import check_is_fitted, has_fit_parameter
 
 from sklearn_ifog import _handover
@@ -26,13 +27,14 @@ from sklearn_ifog._compat import (
     _safe_indexing,
 )
 from sklearn_ifog._contract import get_term, sensor_keys
-from sklearn_ifog._table import as_float_rows, label_column
+from sklearn_ifog._table import as_float_rows, as_table, label_column
 from sklearn_ifog._tuning import HANDOVER_FOLDS, ROUNDOFF_SHARE
 from sklearn_ifog.domain import (
     CalibrationDomain,
     OutsideCalibrationWarning,
     check_varies,
     locate,
+    threshold_of,
 )
 from sklearn_ifog.fallback import fit_fallback
 from sklearn_ifog.features import ThermalFeatures
@@ -611,6 +613,69 @@ class CompensationPipeline(Pipeline):
         outside : ndarray of shape (n_samples,), dtype=bool
         """
         return self._where(as_float_rows(self._transform_features(X))).outside
+
+    @available_if(lambda self: policy_for(self.uncalibrated).uses_fallback)
+    def fallback_share(self, X):
+        """The fallback's share of every row's prediction (0 inside the domain).
+
+        The weight ``w`` of ``(1 - w) * model + w * fallback``
+        (:meth:`~sklearn_ifog.policy.UncalibratedPolicy.fallback_share`). Available when
+        ``uncalibrated`` takes a fallback (``"blend"``). Part of the calibration protocol
+        that :class:`~sklearn_ifog.UnitwiseRegressor` and
+        :class:`~sklearn_ifog.ConformalRegressor` follow too (with
+        :meth:`outside_calibration`, :meth:`calibration_distance`,
+        :meth:`fallback_predict` and :meth:`calibrated_parts`): the report, the conformal
+        band and the exports ask it rather than the model's class.
+
+        Parameters
+        ----------
+        X : iterable
+            Rows in the layout of :meth:`fit`.
+
+        Returns
+        -------
+        share : ndarray of shape (n_samples,)
+            In [0, 1].
+        """
+        where = self._where(as_float_rows(self._transform_features(X)))
+        policy = policy_for(self.uncalibrated)
+        return policy.fallback_share(where.distance, threshold_of(self.domain_))
+
+    def fallback_predict(self, X):
+        """What the fallback (``fallback_``) predicts for every row, in the shape of predict.
+
+        Parameters
+        ----------
+        X : iterable
+            Rows in the layout of :meth:`fit`.
+
+        Returns
+        -------
+        y_fallback : ndarray of shape (n_samples,) or (n_samples, n_outputs)
+        """
+        rows = as_float_rows(self._transform_features(X))
+        predicted = self.fallback_.predict(rows)
+        return predicted[:, 0] if predicted.shape[1] == 1 else predicted
+
+    def calibrated_parts(self, X):
+        """Which fitted pipeline, with its calibration domain, predicts which rows of ``X``.
+
+        For a pipeline, itself with every row; :meth:`UnitwiseRegressor.calibrated_parts
+        <sklearn_ifog.UnitwiseRegressor.calibrated_parts>` gives each unit's pipeline its
+        rows. The report reads each part's domain and fallback.
+
+        Parameters
+        ----------
+        X : iterable
+            Rows in the layout of :meth:`fit`.
+
+        Returns
+        -------
+        parts : list of tuple (pipeline, X_part, rows)
+            ``rows``: the positions of ``X_part``'s rows in ``X`` (int ndarray).
+        """
+        check_is_fitted(self, "domain_")
+        return [(self, X, np.arange(as_table(X).shape[0]))]
 
     def predict(self, X, **params):
         """Predict the drift, following ``uncalibrated`` for rows outside the domain.

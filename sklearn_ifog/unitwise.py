@@ -964,6 +964,49 @@ class UnitwiseRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         X_inner, units = self._units_of(X)
         return self._dispatch(X_inner, units, "outside_calibration").astype(bool)
 
+    @available_if(lambda self: hasattr(self.estimator, "fallback_share"))
+    def fallback_share(self, X):
+        """The fallback's share of every row's prediction, by the model of its unit.
+
+        :meth:`~sklearn_ifog.pipeline.CompensationPipeline.fallback_share`; available when
+        ``estimator`` has the method (its ``uncalibrated`` takes a fallback).
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_columns)
+            With the columns seen in fit. Every unit must have been seen in fit.
+
+        Returns
+        -------
+        share : ndarray of shape (n_samples,)
+            Row i for input row i, in [0, 1].
+        """
+        X_inner, units = self._units_of(X)
+        return self._dispatch(X_inner, units, "fallback_share").astype(np.float64)
+
+    @available_if(lambda self: hasattr(self.estimator, "calibrated_parts"))
+    def calibrated_parts(self, X):
+        """Which fitted pipeline, with its calibration domain, predicts which rows of ``X``.
+
+        Each unit's model with the unit's rows, as :meth:`unit_models` splits them
+        (:meth:`~sklearn_ifog.pipeline.CompensationPipeline.calibrated_parts`).
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_columns)
+            With the columns seen in fit. Every unit must have been seen in fit.
+
+        Returns
+        -------
+        parts : list of tuple (pipeline, X_part, rows)
+            ``X_part`` without the unit column; ``rows``: positions in ``X``.
+        """
+        return [
+            (pipeline, X_rows, index[rows])
+            for model, X_part, index in self.unit_models(X)
+            for pipeline, X_rows, rows in model.calibrated_parts(X_part)
+        ]
+
     def get_metadata_routing(self):
         """The metadata routing of this object: ``fit`` parameters go to ``estimator.fit``.
 

@@ -19,6 +19,11 @@
   the policy object instead). ``POLICY_COMPARERS`` lists the modules allowed to, at most
   two.
 - The house has at most ``MAX_FLOORS`` floors (issue 43, point 8): see :func:`floors`.
+- The report, the conformal band, streaming and the exports ask the calibration protocol
+  (``outside_calibration``, ``calibration_distance``, ``fallback_share``,
+  ``fallback_predict``, ``calibrated_parts``), not the class of the package's estimators:
+  no ``isinstance`` / ``issubclass`` against ``PROTOCOL_CLASSES`` in ``PROTOCOL_USERS``
+  (issue 43, point 5).
 
 Each checker is also run on a small source with a violation (``test_*_catches_*``), so a
 checker that stopped seeing anything would fail here rather than pass silently.
@@ -52,6 +57,17 @@ POLICY_NAMES = ("blend", "clip")
 POLICY_COMPARERS = ("policy.py",)
 # Issue 43, point 8: the floors of the package's module-level import graph (see floors()).
 MAX_FLOORS = 9
+# Issue 43, point 5: the estimators of the calibration protocol, and the modules that ask the
+# protocol rather than branch on these classes.
+PROTOCOL_CLASSES = ("CompensationPipeline", "UnitwiseRegressor", "ConformalRegressor")
+PROTOCOL_USERS = (
+    "report",
+    "conformal.py",
+    "_compiled.py",
+    "_description.py",
+    "streaming",
+    "export",
+)
 # The height measured when the floor rule landed (14 before its first moves): the house may
 # not grow while it is brought down to MAX_FLOORS (see test_the_house_has_at_most_9_floors).
 MEASURED_FLOORS = 12
@@ -259,6 +275,29 @@ def policy_comparisons(source, label):
     return found
 
 
+def class_branches(source, label):
+    """``label:line`` for every ``isinstance``/``issubclass`` against a protocol class."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if not (
+            isinstance(node, ast.Call)
+            and isinstance(node.func, ast.Name)
+            and node.func.id in ("isinstance", "issubclass")
+            and len(node.args) == 2
+        ):
+            continue
+        second = node.args[1]
+        kinds = second.elts if isinstance(second, ast.Tuple) else [second]
+        names = [
+            kind.id if isinstance(kind, ast.Name) else getattr(kind, "attr", None)
+            for kind in kinds
+        ]
+        hits = [name for name in names if name in PROTOCOL_CLASSES]
+        if hits:
+            found.append(f"{label}:{node.lineno} branches on {', '.join(hits)}")
+    return found
+
+
 def _module_name(label):
     """``"rbf/_basis.py"`` -> ``"sklearn_ifog.rbf._basis"``, ``"rbf/__init__.py"`` ->
     ``"sklearn_ifog.rbf"``, ``"__init__.py"`` -> ``"sklearn_ifog"``."""
@@ -443,6 +482,13 @@ def test_policy_names_are_compared_in_the_policy_module_only():
     assert not found, "\n".join(found)
 
 
+def test_the_protocol_users_do_not_branch_on_the_estimators_class():
+    found = []
+    for path in _modules(PROTOCOL_USERS):
+        found += class_branches(path.read_text(), _name(path))
+    assert not found, "\n".join(found)
+
+
 # -- the checkers see a violation -------------------------------------------------------------
 
 
@@ -536,6 +582,23 @@ def test_the_policy_check_catches_every_form():
     found = policy_comparisons(source, "report/_words.py")
     assert [line.split(":")[1].split()[0] for line in found] == ["2", "4", "6", "8", "11"]
     assert found[0] == "report/_words.py:2 compares 'blend'"
+
+
+def test_the_class_check_catches_every_form():
+    source = (
+        "import sklearn_ifog.pipeline as p\n"
+        "def f(model):\n"
+        "    if isinstance(model, CompensationPipeline):\n"
+        "        return 1\n"
+        "    if isinstance(model, (Pipeline, p.UnitwiseRegressor)):\n"
+        "        return 2\n"
+        "    if issubclass(type(model), ConformalRegressor):\n"
+        "        return 3\n"
+        "    return isinstance(model, Pipeline)\n"  # scikit-learn's own class: allowed
+    )
+    found = class_branches(source, "report/_status.py")
+    assert [line.split(":")[1].split()[0] for line in found] == ["3", "5", "7"]
+    assert found[1] == "report/_status.py:5 branches on UnitwiseRegressor"
 
 
 def test_the_floor_count_catches_every_form():

@@ -326,9 +326,7 @@ def to_c_units(model, directory, precision="double", prefix="ifog"):
     """
     from sklearn.utils.validation import check_is_fitted
 
-    from sklearn_ifog.unitwise import UnitwiseRegressor
-
-    if not isinstance(model, UnitwiseRegressor):
+    if not hasattr(model, "unit_models"):  # a model per unit
         raise TypeError(
             f"to_c_units exports a UnitwiseRegressor, got {type(model).__name__}; use to_c."
         )

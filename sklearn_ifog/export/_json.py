@@ -107,9 +107,7 @@ def to_json(pipeline, path):
     ... )
     ('blend', 0.5, [22.5], 0)
     """
-    from sklearn_ifog.unitwise import UnitwiseRegressor
-
-    if isinstance(pipeline, UnitwiseRegressor):
+    if hasattr(pipeline, "unit_models"):  # a model per unit
         spec = _unitwise_spec(pipeline)
     else:
         spec = describe_pipeline(pipeline)

@@ -7,6 +7,7 @@ section and by the command line (``sklearn-ifog compensate`` and ``report``).
 """
 
 import numpy as np
+from sklearn.exceptions import NotFittedError
 
 from sklearn_ifog import _table
 from sklearn_ifog._per_run import ALL_RUNS
@@ -16,31 +17,21 @@ from sklearn_ifog.policy import policy_for
 __all__ = ["calibration_status", "per_run_calibration"]
 
 
-def _domain_pipelines(model, X, rows):
+def _domain_pipelines(model, X):
     """(pipeline, X of its rows, positions of those rows) for every model behind ``model``.
 
-    None when one of them has no calibration domain. Follows how each meta-estimator
-    predicts: a ConformalRegressor with its estimator fitted on all rows; a
-    UnitwiseRegressor with each unit's model on the unit's rows (without the unit column),
-    or its lot model on all rows when every unit present uses it (``pooling="full"``).
+    The calibration protocol's ``calibrated_parts``: a CompensationPipeline is itself with
+    every row, a UnitwiseRegressor gives each unit's model its rows, a ConformalRegressor
+    its model fitted on every row. None for a model without it (another estimator, or a
+    model saved before the domain existed).
     """
-    from sklearn_ifog.conformal import ConformalRegressor
-    from sklearn_ifog.pipeline import CompensationPipeline
-    from sklearn_ifog.unitwise import UnitwiseRegressor
-
-    if isinstance(model, CompensationPipeline):
-        return [(model, X, rows)] if hasattr(model, "domain_") else None
-    if isinstance(model, ConformalRegressor) and hasattr(model, "estimator_"):
-        return _domain_pipelines(model.estimator_, X, rows)
-    if not (isinstance(model, UnitwiseRegressor) and hasattr(model, "estimators_")):
+    parts_of = getattr(model, "calibrated_parts", None)
+    if parts_of is None:
         return None
-    parts = []
-    for unit_model, X_part, index in model.unit_models(X):
-        found = _domain_pipelines(unit_model, X_part, rows[index])
-        if found is None:
-            return None
-        parts += found
-    return parts
+    try:
+        return parts_of(X)
+    except NotFittedError:  # no calibration domain (e.g. saved before it existed)
+        return None
 
 
 def calibration_status(model, X):
@@ -128,7 +119,7 @@ def calibration_status(model, X):
 
     X = _table.as_table(X)
     n_samples = X.shape[0]
-    parts = _domain_pipelines(model, X, np.arange(n_samples))
+    parts = _domain_pipelines(model, X)
     if parts is None:
         return None
     status = Bunch(

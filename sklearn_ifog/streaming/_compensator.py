@@ -49,9 +49,7 @@ _ONE = np.ones(1)
 def _unwrap(pipeline, adapt):
     """``(conformal, pipeline)``: a ConformalRegressor's full model and the regressor itself
     (None for a Pipeline), checked; the Pipeline is then checked by :func:`_thermal_step`."""
-    from sklearn_ifog.conformal import ConformalRegressor
-
-    if not isinstance(pipeline, ConformalRegressor):
+    if not hasattr(pipeline, "bounds_from_predictions"):  # no conformal band around it
         return None, pipeline
     if adapt is not None:
         raise ValueError(
