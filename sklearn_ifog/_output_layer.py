@@ -30,7 +30,7 @@ from sklearn import linear_model
 from sklearn.pipeline import Pipeline
 
 from sklearn_ifog.rbf._basis import Network, gaussian_design, tail_features
-from sklearn_ifog.rbf._network import RBFNetRegressor, network_of
+from sklearn_ifog.rbf._layer import is_network_layer, network_of
 
 __all__ = [
     "LINEAR_REGRESSORS",
@@ -130,7 +130,7 @@ def layer_kind(regressor):
     By exact type, as the exports and the compiled path require (a subclass may change
     ``predict``): :class:`~sklearn_ifog.RBFNetRegressor`, one of :data:`LINEAR_REGRESSORS`.
     """
-    if type(regressor) is RBFNetRegressor:
+    if is_network_layer(regressor, exact=True):
         return "rbf_network"
     if type(regressor) in LINEAR_REGRESSORS:
         return "linear"
@@ -139,12 +139,12 @@ def layer_kind(regressor):
 
 def has_output_layer(regressor):
     """Whether partial pooling can shrink ``regressor``'s output layer (subclasses too)."""
-    return isinstance(regressor, (RBFNetRegressor, *LINEAR_REGRESSORS))
+    return is_network_layer(regressor, exact=False) or isinstance(regressor, LINEAR_REGRESSORS)
 
 
 def supported_names():
     """The classes with an output layer, by name, for error messages."""
-    return ", ".join(cls.__name__ for cls in (RBFNetRegressor, *LINEAR_REGRESSORS))
+    return ", ".join(["RBFNetRegressor", *(cls.__name__ for cls in LINEAR_REGRESSORS)])
 
 
 def read_layer(final):
@@ -170,7 +170,7 @@ def read_layer(final):
     ('linear', True, [2.0, 1.0])
     """
     single_output = np.ndim(final.coef_) == 1
-    if isinstance(final, RBFNetRegressor):
+    if is_network_layer(final, exact=False):
         network = network_of(final)  # the fitted network as one value, 2-D weights
         return OutputLayer(
             kind="rbf_network",
@@ -221,7 +221,7 @@ def layer_design(final, X):
     array([1., 1., 1.])
     """
     ones = np.ones((X.shape[0], 1))
-    if isinstance(final, RBFNetRegressor):
+    if is_network_layer(final, exact=False):
         layer = read_layer(final)
         Z = (X - layer.x_mean) / layer.x_scale
         parts = [gaussian_design(Z, layer.network.centers, layer.network.widths)]
@@ -293,7 +293,7 @@ def with_weights(model, W):
     one_d = np.ndim(final.coef_) == 1
     W = W.T  # (n_outputs, n_columns)
     intercept = W[:, -1]
-    if isinstance(final, RBFNetRegressor):
+    if is_network_layer(final, exact=False):
         n_centers = np.atleast_2d(final.coef_).shape[1]
         coef = W[:, :n_centers]
         tail = np.zeros_like(np.atleast_2d(final.tail_coef_))

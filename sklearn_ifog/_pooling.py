@@ -21,7 +21,7 @@ from sklearn_ifog._output_layer import (
     supported_names,
 )
 from sklearn_ifog._shrinkage import solve_shrunk
-from sklearn_ifog.rbf._network import RBFNetRegressor
+from sklearn_ifog.rbf._layer import is_network_layer
 
 __all__ = [
     "MIN_UNIT_ROWS",
@@ -94,7 +94,7 @@ def rows_needed(model):
     final = final_step(model)
     if has_output_layer(final):
         n_weights = layer_weights(final).shape[0]
-        if not isinstance(final, RBFNetRegressor) and not getattr(final, "fit_intercept", True):
+        if not is_network_layer(final, exact=False) and not getattr(final, "fit_intercept", True):
             n_weights -= 1  # layer_weights carries an intercept row of zeros
         why = (
             f"{type(final).__name__} with {n_weights} output-layer weights: one row per "
@@ -120,7 +120,7 @@ def own_score(model, X, Y, folds):
     final = final_step(model)
     Phi = layer_design(final, layer_inputs(model, X))
     penalty = np.zeros(Phi.shape[1])
-    if isinstance(final, RBFNetRegressor):
+    if is_network_layer(final, exact=False):
         n_centers = np.shape(final.centers_)[0]
         penalty[:n_centers] = final.alpha
         penalty[n_centers:-1] = final.selection_path_.get("tail_alpha", 0.0)

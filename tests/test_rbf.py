@@ -24,7 +24,7 @@ from sklearn_ifog.rbf._basis import (
     predict_network,
     tail_features,
 )
-from sklearn_ifog.rbf._network import network_of
+from sklearn_ifog.rbf._layer import network_of
 from sklearn_ifog.rbf._ols import width_grid
 from sklearn_ifog.rbf._select import WIDTH_MULTIPLES
 

@@ -8,8 +8,9 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from sklearn_ifog._compat import Interval, StrOptions, _check_sample_weight, _fit_context
-from sklearn_ifog.rbf._basis import SMALL_BATCH_ROWS, Network
+from sklearn_ifog.rbf._basis import SMALL_BATCH_ROWS
 from sklearn_ifog.rbf._fit import fit_network
+from sklearn_ifog.rbf._layer import GaussianNetworkLayer, _as_network
 from sklearn_ifog.rbf._options import FitOptions
 from sklearn_ifog.rbf._refine import REFINE_METHODS
 from sklearn_ifog.rbf._select import SELECTION_CRITERIA, TAIL_DEGREES, group_codes
@@ -20,7 +21,7 @@ from sklearn_ifog.rbf._tail_penalty import TAIL_PENALTIES
 TAIL_ALPHA_DEFAULT = 1e-4
 
 
-class RBFNetRegressor(RegressorMixin, BaseEstimator):
+class RBFNetRegressor(GaussianNetworkLayer, RegressorMixin, BaseEstimator):
     """Gaussian radial-basis-function network with OLS centre selection and refinement.
 
     The network, on inputs standardised internally to ``z = (x - x_mean_) / x_scale_``, is
@@ -483,64 +484,3 @@ class RBFNetRegressor(RegressorMixin, BaseEstimator):
         tags = super().__sklearn_tags__()
         tags.target_tags.multi_output = True
         return tags
-
-
-def network_of(regressor):
-    """The fitted network of an ``RBFNetRegressor``, as one ``Network`` record.
-
-    The network (a :class:`~sklearn_ifog.rbf._basis.Network`) on the standardised inputs
-    ``(X - x_mean_) / x_scale_``, with 2-D weights (one row per output, even when ``y`` was
-    1-D) and a zero linear tail when the fitted one has none. It is what ``predict``
-    evaluates, and it serves several modules that read a fitted network: partial pooling
-    (``unitwise``), the compiled online path (``_compiled``) and the exports (``export``).
-    A private module's function rather than a public method, because ``Network`` is an
-    internal record of the package, not part of its public API.
-
-    Parameters
-    ----------
-    regressor : RBFNetRegressor
-        A fitted network regressor.
-
-    Returns
-    -------
-    network : Network
-        Its ``centers``, ``widths``, ``coef`` (n_outputs, n_centers), ``tail_coef``
-        (n_outputs, n_tail) and ``intercept`` (n_outputs,).
-
-    Raises
-    ------
-    sklearn.exceptions.NotFittedError
-        When ``regressor`` is not fitted.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from sklearn_ifog import RBFNetRegressor
-    >>> X = np.linspace(-1, 1, 200)[:, None]
-    >>> model = RBFNetRegressor(refine=None, random_state=0).fit(X, np.sin(3 * X[:, 0]))
-    >>> network = network_of(model)
-    >>> network.coef.shape == (1, model.centers_.shape[0])
-    True
-    >>> Z = (X - model.x_mean_) / model.x_scale_
-    >>> bool(np.array_equal(network.predict(Z)[:, 0], model.predict(X)))
-    True
-    """
-    check_is_fitted(regressor)
-    return _as_network(regressor)
-
-
-def _as_network(regressor):
-    """:func:`network_of` without the fitted check (the caller has made it)."""
-    coef = np.atleast_2d(np.asarray(regressor.coef_, dtype=np.float64))
-    n_outputs = coef.shape[0]
-    return Network(
-        centers=np.asarray(regressor.centers_, dtype=np.float64).reshape(
-            -1, regressor.n_features_in_
-        ),
-        widths=np.broadcast_to(np.asarray(regressor.widths_, dtype=np.float64), coef.shape[1:]),
-        coef=coef,
-        tail_coef=np.asarray(regressor.tail_coef_, dtype=np.float64).reshape(n_outputs, -1),
-        intercept=np.broadcast_to(
-            np.asarray(regressor.intercept_, dtype=np.float64), (n_outputs,)
-        ),
-    )
