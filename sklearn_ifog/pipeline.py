@@ -238,6 +238,12 @@ def _params_of_rows(params, rows, n_samples):
     }
 
 
+def _takes_fallback(uncalibrated):
+    """Whether the policy ``uncalibrated`` names takes a fallback (False for a bad name:
+    ``hasattr`` must not raise; fit and predict name the bad value)."""
+    return uncalibrated in POLICY_NAMES and policy_for(uncalibrated).uses_fallback
+
+
 def _is_domain_default_or_box(domain):
     """Whether ``domain`` (the parameter) is None or a CalibrationDomain-like box."""
     return domain is None or hasattr(domain, "extend")
@@ -614,7 +620,7 @@ class CompensationPipeline(Pipeline):
         """
         return self._where(as_float_rows(self._transform_features(X))).outside
 
-    @available_if(lambda self: policy_for(self.uncalibrated).uses_fallback)
+    @available_if(lambda self: _takes_fallback(self.uncalibrated))
     def fallback_share(self, X):
         """The fallback's share of every row's prediction (0 inside the domain).
 

@@ -89,6 +89,9 @@ def test_a_policy_without_a_fallback_offers_no_share(policy):
     assert not hasattr(ConformalRegressor(model), "fallback_share")
     model.set_params(uncalibrated="blend")
     assert hasattr(model, "fallback_share")
+    # A bad name is said by fit and predict; asking for the method only answers no.
+    assert not hasattr(model.set_params(uncalibrated="blend "), "fallback_share")
+    assert not hasattr(model.set_params(uncalibrated=["blend"]), "fallback_share")
 
 
 @pytest.mark.parametrize("pooling", ["none", "full"])
