@@ -279,3 +279,47 @@ def test_each_policy_hands_the_c_writer_its_fragment():
     assert calls == 0
     assert none[:5] == ("", "", "", "", "")
     assert none.description == "the model's own\n * extrapolation (the sample is only flagged)"
+
+
+# --- what the mutation run of policy.py found untested ---------------------------------------
+
+
+def test_clip_refuses_a_detector_without_a_box_by_the_policys_name():
+    from sklearn.covariance import EllipticEnvelope
+
+    rows = np.random.default_rng(0).normal(size=(60, 2))
+    detector = EllipticEnvelope(random_state=0).fit(rows)
+    where = locate(detector, rows)
+    message = r"^uncalibrated='clip' needs the pipeline's domain to be a CalibrationDomain"
+    with pytest.raises(ValueError, match=message):
+        ClipToDomain().changed_rows(rows, where, detector)
+    with pytest.raises(ValueError, match=message):
+        ClipToDomain().apply(
+            np.zeros((60, 1)), rows, where.distance, where.outside, domain=detector
+        )
+
+
+def test_the_share_follows_the_blends_own_width():
+    distance = np.array([1.0, 2.0, 3.0])
+    np.testing.assert_allclose(
+        BlendWithFallback(width=2.0).fallback_share(distance, 1.0), [0.0, 0.5, 1.0]
+    )
+
+
+def test_shares_and_changed_rows_have_one_value_per_row(domain):
+    rows, where = _rows(domain, 25.0, 41.0, 300.0)
+    for policy in (KeepModel(), ClipToDomain(), BlendWithFallback()):
+        share = policy.fallback_share(where.distance, 1.0)
+        assert share.shape == (3,)
+        assert share.dtype == np.float64
+        changed = policy.changed_rows(rows, where, domain)
+        assert changed.shape == (3,)
+        assert changed.dtype == bool
+
+
+def test_clip_counts_a_single_row_that_kept_the_models_prediction():
+    assert (
+        ClipToDomain()
+        .describe(5, 1, "line")
+        .endswith(", for 4 of these 5 rows; the other 1 kept the model's own prediction")
+    )
