@@ -129,7 +129,7 @@ from sklearn_ifog._conformal_numerics import (
     run_quantile_scores,
     thermal_slope,
 )
-from sklearn_ifog.domain import OutsideCalibrationWarning, locate
+from sklearn_ifog.domain import OutsideCalibrationWarning, locate, threshold_of
 from sklearn_ifog.policy import fallback_weight
 
 __all__ = [
@@ -785,7 +785,7 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         domain = self.estimator_.domain_
         rows = self._thermal_rows(X)
         where = locate(domain, rows)
-        return fallback_weight(where.distance, domain.threshold_), where.beyond
+        return fallback_weight(where.distance, threshold_of(domain)), where.beyond
 
     def _thermal_rows(self, X):
         """The rows through the full model's feature step (degrees, not standardised)."""

@@ -572,6 +572,10 @@ class CompensationPipeline(Pipeline):
         """Distance to the box, degrees beyond the calibrated temperatures, outside flag."""
         return locate(self.domain_, rows)
 
+    def _where_of(self, X):
+        """:meth:`_where` of the rows ``X`` through the feature step."""
+        return self._where(as_float_rows(self._transform_features(X)))
+
     def _transform_features(self, X):
         check_is_fitted(self, "domain_")
         return self.steps[0][1].transform(X)
@@ -601,7 +605,7 @@ class CompensationPipeline(Pipeline):
         -------
         distance : ndarray of shape (n_samples,)
         """
-        return self._where(as_float_rows(self._transform_features(X))).distance
+        return self._where_of(X).distance
 
     def outside_calibration(self, X):
         """Whether every row lies outside the calibration domain.
@@ -618,7 +622,7 @@ class CompensationPipeline(Pipeline):
         -------
         outside : ndarray of shape (n_samples,), dtype=bool
         """
-        return self._where(as_float_rows(self._transform_features(X))).outside
+        return self._where_of(X).outside
 
     @available_if(lambda self: _takes_fallback(self.uncalibrated))
     def fallback_share(self, X):
@@ -643,7 +647,7 @@ class CompensationPipeline(Pipeline):
         share : ndarray of shape (n_samples,)
             In [0, 1].
         """
-        where = self._where(as_float_rows(self._transform_features(X)))
+        where = self._where_of(X)
         policy = policy_for(self.uncalibrated)
         return policy.fallback_share(where.distance, threshold_of(self.domain_))
 

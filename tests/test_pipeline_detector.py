@@ -20,6 +20,7 @@ from sklearn.preprocessing import StandardScaler
 from sklearn_ifog import (
     CalibrationDomain,
     CompensationPipeline,
+    ConformalRegressor,
     OutsideCalibrationWarning,
     make_compensation_pipeline,
 )
@@ -28,6 +29,7 @@ from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.domain import locate
 from sklearn_ifog.export import to_json
 from sklearn_ifog.policy import fallback_weight
+from sklearn_ifog.report import calibration_status
 from sklearn_ifog.streaming import StreamingCompensator
 
 SMALL = dict(n_units=1, azimuths=(0.0,), sampling_period=120.0, random_state=0)
@@ -187,3 +189,31 @@ def test_a_step_named_domain_clashes_with_the_parameter(heating_and_cold):
     steps = [("domain", model.steps[0][1]), *model.steps[1:]]
     with pytest.raises(ValueError, match="conflict with constructor arguments"):
         CompensationPipeline(steps).fit(X, y)
+
+
+def test_the_report_and_the_band_ask_another_detector_too(heating_and_cold):
+    X, y, cold = heating_and_cold
+    detector = EllipticEnvelope(contamination=0.01, random_state=0)
+    model = make_compensation_pipeline(LinearRegression()).set_params(domain=detector)
+    _fit(model, X, y)
+    status = calibration_status(model, cold)
+    np.testing.assert_array_equal(status.outside, model.outside_calibration(cold))
+    np.testing.assert_array_equal(status.distance, model.calibration_distance(cold))
+    np.testing.assert_array_equal(status.adjusted, model.fallback_share(cold) > 0.0)
+    # It knows no calibrated ranges: NaN, as for a model without a T feature.
+    assert np.isnan(status.temperature_excess).all()
+    assert np.isnan(status.rate_excess).all()
+    band = ConformalRegressor(clone(model), coverage=0.9)
+    _fit(band, X, y)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OutsideCalibrationWarning)
+        inside = band.predict_interval(X)
+        outside = band.predict_interval(cold)
+    assert np.all(inside[:, 0] <= inside[:, 1])
+    # Where the fallback takes over, the band takes the fallback's width, not the model's.
+    share = band.estimator_.fallback_share(cold)
+    assert share.max() == 1.0
+    assert band.fallback_quantile_ is not None
+    width = outside[:, 1] - outside[:, 0]
+    assert np.all(np.isfinite(width))
+    assert np.all(width > 0.0)

@@ -135,3 +135,38 @@ def test_a_model_without_the_protocol_has_no_status(lot):
     assert calibration_status(plain, new[["temperature"]]) is None
     unfitted = make_compensation_pipeline(LinearRegression())
     assert calibration_status(unfitted, new) is None
+
+
+@pytest.mark.parametrize("policy", ["blend", "clip", "none"])
+@pytest.mark.parametrize("regressor", ["linear", "rbf"])
+def test_adjusted_rows_are_the_rows_the_policy_changed(lot, policy, regressor):
+    """The report's ``adjusted``, asked of the policy object, is what predicting again with
+    ``uncalibrated="none"`` finds (the report did that before issue 43), but for round-off:
+    colder, warmer, faster and slower rows than the calibration, and rows inside."""
+    from sklearn_ifog import RBFNetRegressor
+
+    X, y, new = lot
+    X = X[X["unit"] == 0].drop(columns="unit")  # calibrated 10 to 40 degC, heating
+    y = y[: len(X)]
+    final = LinearRegression() if regressor == "linear" else RBFNetRegressor(random_state=0)
+    model = make_compensation_pipeline(final, uncalibrated=policy).fit(X, y)
+    warmer = X.assign(temperature=X["temperature"] + 8.0, run=X["run"] + 2000)
+    colder = new[new["unit"] == 0].drop(columns="unit")
+    faster = X.assign(time=X["time"] / 3.0, run=X["run"] + 3000)
+    slower = X.assign(time=X["time"] * 3.0, run=X["run"] + 4000)
+    rows = pd.concat([X, warmer, colder, faster, slower], ignore_index=True)
+    with_policy = _quiet(model.predict, rows)
+    free = _quiet(model.set_params(uncalibrated="none").predict, rows)
+    model.set_params(uncalibrated=policy)
+    status = calibration_status(model, rows)
+    changed = with_policy != free
+    assert not (status.adjusted & ~changed).any()  # never a row whose prediction stayed
+    # "clip" evaluates every outside row again; one its projection left where it was can
+    # differ by the round-off of another batch: not a change, and not flagged as one.
+    noise = changed & ~status.adjusted
+    np.testing.assert_array_less(np.abs(with_policy - free)[noise], 1e-15)
+    if policy != "clip":
+        assert not noise.any()
+    if policy != "none":
+        assert status.adjusted.sum() > 100
+    assert not status.adjusted[: len(X)].any()  # the calibration itself is inside

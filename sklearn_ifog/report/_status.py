@@ -11,7 +11,7 @@ from sklearn.exceptions import NotFittedError
 
 from sklearn_ifog import _table
 from sklearn_ifog._per_run import ALL_RUNS
-from sklearn_ifog.domain import locate
+from sklearn_ifog.domain import has_box, locate
 from sklearn_ifog.policy import policy_for
 
 __all__ = ["calibration_status", "per_run_calibration"]
@@ -64,7 +64,8 @@ def calibration_status(model, X):
           (decorrelated standard deviations, 0 inside the box);
         - ``temperature_excess``: float, degrees C below the coldest (negative) or above
           the warmest (positive) calibrated temperature, 0 inside that range; NaN for a
-          model without a T feature;
+          model without a T feature, or whose domain is another novelty detector (it knows
+          no calibrated ranges; so too the ranges and the rate's excess below);
         - ``temperature_min``, ``temperature_max``: float, the calibrated temperature
           range of the row's model (NaN without a T feature);
         - ``rate_excess``: float, how far the first sensor's rate dT lies below the slowest
@@ -151,8 +152,8 @@ def calibration_status(model, X):
         status.fallback[rows] = fallback_name(fallback)
         column = fallback.column
         rates = list(getattr(domain, "rate_columns_", []))
-        if column is None and not rates:
-            continue
+        if (column is None and not rates) or not has_box(domain):
+            continue  # another detector knows no calibrated ranges: NaN, as without T
         excess = domain.excess(features)
         if column is not None:
             status.temperature_excess[rows] = excess[:, column]
