@@ -42,6 +42,7 @@ __all__ = [
     "layer_weights",
     "read_layer",
     "with_weights",
+    "write_weights",
 ]
 
 #: Linear regressors whose ``predict`` is exactly ``X @ coef_.T + intercept_``: the ones the
@@ -289,7 +290,23 @@ def with_weights(model, W):
     array([6.])
     """
     model = copy.deepcopy(model)
-    final = final_step(model)
+    write_weights(final_step(model), W)
+    return model
+
+
+def write_weights(final, W):
+    """Write the output-layer weights ``W`` into the fitted final regressor, in place.
+
+    As :func:`with_weights`, on ``final`` itself (the product-basis fit of
+    :mod:`sklearn_ifog.scale_factor` writes its solved layer into the pipeline's step).
+
+    Parameters
+    ----------
+    final : RBFNetRegressor or linear regressor
+        Fitted, with as many outputs as ``W`` has columns.
+    W : ndarray of shape (n_columns, n_outputs)
+        In the order of :func:`layer_weights`.
+    """
     one_d = np.ndim(final.coef_) == 1
     W = W.T  # (n_outputs, n_columns)
     intercept = W[:, -1]
@@ -305,4 +322,3 @@ def with_weights(model, W):
         coef = W[:, :-1]
         final.coef_ = coef[0].copy() if one_d else coef.copy()
     final.intercept_ = float(intercept[0]) if np.ndim(final.intercept_) == 0 else intercept.copy()
-    return model

@@ -11,6 +11,7 @@ the report and the command line (which word an excess).
 __all__ = [
     "CARRIED_SCALE",
     "HANDOVER_FOLDS",
+    "INPUT_RATE_SLACK",
     "NOVELTY_RAMP",
     "PROJECTION_ROUNDS",
     "RATE_WEIGHT",
@@ -86,3 +87,11 @@ CARRIED_SCALE = 0.9
 #: ``benchmarks/bench_extrapolation.py`` measures the handover's flags, cost and fit time
 #: beside the default.
 HANDOVER_FOLDS = 3
+
+# -- the scale factor (sklearn_ifog.pipeline, input_rate) ---------------------------------------
+
+#: Share of the largest calibrated input-rate magnitude by which a row's input rate may lie
+#: beyond the calibrated ones and still count as calibrated: a rate table's commanded steps
+#: repeat to far better than this, and the Earth-rate component (at most 15 deg/h) is within
+#: it at every calibrated rate from 1 deg/s up. Not tuned on accuracy.
+INPUT_RATE_SLACK = 0.05

@@ -122,7 +122,8 @@ def compensate(model, X, rate):
     Returns
     -------
     compensated : pandas.Series or ndarray of shape (n_samples,)
-        ``rate - model.predict(X)``. A Series named ``"rate_compensated"`` (on ``rate``'s
+        ``rate - model.predict(X)``; for a pipeline fitted with ``input_rate`` (a scale
+        factor), the input rate ``(rate - b) / (1 + s)`` of its ``compensate``. A Series named ``"rate_compensated"`` (on ``rate``'s
         index) when ``rate`` is a pandas Series or a column of a pandas DataFrame, a float
         array otherwise.
 
@@ -154,6 +155,10 @@ def compensate(model, X, rate):
     n_samples = X.shape[0] if hasattr(X, "shape") else len(X)
     if len(rate) != n_samples:
         raise ValueError(f"rate has {len(rate)} values but X has {n_samples} rows.")
+    if getattr(model, "input_rate", None) is not None and hasattr(model, "compensate"):
+        # A scale-factor model: the input rate (rate - b) / (1 + s), not rate - drift.
+        compensated = model.compensate(X, np.asarray(rate, dtype=np.float64))
+        return _named_like(rate, compensated, index)
     prediction = np.asarray(model.predict(X), dtype=np.float64)
     if prediction.ndim == 2 and prediction.shape[1] == 1:
         prediction = prediction[:, 0]
@@ -165,7 +170,12 @@ def compensate(model, X, rate):
     values = np.asarray(rate, dtype=np.float64)
     if values.ndim != 1:
         raise ValueError(f"rate must be 1-D, got shape {values.shape}.")
-    compensated = values - prediction
+    return _named_like(rate, values - prediction, index)
+
+
+def _named_like(rate, compensated, index):
+    """``compensated`` as a Series named "rate_compensated" on ``rate``'s (or ``index``)
+    pandas index, a float array otherwise."""
     if type(rate).__module__.startswith("pandas"):
         index = rate.index
     if index is not None:

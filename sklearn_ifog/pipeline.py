@@ -7,6 +7,7 @@ the feature defaults are the same everywhere. It is a :class:`CompensationPipeli
 scikit-learn Pipeline that also learns its calibration domain and stays safe outside it.
 """
 
+import numbers
 import warnings
 from typing import ClassVar
 
@@ -18,7 +19,7 @@ from sklearn.preprocessing import StandardScaler
 from sklearn.utils.metaestimators import available_if
 from sklearn.utils.validation import check_is_fitted, has_fit_parameter
 
-from sklearn_ifog import _handover
+from sklearn_ifog import _handover, scale_factor
 from sklearn_ifog._compat import (
     HasMethods,
     StrOptions,
@@ -27,8 +28,15 @@ from sklearn_ifog._compat import (
     _safe_indexing,
 )
 from sklearn_ifog._contract import get_term, sensor_keys
+from sklearn_ifog._output_layer import (
+    final_step,
+    layer_design,
+    layer_kind,
+    supported_names,
+    write_weights,
+)
 from sklearn_ifog._table import as_float_rows, as_table, label_column
-from sklearn_ifog._tuning import HANDOVER_FOLDS, ROUNDOFF_SHARE
+from sklearn_ifog._tuning import HANDOVER_FOLDS, INPUT_RATE_SLACK, ROUNDOFF_SHARE
 from sklearn_ifog.domain import (
     CalibrationDomain,
     OutsideCalibrationWarning,
@@ -65,6 +73,7 @@ def make_compensation_pipeline(
     margin=1.5,
     alpha=0.02,
     handover=False,
+    input_rate=None,
     **feature_params,
 ):
     """Build the drift model ``ThermalFeatures → StandardScaler → regressor``.
@@ -114,6 +123,12 @@ def make_compensation_pipeline(
     handover : bool, default=False
         Whether the domain also widens where held-out runs show the model beating its
         fallback, per kind of novelty (:class:`CompensationPipeline`).
+    input_rate : str, int or None, default=None
+        Column of X holding the true input rate (deg/h, the output's unit) of rate-table
+        calibration data: the model then learns the drift as bias plus scale-factor error,
+        ``b(x) + Ω s(x)`` (:mod:`sklearn_ifog.scale_factor`), and
+        :meth:`CompensationPipeline.compensate` returns the input rate. None: the bias alone
+        (a static calibration).
     **feature_params
         Further parameters of :class:`~sklearn_ifog.ThermalFeatures` (``smoothing``,
         ``rate_unit``).
@@ -182,6 +197,7 @@ def make_compensation_pipeline(
         domain=CalibrationDomain(margin=margin, alpha=alpha),
         uncalibrated=uncalibrated,
         handover=handover,
+        input_rate=input_rate,
     )
 
 
@@ -339,6 +355,19 @@ class CompensationPipeline(Pipeline):
         (:meth:`~sklearn_ifog.domain.CalibrationDomain.extend`). Where the held-out runs show
         no such rows, nothing changes. Off by default: its fit cost is not yet paid back on
         the benchmark's tuning campaigns. Needs a CalibrationDomain as ``domain``.
+    input_rate : str, int or None, default=None
+        Column of X holding the true input rate, in the gyro output's unit (deg/h), of
+        rate-table calibration data. The drift target ``y = rate - Ω`` is then learnt as
+        bias plus scale-factor error, ``b(x) + Ω s(x)``, both functions of the same thermal
+        features: the final regressor (an :class:`~sklearn_ifog.RBFNetRegressor` or a
+        linear model) predicts the two outputs ``[b(x), s(x)]``, its units placed by a fit
+        on per-row estimates of both and its output layer solved on the product basis
+        ``[Φ(x), Ω Φ(x)]`` by one weighted least-squares fit
+        (:mod:`sklearn_ifog.scale_factor`). :meth:`predict` needs the column and returns
+        the drift at that input rate; :meth:`compensate` takes rows without it and returns
+        the input rate ``(rate - b) / (1 + s)``. Input rates beyond the calibrated ones are
+        outside the calibration too. None: the bias alone (a static calibration; nothing
+        else changes).
     transform_input, memory, verbose
         As for :class:`~sklearn.pipeline.Pipeline`.
 
@@ -354,6 +383,12 @@ class CompensationPipeline(Pipeline):
         slope did not extrapolate better than a constant) and ``column`` (of T).
     feature_names_out_ : ndarray of str
         Names of the first step's output columns (the domain's features).
+    input_rate_range_ : tuple of float or None
+        With ``input_rate``: the lowest and highest calibrated input rates, deg/h (rows
+        beyond them by more than 5 % of the larger are outside the calibration).
+    rate_noise_ : RateNoise or None
+        With ``input_rate``: the rows' noise model ``σ₀² + (κ Ω)²`` the product basis was
+        weighted by (:func:`~sklearn_ifog.scale_factor.rate_noise`).
     handover_ : dict or None
         With ``handover``: per kind of novelty, the held-out ``rows``, the ``model``'s and
         the ``fallback``'s mean squared errors on them, whether the model ``keeps`` the kind
@@ -398,6 +433,7 @@ class CompensationPipeline(Pipeline):
         "domain": [HasMethods(["fit", "predict", "decision_function"]), None],
         "uncalibrated": [StrOptions(set(POLICY_NAMES))],
         "handover": ["boolean"],
+        "input_rate": [str, numbers.Integral, None],
     }
 
     def __init__(
@@ -407,6 +443,7 @@ class CompensationPipeline(Pipeline):
         domain=None,
         uncalibrated="blend",
         handover=False,
+        input_rate=None,
         transform_input=None,
         memory=None,
         verbose=False,
@@ -415,6 +452,7 @@ class CompensationPipeline(Pipeline):
         self.domain = domain
         self.uncalibrated = uncalibrated
         self.handover = handover
+        self.input_rate = input_rate
 
     @_fit_context(
         # Pipeline's steps are validated when each is fitted.
@@ -460,10 +498,53 @@ class CompensationPipeline(Pipeline):
                 "handover=True widens a CalibrationDomain; the pipeline's domain is "
                 f"{type(self.domain).__name__}. Use handover=False with another detector."
             )
-        super().fit(X, y, **params)
+        if self.input_rate is None:
+            super().fit(X, y, **params)
+            self.rate_noise_ = None
+        else:
+            self._fit_product_basis(X, y, params)
         self.fit_domain(X, y)
         self.handover_ = self._weigh_handover(X, y, params) if self.handover else None
         return self
+
+    def _fit_product_basis(self, X, y, params):
+        """Fit the steps for ``b(x) + Ω s(x)`` (:mod:`sklearn_ifog.scale_factor`).
+
+        A first bias and scale factor, linear in the features, give per-row targets of
+        both; the steps are fitted on them (the regressor with two outputs, which places
+        its units); its output layer is then solved on the product basis, weighted by the
+        rows' noise, and the noise model re-learnt from that fit's residuals once.
+        """
+        final = final_step(self)
+        if layer_kind(final) is None:
+            raise TypeError(
+                "input_rate needs a final regressor with a linear output layer ("
+                f"{supported_names()}), got {type(final).__name__}."
+            )
+        if self.handover or params:
+            raise ValueError(
+                "input_rate does not take handover=True or fit parameters "
+                f"({sorted(params)}); fit the scale factor without them."
+            )
+        omega = scale_factor.input_rate_of(X, self.input_rate)
+        target = np.asarray(y, dtype=np.float64)
+        if target.ndim == 2 and target.shape[1] == 1:
+            target = target[:, 0]
+        if target.ndim != 1:
+            raise ValueError(f"input_rate learns one drift target; y has shape {target.shape}.")
+        transformers = Pipeline([(name, clone(step)) for name, step in self.steps[:-1]])
+        first = as_float_rows(transformers.fit_transform(X))
+        bias, scale = scale_factor.preliminary_fit(first, target, omega)
+        scale_factor.check_input_rate(omega, scale, self.input_rate)
+        noise = scale_factor.rate_noise(target - bias - omega * scale, omega)
+        super().fit(X, scale_factor.proxy_targets(target, omega, bias, scale, noise))
+        Phi = layer_design(final, as_float_rows(self[:-1].transform(X)))
+        penalty = scale_factor.layer_penalty(final)
+        for _ in range(2):
+            W = scale_factor.fit_product_layer(Phi, target, omega, noise, penalty)
+            noise = scale_factor.rate_noise(target - scale_factor.drift_of(Phi @ W, omega), omega)
+        write_weights(final, W)
+        self.rate_noise_ = noise
 
     def _weigh_handover(self, X, y, params):
         """Held-out evidence per kind of novelty (:mod:`sklearn_ifog._handover`): the
@@ -558,6 +639,15 @@ class CompensationPipeline(Pipeline):
         column = columns[0] if columns else None
         rate_column = rates[0] if rates else None
         Y = np.asarray(y, dtype=np.float64).reshape(raw.shape[0], -1)
+        self.input_rate_range_ = None
+        if self.input_rate is not None:
+            # The fallback of [b, s]: the bias the rows show once the model's scale factor
+            # is taken out, and the model's scale factor, each a line in T where held-out
+            # runs confirm it (a firmware's scale-factor line in T, at worst a constant).
+            omega = scale_factor.input_rate_of(X, self.input_rate)
+            modelled = self._predict_features(features.transform(X)).reshape(-1, 2)[:, 1]
+            Y = np.column_stack([Y[:, 0] - omega * modelled, modelled])
+            self.input_rate_range_ = (float(omega.min()), float(omega.max()))
         self.fallback_ = fit_fallback(
             None if column is None else raw[:, column],
             Y,
@@ -621,8 +711,13 @@ class CompensationPipeline(Pipeline):
         Returns
         -------
         outside : ndarray of shape (n_samples,), dtype=bool
+            With ``input_rate``, also where the row's input rate (its column of ``X``)
+            lies beyond the calibrated input rates.
         """
-        return self._where_of(X).outside
+        outside = self._where_of(X).outside
+        if self.input_rate is None:
+            return outside
+        return outside | self._beyond_input_rates(scale_factor.input_rate_of(X, self.input_rate))
 
     @available_if(lambda self: _takes_fallback(self.uncalibrated))
     def fallback_share(self, X):
@@ -665,6 +760,9 @@ class CompensationPipeline(Pipeline):
         """
         rows = as_float_rows(self._transform_features(X))
         predicted = self.fallback_.predict(rows)
+        if self.input_rate is not None:
+            # The fallback of [b, s], at each row's input rate.
+            return scale_factor.drift_of(predicted, scale_factor.input_rate_of(X, self.input_rate))
         return predicted[:, 0] if predicted.shape[1] == 1 else predicted
 
     def calibrated_parts(self, X):
@@ -706,6 +804,16 @@ class CompensationPipeline(Pipeline):
         OutsideCalibrationWarning
             Once per call when rows lie outside the domain.
         """
+        prediction = self._policed(X, **params)
+        if self.input_rate is None:
+            return prediction
+        omega = scale_factor.input_rate_of(X, self.input_rate)
+        self._warn_input_rates(omega)
+        return scale_factor.drift_of(prediction, omega)
+
+    def _policed(self, X, **params):
+        """The regressor's prediction with ``uncalibrated`` applied: the drift, or with
+        ``input_rate`` the ``[b, s]`` pair (n_samples, 2)."""
         features = self._transform_features(X)
         rows = as_float_rows(features)
         prediction = self._predict_features(features, **params)
@@ -728,6 +836,76 @@ class CompensationPipeline(Pipeline):
             evaluate=evaluate,
         )
         return policed.reshape(prediction.shape)
+
+    def _beyond_input_rates(self, omega):
+        """Rows whose input rate lies beyond the calibrated ones (by more than 5 % of the
+        larger calibrated magnitude; all False without ``input_rate``)."""
+        if self.input_rate_range_ is None:
+            return np.zeros(np.shape(omega), dtype=bool)
+        low, high = self.input_rate_range_
+        slack = INPUT_RATE_SLACK * max(abs(low), abs(high))
+        return (omega < low - slack) | (omega > high + slack)
+
+    def _warn_input_rates(self, omega):
+        beyond = self._beyond_input_rates(omega)
+        if beyond.any():
+            low, high = self.input_rate_range_
+            warnings.warn(
+                f"{beyond.sum()} of {beyond.size} rows ({beyond.mean():.1%}) have input rates "
+                f"beyond the calibrated {low:.6g} to {high:.6g} deg/h (up to "
+                f"{np.abs(omega[beyond]).max():.6g}): the scale factor there is the "
+                "calibrated one, its change with the input rate unknown.",
+                OutsideCalibrationWarning,
+                stacklevel=3,
+            )
+
+    def compensate(self, X, rate):
+        """The input rate every gyro output stands for, the drift taken out.
+
+        Without ``input_rate``: ``rate - predict(X)``. With it: ``(rate - b(x)) / (1 +
+        s(x))`` (:func:`~sklearn_ifog.scale_factor.input_rate_estimate`), the bias and the
+        scale-factor error at each row's thermal features; ``X`` needs no input-rate
+        column, and the output's size stands in for the input rate in the calibration
+        check. ``uncalibrated`` applies as in :meth:`predict`.
+
+        Parameters
+        ----------
+        X : iterable
+            Rows in the layout of :meth:`fit` (the input-rate column may be absent).
+        rate : array-like of shape (n_samples,)
+            The gyro output, deg/h.
+
+        Returns
+        -------
+        compensated : ndarray of shape (n_samples,)
+            The estimated input rate, deg/h.
+
+        Raises
+        ------
+        ValueError
+            If ``rate`` is not one value per row of ``X`` or not finite.
+        """
+        values = np.asarray(rate, dtype=np.float64)
+        n_samples = as_table(X).shape[0]
+        if values.shape != (n_samples,) or not np.isfinite(values).all():
+            raise ValueError(
+                f"rate must hold one finite gyro output per row of X ({n_samples}), got "
+                f"shape {values.shape}."
+            )
+        if self.input_rate is not None:
+            first = self.steps[0][1]
+            X = scale_factor.with_input_rate(
+                X,
+                self.input_rate,
+                values,
+                getattr(first, "feature_names_in_", None),
+                first.n_features_in_,
+            )
+        prediction = self._policed(X)
+        if self.input_rate is None:
+            return values - prediction.reshape(n_samples)
+        self._warn_input_rates(values)
+        return scale_factor.input_rate_estimate(prediction, values)
 
     def _warn_outside(self, distance, beyond, outside, rows):
         message = (
@@ -756,7 +934,7 @@ class CompensationPipeline(Pipeline):
                     f"{self.feature_names_out_[column]} {low:.3g} to {high:.3g}"
                 )
         message += f"); their predictions follow uncalibrated={self.uncalibrated!r}."
-        warnings.warn(message, OutsideCalibrationWarning, stacklevel=3)
+        warnings.warn(message, OutsideCalibrationWarning, stacklevel=4)
 
     def score(self, X, y=None, sample_weight=None, **params):
         """R² of :meth:`predict` (the ``uncalibrated`` policy included).

@@ -1,0 +1,405 @@
+"""Scale factor over temperature: the drift a gyro multiplies, learnt beside the one it adds.
+
+On a rate table the gyro output is ``rate = Ω (1 + s(x)) + b(x) + noise``: the bias ``b``
+(what a static campaign sees) and the scale-factor error ``s`` (dimensionless, reported in
+ppm), both functions of the same thermal features ``x``. The drift target ``y = rate - Ω``
+is then ``b(x) + Ω s(x)``, linear in the weights of any model with a linear output layer
+``b(x) = Φ(x) w_b``, ``s(x) = Φ(x) w_s``: the *product basis* ``[Φ(x), Ω Φ(x)]``, solved by
+one weighted least-squares fit (:func:`fit_product_layer`).
+
+The fitted regressor predicts two outputs, ``[b(x), s(x)]``; the drift at an input rate is
+:func:`drift_of` and the input rate a gyro output stands for is :func:`input_rate_estimate`,
+``Ω̂ = (rate - b(x)) / (1 + s(x))``. :class:`~sklearn_ifog.CompensationPipeline` with
+``input_rate`` calls these; they are plain functions so that streaming and the exports
+compute the same numbers.
+
+The rows' noise grows with the input rate (what a thermal model of ``s`` leaves, times
+``Ω``), so the fit weighs every row by ``1 / (σ₀² + κ² Ω²)``, with ``σ₀`` (deg/h) and ``κ``
+learnt from the residuals (:func:`rate_noise`): the bias is learnt where it is seen best (at
+low input rates), the scale factor where it is (at high ones).
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+from scipy.linalg import lstsq
+from scipy.optimize import nnls
+
+from sklearn_ifog import _table
+from sklearn_ifog._output_layer import read_layer
+
+__all__ = [
+    "INPUT_RATE_UNIT",
+    "MAX_SCALE_FACTOR_ERROR",
+    "MIN_OBSERVABLE_RATE",
+    "RateNoise",
+    "check_input_rate",
+    "drift_of",
+    "fit_product_layer",
+    "input_rate_estimate",
+    "input_rate_of",
+    "layer_penalty",
+    "preliminary_fit",
+    "proxy_targets",
+    "rate_noise",
+    "with_input_rate",
+]
+
+#: The unit the input rate must be given in: the gyro output's (deg/h).
+INPUT_RATE_UNIT = "deg/h"
+#: Below this largest input rate (1 deg/s, in deg/h) a scale factor is not observable: at
+#: 100 ppm it would move the output by at most 0.36 deg/h, within a navigation gyro's bias
+#: variation over a thermal test.
+MIN_OBSERVABLE_RATE = 3600.0
+#: A gyro's scale factor is within a few hundred ppm of its nominal; an apparent error
+#: beyond 5 % means the input rate is not in the output's unit (rad/s or deg/s read as
+#: deg/h differ by factors of 206,265 and 3,600).
+MAX_SCALE_FACTOR_ERROR = 0.05
+
+
+class RateNoise(NamedTuple):
+    """The rows' noise model: variance ``sigma0**2 + (kappa * input_rate)**2``."""
+
+    sigma0: float
+    kappa: float
+
+    def weights(self, omega):
+        """Row weights ``1 / variance``, scaled to mean 1."""
+        variance = self.sigma0**2 + (self.kappa * np.asarray(omega, dtype=np.float64)) ** 2
+        weights = 1.0 / variance
+        return weights / weights.mean()
+
+
+def _weighted_solve(D, y, weights, penalty=None):
+    """Weighted (ridge) least squares: ``argmin Σ w_i (y_i - D_i θ)² + Σ_j p_j θ_j²``."""
+    root = np.sqrt(weights)[:, None]
+    A, b = D * root, y * root[:, 0]
+    if penalty is not None and np.any(penalty > 0):
+        rows = np.flatnonzero(penalty > 0)
+        extra = np.zeros((rows.size, D.shape[1]))
+        extra[np.arange(rows.size), rows] = np.sqrt(penalty[rows])
+        A, b = np.vstack([A, extra]), np.concatenate([b, np.zeros(rows.size)])
+    return lstsq(A, b, lapack_driver="gelsd")[0]
+
+
+def _omega_scale(omega):
+    """The input rates' root mean square (1 when all are 0), to keep the design balanced."""
+    scale = float(np.sqrt(np.mean(np.square(omega))))
+    return scale if scale > 0 else 1.0
+
+
+def preliminary_fit(features, y, omega, weights=None):
+    """A first bias and scale factor, linear in the features: ``b0(x)``, ``s0(x)``.
+
+    Parameters
+    ----------
+    features : ndarray of shape (n_samples, n_features)
+        The thermal features (standardised).
+    y : ndarray of shape (n_samples,)
+        The drift target ``rate - input_rate``, deg/h.
+    omega : ndarray of shape (n_samples,)
+        The input rate, deg/h.
+    weights : ndarray of shape (n_samples,), default=None
+        Row weights (None: equal).
+
+    Returns
+    -------
+    bias, scale_factor : ndarray of shape (n_samples,)
+        ``b0`` (deg/h) and ``s0`` (dimensionless) at every row.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> T = np.linspace(-1, 1, 40)[:, None]
+    >>> omega = np.tile([0.0, 1e5, -1e5, 3e5], 10)
+    >>> y = 0.5 * T[:, 0] + omega * 1e-4 * (1 + T[:, 0])
+    >>> b, s = preliminary_fit(T, y, omega)
+    >>> bool(np.allclose(b, 0.5 * T[:, 0]) and np.allclose(s, 1e-4 * (1 + T[:, 0])))
+    True
+    """
+    n_samples = features.shape[0]
+    Phi = np.hstack([features, np.ones((n_samples, 1))])
+    scale = _omega_scale(omega)
+    D = np.hstack([Phi, Phi * (omega / scale)[:, None]])
+    theta = _weighted_solve(D, y, np.ones(n_samples) if weights is None else weights)
+    width = Phi.shape[1]
+    return Phi @ theta[:width], Phi @ theta[width:] / scale
+
+
+def rate_noise(residual, omega):
+    """The noise model of residuals that grow with the input rate (:class:`RateNoise`).
+
+    Fits ``residual² ≈ σ₀² + κ² Ω²`` by non-negative least squares. ``σ₀`` is floored at a
+    millionth of the residuals' root mean square, so no row weighs infinitely.
+
+    Parameters
+    ----------
+    residual : ndarray of shape (n_samples,)
+        Residuals of a fit, deg/h.
+    omega : ndarray of shape (n_samples,)
+        The input rate, deg/h.
+
+    Returns
+    -------
+    noise : RateNoise
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> omega = np.repeat([0.0, 1e5, -1e5], 20000)
+    >>> residual = rng.normal(0.0, np.sqrt(0.01**2 + (1e-6 * omega) ** 2))
+    >>> noise = rate_noise(residual, omega)
+    >>> round(noise.sigma0, 2), round(noise.kappa * 1e6, 1)
+    (0.01, 1.0)
+    """
+    square = np.square(residual)
+    scale = _omega_scale(omega)
+    coef = nnls(np.column_stack([np.ones_like(omega), (omega / scale) ** 2]), square)[0]
+    floor = 1e-6 * float(np.sqrt(square.mean())) if square.any() else 1.0
+    return RateNoise(
+        sigma0=max(float(np.sqrt(coef[0])), floor), kappa=float(np.sqrt(coef[1]) / scale)
+    )
+
+
+def check_input_rate(omega, scale_factor, column):
+    """Refuse an input rate in another unit than the output's, or too small to observe.
+
+    Parameters
+    ----------
+    omega : ndarray of shape (n_samples,)
+        The input rate, deg/h.
+    scale_factor : ndarray of shape (n_samples,)
+        A first scale-factor error at every row (:func:`preliminary_fit`).
+    column : str or int
+        The input rate's column, for messages.
+
+    Raises
+    ------
+    ValueError
+        If the apparent scale-factor error exceeds :data:`MAX_SCALE_FACTOR_ERROR` (the input
+        rate is not in deg/h), or no input rate reaches :data:`MIN_OBSERVABLE_RATE`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> check_input_rate(np.array([0.0, 3600.0]), np.array([1e-4, 1e-4]), "reference")
+    >>> check_input_rate(np.array([0.0, 5.0]), np.full(2, 2e5), "reference")
+    Traceback (most recent call last):
+    ...
+    ValueError: The gyro output differs from input_rate column 'reference' by a factor of ...
+    """
+    apparent = float(np.median(np.abs(scale_factor[omega != 0]))) if np.any(omega) else 0.0
+    if apparent > MAX_SCALE_FACTOR_ERROR:
+        raise ValueError(
+            f"The gyro output differs from input_rate column {column!r} by a factor of about "
+            f"{1 + apparent:.4g}: a scale-factor error of {apparent:.3g}, where a gyro's is "
+            f"within {MAX_SCALE_FACTOR_ERROR:.0%}. The input rate must be in the output's "
+            f"unit, {INPUT_RATE_UNIT} (rad/s reads 206,265 times smaller, deg/s 3,600 times)."
+        )
+    largest = float(np.max(np.abs(omega)))
+    if largest < MIN_OBSERVABLE_RATE:
+        raise ValueError(
+            f"input_rate column {column!r} reaches only {largest:.4g} {INPUT_RATE_UNIT}: a "
+            f"scale factor is not observable below {MIN_OBSERVABLE_RATE:.0f} {INPUT_RATE_UNIT} "
+            "(1 deg/s). Calibrate on a rate table, or pass input_rate=None to fit the bias "
+            "alone."
+        )
+
+
+def proxy_targets(y, omega, bias, scale_factor, noise):
+    """Two per-row targets, ``[bias, scale factor]``, for choosing a model's basis.
+
+    Where the input rate is low (its noise ``κ|Ω|`` within ``σ₀``) the row shows the bias,
+    ``y - Ω s0``, and the scale factor is the first estimate ``s0``; where it is high the
+    row shows the scale factor, ``(y - b0) / Ω``, and the bias is ``b0``. A regressor fitted
+    on these two outputs places its units where either varies; the weights are then solved
+    on the product basis (:func:`fit_product_layer`).
+
+    Returns
+    -------
+    Y : ndarray of shape (n_samples, 2)
+    """
+    low = np.abs(noise.kappa * omega) <= noise.sigma0
+    shown = np.divide(y - bias, omega, out=np.zeros_like(y), where=~low)
+    return np.column_stack(
+        [np.where(low, y - omega * scale_factor, bias), np.where(low, scale_factor, shown)]
+    )
+
+
+def fit_product_layer(Phi, y, omega, noise, penalty=None):
+    """Solve the output layer of ``y = Φ w_b + Ω Φ w_s`` by weighted least squares.
+
+    Parameters
+    ----------
+    Phi : ndarray of shape (n_samples, n_columns)
+        The output layer's design (:func:`sklearn_ifog._output_layer.layer_design`).
+    y : ndarray of shape (n_samples,)
+        The drift target, deg/h.
+    omega : ndarray of shape (n_samples,)
+        The input rate, deg/h.
+    noise : RateNoise
+        The rows' noise model (weights ``1 / (σ₀² + κ² Ω²)``).
+    penalty : ndarray of shape (n_columns,), default=None
+        Ridge penalty per column of ``Φ`` (for both blocks; the scale-factor block's
+        columns are ``Ω Φ`` divided by the input rates' root mean square), per row of mean
+        weight 1 (the network's ``alpha`` convention); None: none.
+
+    Returns
+    -------
+    W : ndarray of shape (n_columns, 2)
+        The weights of ``b`` (column 0) and of ``s`` (column 1, dimensionless).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> T = np.linspace(-1, 1, 30)
+    >>> Phi = np.column_stack([T, np.ones(30)])
+    >>> omega = np.tile([0.0, 2e5, -2e5], 10)
+    >>> y = 0.3 * T + omega * (2e-4 * T + 1e-4)
+    >>> W = fit_product_layer(Phi, y, omega, RateNoise(0.01, 0.0))
+    >>> np.round(W[:, 0], 8).tolist(), np.round(W[:, 1] * 1e6, 4).tolist()
+    ([0.3, 0.0], [200.0, 100.0])
+    """
+    scale = _omega_scale(omega)
+    D = np.hstack([Phi, Phi * (omega / scale)[:, None]])
+    weights = noise.weights(omega)
+    full_penalty = None
+    if penalty is not None:
+        # The network's objective, Σ w (y - f)² / Σ w + α ||coef||² on targets and weights
+        # divided by the target's spread, is the weighted sum of squares plus α Σ w ||coef||²
+        # in the target's own units: the weights have mean 1, so Σ w is the number of rows.
+        full_penalty = np.tile(np.asarray(penalty, dtype=np.float64), 2) * y.size
+    theta = _weighted_solve(D, y, weights, full_penalty)
+    width = Phi.shape[1]
+    return np.column_stack([theta[:width], theta[width:] / scale])
+
+
+def drift_of(prediction, omega):
+    """The drift at the input rate ``omega``: ``b + Ω s`` from a ``[b, s]`` prediction.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> drift_of(np.array([[0.5, 1e-4]]), np.array([3.6e5])).round(6).tolist()
+    [36.5]
+    """
+    prediction = np.asarray(prediction, dtype=np.float64).reshape(-1, 2)
+    return prediction[:, 0] + np.asarray(omega, dtype=np.float64) * prediction[:, 1]
+
+
+def input_rate_estimate(prediction, rate):
+    """The input rate a gyro output stands for: ``Ω̂ = (rate - b) / (1 + s)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> input_rate_estimate(np.array([[0.5, 1e-4]]), np.array([36.5 + 3.6e5])).round(6).tolist()
+    [360000.0]
+    """
+    prediction = np.asarray(prediction, dtype=np.float64).reshape(-1, 2)
+    return (np.asarray(rate, dtype=np.float64) - prediction[:, 0]) / (1.0 + prediction[:, 1])
+
+
+def input_rate_of(X, column):
+    """The input-rate column ``column`` of ``X`` as float64 (deg/h), checked.
+
+    Raises
+    ------
+    ValueError
+        If ``X`` has no such column (naming it and the columns there are) or it holds NaN
+        or inf.
+    TypeError
+        If the column is not numeric.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> input_rate_of(pd.DataFrame({"reference": [0, 3600]}), "reference")
+    array([   0., 3600.])
+    """
+    return _table.numeric_column(
+        _table.as_table(X),
+        column,
+        param="input_rate",
+        hint=f"It must hold the true input rate in {INPUT_RATE_UNIT} (predict and fit need it; "
+        "compensate(X, rate) estimates it from the output).",
+    )
+
+
+def layer_penalty(final):
+    """The ridge penalty of every output-layer column of a fitted final regressor.
+
+    An RBF network's Gaussian weights take its ``alpha``, its tail's its ``tail_alpha`` (its
+    ``alpha`` when that is ``"auto"``), the intercept none; a linear model's columns none.
+    In :func:`fit_product_layer`'s convention (standardised targets, rows of mean weight 1).
+
+    Returns
+    -------
+    penalty : ndarray of shape (n_columns,)
+        In the order of :func:`~sklearn_ifog._output_layer.layer_design`.
+    """
+    layer = read_layer(final)
+    if layer.kind != "rbf_network":
+        return np.zeros(layer.coef.shape[1] + 1)
+    alpha = float(final.alpha)
+    tail_alpha = alpha if isinstance(final.tail_alpha, str) else float(final.tail_alpha)
+    n_tail = layer.tail_coef.shape[1] if layer.fitted_tail_degree > 0 else 0
+    return np.concatenate(
+        [np.full(layer.coef.shape[1], alpha), np.full(n_tail, tail_alpha), [0.0]]
+    )
+
+
+def with_input_rate(X, column, values, fitted_names, n_fitted):
+    """``X`` with the input-rate column, added (as ``values``) where it is missing.
+
+    The thermal features never read the input rate, but a fitted feature step checks that
+    its input has the columns of its fit: rows to compensate, which have no input rate yet,
+    get ``values`` (the output, standing in for it) at the column's fitted place.
+
+    Parameters
+    ----------
+    X : {ndarray, pandas.DataFrame, polars.DataFrame}
+        Rows, with or without the column.
+    column : str or int
+        The input-rate column.
+    values : ndarray of shape (n_samples,)
+        What to put there when it is missing.
+    fitted_names : sequence of str or None
+        The feature step's ``feature_names_in_`` (None: it was fitted on an array).
+    n_fitted : int
+        Its ``n_features_in_``.
+
+    Returns
+    -------
+    X : same type
+        ``X`` itself when it has the column (a copy with it otherwise).
+
+    Examples
+    --------
+    >>> import numpy as np, pandas as pd
+    >>> X = pd.DataFrame({"time": [0.0], "temperature": [20.0]})
+    >>> with_input_rate(X, "reference", np.array([5.0]), ["time", "reference", "temperature"], 3)
+       time  reference  temperature
+    0   0.0        5.0         20.0
+    >>> with_input_rate(np.zeros((1, 2)), 1, np.array([5.0]), None, 3)
+    array([[0., 5., 0.]])
+    """
+    kind = _table.frame_kind(X)
+    if kind is not None:
+        if column in list(X.columns) or fitted_names is None or column not in fitted_names:
+            return X
+        names = list(fitted_names)
+        if kind == "pandas":
+            out = X.copy()
+            out.insert(names.index(column), column, values)
+            return out
+        import polars as pl
+
+        return X.with_columns(pl.Series(column, values)).select(
+            [name for name in names if name in X.columns or name == column]
+        )
+    X = np.asarray(X)
+    if X.ndim == 2 and X.shape[1] == n_fitted - 1 and isinstance(column, int):
+        return np.insert(X.astype(np.result_type(X, np.float64)), column, values, axis=1)
+    return X
