@@ -41,7 +41,8 @@ MIN_UNIT_ROWS = 2
 
 
 def check_partial(estimator):
-    """A ValueError unless the final regressor of ``estimator`` has a linear output layer."""
+    """A ValueError unless the final regressor of ``estimator`` has a linear output layer
+    fitted to the drift (not a scale-factor pipeline's product layer)."""
     final = final_step(estimator)
     if not has_output_layer(final):
         raise ValueError(
@@ -49,6 +50,13 @@ def check_partial(estimator):
             f"regressor {type(final).__name__} has none. Use pooling='none' or 'full', or a "
             f"final regressor among: {supported_names()} (alone or as the last step of a "
             "Pipeline)."
+        )
+    if getattr(estimator, "input_rate", None) is not None:
+        raise ValueError(
+            "pooling='partial' shrinks an output layer fitted to the drift; a scale-factor "
+            f"model (input_rate={estimator.input_rate!r}) solves its layer on the product of "
+            "the thermal basis and the input rate. Use pooling='none' (each unit its own "
+            "bias and scale factor) or 'full'."
         )
 
 

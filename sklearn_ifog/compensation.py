@@ -123,9 +123,9 @@ def compensate(model, X, rate):
     -------
     compensated : pandas.Series or ndarray of shape (n_samples,)
         ``rate - model.predict(X)``; for a pipeline fitted with ``input_rate`` (a scale
-        factor), the input rate ``(rate - b) / (1 + s)`` of its ``compensate``. A Series named ``"rate_compensated"`` (on ``rate``'s
-        index) when ``rate`` is a pandas Series or a column of a pandas DataFrame, a float
-        array otherwise.
+        factor), the input rate of its ``compensate``. A Series named
+        ``"rate_compensated"`` (on ``rate``'s index) when ``rate`` is a pandas Series or a
+        column of a pandas DataFrame, a float array otherwise.
 
     Raises
     ------

@@ -358,14 +358,15 @@ class CompensationPipeline(Pipeline):
     input_rate : str, int or None, default=None
         Column of X holding the true input rate, in the gyro output's unit (deg/h), of
         rate-table calibration data. The drift target ``y = rate - Ω`` is then learnt as
-        bias plus scale-factor error, ``b(x) + Ω s(x)``, both functions of the same thermal
-        features: the final regressor (an :class:`~sklearn_ifog.RBFNetRegressor` or a
+        bias plus scale-factor error, ``b(x) + Ω s(x) + a |Ω|``, ``b`` and ``s`` functions
+        of the same thermal features and ``a`` a constant asymmetry between positive and
+        negative rates: the final regressor (an :class:`~sklearn_ifog.RBFNetRegressor` or a
         linear model) predicts the two outputs ``[b(x), s(x)]``, its units placed by a fit
         on per-row estimates of both and its output layer solved on the product basis
-        ``[Φ(x), Ω Φ(x)]`` by one weighted least-squares fit
+        ``[Φ(x), Ω Φ(x), |Ω|]`` by least squares, each row weighed by its rate noise
         (:mod:`sklearn_ifog.scale_factor`). :meth:`predict` needs the column and returns
         the drift at that input rate; :meth:`compensate` takes rows without it and returns
-        the input rate ``(rate - b) / (1 + s)``. Input rates beyond the calibrated ones are
+        the input rate ``(rate - b) / (1 + s ± a)``. Input rates beyond the calibrated ones are
         outside the calibration too. None: the bias alone (a static calibration; nothing
         else changes).
     transform_input, memory, verbose
@@ -389,6 +390,9 @@ class CompensationPipeline(Pipeline):
     rate_noise_ : RateNoise or None
         With ``input_rate``: the rows' noise model ``σ₀² + (κ Ω)²`` the product basis was
         weighted by (:func:`~sklearn_ifog.scale_factor.rate_noise`).
+    asymmetry_ : float or None
+        With ``input_rate``: the constant asymmetry ``a`` between positive and negative
+        input rates (dimensionless): the drift is ``b(x) + Ω s(x) + a |Ω|``.
     handover_ : dict or None
         With ``handover``: per kind of novelty, the held-out ``rows``, the ``model``'s and
         the ``fallback``'s mean squared errors on them, whether the model ``keeps`` the kind
@@ -500,7 +504,7 @@ class CompensationPipeline(Pipeline):
             )
         if self.input_rate is None:
             super().fit(X, y, **params)
-            self.rate_noise_ = None
+            self.rate_noise_ = self.asymmetry_ = None
         else:
             self._fit_product_basis(X, y, params)
         self.fit_domain(X, y)
@@ -508,12 +512,12 @@ class CompensationPipeline(Pipeline):
         return self
 
     def _fit_product_basis(self, X, y, params):
-        """Fit the steps for ``b(x) + Ω s(x)`` (:mod:`sklearn_ifog.scale_factor`).
+        """Fit the steps for ``b(x) + Ω s(x) + a |Ω|`` (:mod:`sklearn_ifog.scale_factor`).
 
         A first bias and scale factor, linear in the features, give per-row targets of
         both; the steps are fitted on them (the regressor with two outputs, which places
-        its units); its output layer is then solved on the product basis, weighted by the
-        rows' noise, and the noise model re-learnt from that fit's residuals once.
+        its units); its output layer is then solved on the product basis, each row weighed
+        by its rate noise (re-learnt from every solve's residuals until it settles).
         """
         final = final_step(self)
         if layer_kind(final) is None:
@@ -532,19 +536,16 @@ class CompensationPipeline(Pipeline):
             target = target[:, 0]
         if target.ndim != 1:
             raise ValueError(f"input_rate learns one drift target; y has shape {target.shape}.")
+        scale_factor.check_input_rate(omega, target, self.input_rate)
         transformers = Pipeline([(name, clone(step)) for name, step in self.steps[:-1]])
         first = as_float_rows(transformers.fit_transform(X))
-        bias, scale = scale_factor.preliminary_fit(first, target, omega)
-        scale_factor.check_input_rate(omega, scale, self.input_rate)
-        noise = scale_factor.rate_noise(target - bias - omega * scale, omega)
-        super().fit(X, scale_factor.proxy_targets(target, omega, bias, scale, noise))
+        first_fit = scale_factor.preliminary_fit(first, target, omega)
+        super().fit(X, scale_factor.proxy_targets(target, omega, first_fit))
         Phi = layer_design(final, as_float_rows(self[:-1].transform(X)))
-        penalty = scale_factor.layer_penalty(final)
-        for _ in range(2):
-            W = scale_factor.fit_product_layer(Phi, target, omega, noise, penalty)
-            noise = scale_factor.rate_noise(target - scale_factor.drift_of(Phi @ W, omega), omega)
-        write_weights(final, W)
-        self.rate_noise_ = noise
+        fit = scale_factor.fit_product_layer(Phi, target, omega, scale_factor.layer_penalty(final))
+        write_weights(final, fit.weights)
+        self.asymmetry_ = fit.asymmetry
+        self.rate_noise_ = fit.noise
 
     def _weigh_handover(self, X, y, params):
         """Held-out evidence per kind of novelty (:mod:`sklearn_ifog._handover`): the
@@ -642,11 +643,13 @@ class CompensationPipeline(Pipeline):
         self.input_rate_range_ = None
         if self.input_rate is not None:
             # The fallback of [b, s]: the bias the rows show once the model's scale factor
-            # is taken out, and the model's scale factor, each a line in T where held-out
-            # runs confirm it (a firmware's scale-factor line in T, at worst a constant).
+            # and asymmetry are taken out, and the model's scale factor, each a line in T
+            # where held-out runs confirm it (a firmware's scale-factor line in T, at worst
+            # a constant).
             omega = scale_factor.input_rate_of(X, self.input_rate)
             modelled = self._predict_features(features.transform(X)).reshape(-1, 2)[:, 1]
-            Y = np.column_stack([Y[:, 0] - omega * modelled, modelled])
+            shown = Y[:, 0] - omega * modelled - self.asymmetry_ * np.abs(omega)
+            Y = np.column_stack([shown, modelled])
             self.input_rate_range_ = (float(omega.min()), float(omega.max()))
         self.fallback_ = fit_fallback(
             None if column is None else raw[:, column],
@@ -762,7 +765,8 @@ class CompensationPipeline(Pipeline):
         predicted = self.fallback_.predict(rows)
         if self.input_rate is not None:
             # The fallback of [b, s], at each row's input rate.
-            return scale_factor.drift_of(predicted, scale_factor.input_rate_of(X, self.input_rate))
+            omega = scale_factor.input_rate_of(X, self.input_rate)
+            return scale_factor.drift_of(predicted, omega, self.asymmetry_)
         return predicted[:, 0] if predicted.shape[1] == 1 else predicted
 
     def calibrated_parts(self, X):
@@ -804,12 +808,12 @@ class CompensationPipeline(Pipeline):
         OutsideCalibrationWarning
             Once per call when rows lie outside the domain.
         """
-        prediction = self._policed(X, **params)
         if self.input_rate is None:
-            return prediction
+            return self._policed(X, **params)
         omega = scale_factor.input_rate_of(X, self.input_rate)
+        prediction = self._policed(X, **params)
         self._warn_input_rates(omega)
-        return scale_factor.drift_of(prediction, omega)
+        return scale_factor.drift_of(prediction, omega, self.asymmetry_)
 
     def _policed(self, X, **params):
         """The regressor's prediction with ``uncalibrated`` applied: the drift, or with
@@ -863,7 +867,8 @@ class CompensationPipeline(Pipeline):
         """The input rate every gyro output stands for, the drift taken out.
 
         Without ``input_rate``: ``rate - predict(X)``. With it: ``(rate - b(x)) / (1 +
-        s(x))`` (:func:`~sklearn_ifog.scale_factor.input_rate_estimate`), the bias and the
+        s(x) + a sign(rate - b(x)))``
+        (:func:`~sklearn_ifog.scale_factor.input_rate_estimate`), the bias and the
         scale-factor error at each row's thermal features; ``X`` needs no input-rate
         column, and the output's size stands in for the input rate in the calibration
         check. ``uncalibrated`` applies as in :meth:`predict`.
@@ -905,7 +910,7 @@ class CompensationPipeline(Pipeline):
         if self.input_rate is None:
             return values - prediction.reshape(n_samples)
         self._warn_input_rates(values)
-        return scale_factor.input_rate_estimate(prediction, values)
+        return scale_factor.input_rate_estimate(prediction, values, self.asymmetry_)
 
     def _warn_outside(self, distance, beyond, outside, rows):
         message = (

@@ -32,6 +32,8 @@ __all__ = [
     "INPUT_RATE_UNIT",
     "MAX_SCALE_FACTOR_ERROR",
     "MIN_OBSERVABLE_RATE",
+    "PreliminaryFit",
+    "ProductFit",
     "RateNoise",
     "check_input_rate",
     "drift_of",
@@ -55,6 +57,9 @@ MIN_OBSERVABLE_RATE = 3600.0
 #: beyond 5 % means the input rate is not in the output's unit (rad/s or deg/s read as
 #: deg/h differ by factors of 206,265 and 3,600).
 MAX_SCALE_FACTOR_ERROR = 0.05
+# Reweighted solves at most (each re-learns the rate noise; they settle in 3-8).
+_PRELIMINARY_ITERATIONS = 10
+_LAYER_ITERATIONS = 10
 
 
 class RateNoise(NamedTuple):
@@ -88,8 +93,72 @@ def _omega_scale(omega):
     return scale if scale > 0 else 1.0
 
 
-def preliminary_fit(features, y, omega, weights=None):
-    """A first bias and scale factor, linear in the features: ``b0(x)``, ``s0(x)``.
+class ProductFit(NamedTuple):
+    """A fitted output layer of ``b(x) + Ω s(x) + a |Ω|`` (:func:`fit_product_layer`).
+
+    ``weights``: ``W`` of shape (n_columns, 2), ``b``'s then ``s``'s (dimensionless), in
+    :func:`~sklearn_ifog._output_layer.layer_weights`' order; ``asymmetry``: the constant
+    ``a`` (dimensionless); ``noise``: the :class:`RateNoise` of its residuals.
+    """
+
+    weights: np.ndarray
+    asymmetry: float
+    noise: "RateNoise"
+
+
+class PreliminaryFit(NamedTuple):
+    """:func:`preliminary_fit`'s result: ``bias`` (deg/h) and ``scale_factor`` at every
+    row, the ``asymmetry`` and the rows' ``noise``."""
+
+    bias: np.ndarray
+    scale_factor: np.ndarray
+    asymmetry: float
+    noise: "RateNoise"
+
+
+def _product_design(Phi, omega):
+    """``[Φ, Ω Φ, |Ω|]`` with Ω divided by its root mean square, and that scale."""
+    scale = _omega_scale(omega)
+    unit = omega / scale
+    return np.hstack([Phi, Phi * unit[:, None], np.abs(unit)[:, None]]), scale
+
+
+def _product_solve(Phi, y, omega, noise, penalty=None):
+    """One weighted solve of the product basis: (W (n_columns, 2), asymmetry)."""
+    D, scale = _product_design(Phi, omega)
+    weights = np.ones(y.size) if noise is None else noise.weights(omega)
+    full_penalty = None
+    if penalty is not None:
+        # The network's objective, Σ w (y - f)² / Σ w + α ||coef||² on targets and weights
+        # divided by the target's spread, is the weighted sum of squares plus α Σ w ||coef||²
+        # in the target's own units: the weights have mean 1, so Σ w is the number of rows.
+        full_penalty = np.concatenate([np.tile(penalty, 2), [0.0]]) * y.size
+    theta = _weighted_solve(D, y, weights, full_penalty)
+    width = Phi.shape[1]
+    W = np.column_stack([theta[:width], theta[width : 2 * width] / scale])
+    return W, float(theta[-1] / scale)
+
+
+def _iterate(Phi, y, omega, penalty, n_iter):
+    """Reweighted solves: each learns the rows' noise from the last one's residuals.
+
+    The first is unweighted; the rate noise then decides how much each row says of the
+    bias and of the scale factor. Stops when ``σ₀`` and ``κ`` change by less than 1 %.
+    """
+    noise = None
+    for _ in range(n_iter):
+        W, asymmetry = _product_solve(Phi, y, omega, noise, penalty)
+        residual = y - drift_of(Phi @ W, omega, asymmetry)
+        new = rate_noise(residual, omega)
+        settled = noise is not None and np.allclose(new, noise, rtol=0.01, atol=0.0)
+        noise = new
+        if settled:
+            break
+    return W, asymmetry, noise
+
+
+def preliminary_fit(features, y, omega):
+    """A first bias, scale factor and asymmetry, linear in the features.
 
     Parameters
     ----------
@@ -99,37 +168,52 @@ def preliminary_fit(features, y, omega, weights=None):
         The drift target ``rate - input_rate``, deg/h.
     omega : ndarray of shape (n_samples,)
         The input rate, deg/h.
-    weights : ndarray of shape (n_samples,), default=None
-        Row weights (None: equal).
 
     Returns
     -------
-    bias, scale_factor : ndarray of shape (n_samples,)
-        ``b0`` (deg/h) and ``s0`` (dimensionless) at every row.
+    fit : PreliminaryFit
+        ``bias`` ``b0`` (deg/h) and ``scale_factor`` ``s0`` (dimensionless) at every row,
+        the ``asymmetry`` and the rows' ``noise``, after reweighted solves
+        (:func:`rate_noise`).
 
     Examples
     --------
     >>> import numpy as np
     >>> T = np.linspace(-1, 1, 40)[:, None]
     >>> omega = np.tile([0.0, 1e5, -1e5, 3e5], 10)
-    >>> y = 0.5 * T[:, 0] + omega * 1e-4 * (1 + T[:, 0])
-    >>> b, s = preliminary_fit(T, y, omega)
-    >>> bool(np.allclose(b, 0.5 * T[:, 0]) and np.allclose(s, 1e-4 * (1 + T[:, 0])))
+    >>> y = 0.5 * T[:, 0] + omega * 1e-4 * (1 + T[:, 0]) + 2e-5 * np.abs(omega)
+    >>> fit = preliminary_fit(T, y, omega)
+    >>> bool(
+    ...     np.allclose(fit.bias, 0.5 * T[:, 0])
+    ...     and np.allclose(fit.scale_factor, 1e-4 * (1 + T[:, 0]))
+    ... )
     True
+    >>> round(fit.asymmetry * 1e6, 6)
+    20.0
     """
-    n_samples = features.shape[0]
-    Phi = np.hstack([features, np.ones((n_samples, 1))])
-    scale = _omega_scale(omega)
-    D = np.hstack([Phi, Phi * (omega / scale)[:, None]])
-    theta = _weighted_solve(D, y, np.ones(n_samples) if weights is None else weights)
-    width = Phi.shape[1]
-    return Phi @ theta[:width], Phi @ theta[width:] / scale
+    Phi = np.hstack([features, np.ones((features.shape[0], 1))])
+    W, asymmetry, noise = _iterate(Phi, y, omega, None, _PRELIMINARY_ITERATIONS)
+    return PreliminaryFit(Phi @ W[:, 0], Phi @ W[:, 1], asymmetry, noise)
+
+
+def _rate_levels(magnitude):
+    """Group label of every row by its input-rate magnitude: the distinct magnitudes of a
+    rate table's steps (to a part in a million of the largest), else 20 quantile bins."""
+    rounded = np.round(magnitude / max(float(magnitude.max()), 1e-300) * 1e6)
+    levels, labels = np.unique(rounded, return_inverse=True)
+    if levels.size <= 50:
+        return labels.ravel()
+    edges = np.quantile(magnitude, np.linspace(0.0, 1.0, 21)[1:-1])
+    return np.searchsorted(edges, magnitude, side="right")
 
 
 def rate_noise(residual, omega):
     """The noise model of residuals that grow with the input rate (:class:`RateNoise`).
 
-    Fits ``residual² ≈ σ₀² + κ² Ω²`` by non-negative least squares. ``σ₀`` is floored at a
+    The residuals' mean square at each input-rate magnitude (each step of a rate table, or
+    20 quantile bins of a continuous input) is fitted by ``σ₀² + κ² Ω²`` with non-negative
+    coefficients, every level counted in proportion to its own size (a relative fit), so
+    the large residuals of the fastest rates do not decide ``σ₀``. ``σ₀`` is floored at a
     millionth of the residuals' root mean square, so no row weighs infinitely.
 
     Parameters
@@ -147,88 +231,125 @@ def rate_noise(residual, omega):
     --------
     >>> import numpy as np
     >>> rng = np.random.default_rng(0)
-    >>> omega = np.repeat([0.0, 1e5, -1e5], 20000)
+    >>> omega = np.repeat([0.0, 1e4, 1e5, -1e5], 20000)
     >>> residual = rng.normal(0.0, np.sqrt(0.01**2 + (1e-6 * omega) ** 2))
     >>> noise = rate_noise(residual, omega)
-    >>> round(noise.sigma0, 2), round(noise.kappa * 1e6, 1)
+    >>> round(noise.sigma0, 3), round(noise.kappa * 1e6, 2)
     (0.01, 1.0)
     """
     square = np.square(residual)
+    magnitude = np.abs(omega)
+    labels = _rate_levels(magnitude)
+    counts = np.bincount(labels)
+    kept = counts > 0
+    level_square = (np.bincount(labels, weights=square)[kept]) / counts[kept]
+    level_rate = np.sqrt(np.bincount(labels, weights=magnitude**2)[kept] / counts[kept])
     scale = _omega_scale(omega)
-    coef = nnls(np.column_stack([np.ones_like(omega), (omega / scale) ** 2]), square)[0]
-    floor = 1e-6 * float(np.sqrt(square.mean())) if square.any() else 1.0
+    rms = float(np.sqrt(square.mean())) if square.any() else 1.0
+    size = np.maximum(level_square, (1e-6 * rms) ** 2)
+    design = np.column_stack([np.ones_like(level_rate), (level_rate / scale) ** 2]) / size[:, None]
+    coef = nnls(design, np.ones_like(size))[0]
     return RateNoise(
-        sigma0=max(float(np.sqrt(coef[0])), floor), kappa=float(np.sqrt(coef[1]) / scale)
+        sigma0=max(float(np.sqrt(coef[0])), 1e-6 * rms), kappa=float(np.sqrt(coef[1]) / scale)
     )
 
 
-def check_input_rate(omega, scale_factor, column):
+def check_input_rate(omega, y, column):
     """Refuse an input rate in another unit than the output's, or too small to observe.
+
+    The unit is never guessed: the drift target ``y = rate - Ω`` of a gyro moves with the
+    input rate by its scale-factor error, a few hundred ppm; an input rate in rad/s or
+    deg/s read as deg/h makes it move by a factor of 206,265 or 3,600 instead.
 
     Parameters
     ----------
     omega : ndarray of shape (n_samples,)
         The input rate, deg/h.
-    scale_factor : ndarray of shape (n_samples,)
-        A first scale-factor error at every row (:func:`preliminary_fit`).
+    y : ndarray of shape (n_samples,)
+        The drift target ``rate - input_rate``, deg/h.
     column : str or int
         The input rate's column, for messages.
 
     Raises
     ------
     ValueError
-        If the apparent scale-factor error exceeds :data:`MAX_SCALE_FACTOR_ERROR` (the input
-        rate is not in deg/h), or no input rate reaches :data:`MIN_OBSERVABLE_RATE`.
+        If ``y``'s least-squares slope on the input rate exceeds
+        :data:`MAX_SCALE_FACTOR_ERROR` (the input rate is not in deg/h), or no input rate
+        reaches :data:`MIN_OBSERVABLE_RATE`.
 
     Examples
     --------
     >>> import numpy as np
-    >>> check_input_rate(np.array([0.0, 3600.0]), np.array([1e-4, 1e-4]), "reference")
-    >>> check_input_rate(np.array([0.0, 5.0]), np.full(2, 2e5), "reference")
+    >>> check_input_rate(np.array([0.0, 3600.0]), np.array([0.1, 0.46]), "reference")
+    >>> omega = np.array([0.0, 5.0])
+    >>> check_input_rate(omega, omega * 206264.8 - omega, "reference")
     Traceback (most recent call last):
     ...
     ValueError: The gyro output differs from input_rate column 'reference' by a factor of ...
     """
-    apparent = float(np.median(np.abs(scale_factor[omega != 0]))) if np.any(omega) else 0.0
-    if apparent > MAX_SCALE_FACTOR_ERROR:
-        raise ValueError(
-            f"The gyro output differs from input_rate column {column!r} by a factor of about "
-            f"{1 + apparent:.4g}: a scale-factor error of {apparent:.3g}, where a gyro's is "
-            f"within {MAX_SCALE_FACTOR_ERROR:.0%}. The input rate must be in the output's "
-            f"unit, {INPUT_RATE_UNIT} (rad/s reads 206,265 times smaller, deg/s 3,600 times)."
-        )
     largest = float(np.max(np.abs(omega)))
-    if largest < MIN_OBSERVABLE_RATE:
+    spread = float(np.var(omega))
+    if spread <= (1e-9 * largest) ** 2:  # one input rate, to round-off
+        spread = 0.0
+    if spread > 0:
+        slope = float(np.mean((omega - omega.mean()) * (y - y.mean())) / spread)
+        if abs(slope) > MAX_SCALE_FACTOR_ERROR:
+            raise ValueError(
+                f"The gyro output differs from input_rate column {column!r} by a factor of "
+                f"about {1 + slope:.6g}: a scale-factor error of {slope:.3g}, where a gyro's "
+                f"is within {MAX_SCALE_FACTOR_ERROR:.0%}. The input rate must be in the "
+                f"output's unit, {INPUT_RATE_UNIT} (rad/s reads 206,265 times smaller, deg/s "
+                "3,600 times)."
+            )
+    if largest < MIN_OBSERVABLE_RATE or spread == 0:
         raise ValueError(
-            f"input_rate column {column!r} reaches only {largest:.4g} {INPUT_RATE_UNIT}: a "
-            f"scale factor is not observable below {MIN_OBSERVABLE_RATE:.0f} {INPUT_RATE_UNIT} "
-            "(1 deg/s). Calibrate on a rate table, or pass input_rate=None to fit the bias "
-            "alone."
+            f"input_rate column {column!r} reaches only {largest:.4g} {INPUT_RATE_UNIT}"
+            f"{' and never changes' if spread == 0 else ''}: a scale factor is not observable "
+            f"below {MIN_OBSERVABLE_RATE:.0f} {INPUT_RATE_UNIT} (1 deg/s) or at one input "
+            "rate. Calibrate on a rate table, or pass input_rate=None to fit the bias alone."
         )
 
 
-def proxy_targets(y, omega, bias, scale_factor, noise):
+def proxy_targets(y, omega, first):
     """Two per-row targets, ``[bias, scale factor]``, for choosing a model's basis.
 
     Where the input rate is low (its noise ``κ|Ω|`` within ``σ₀``) the row shows the bias,
-    ``y - Ω s0``, and the scale factor is the first estimate ``s0``; where it is high the
-    row shows the scale factor, ``(y - b0) / Ω``, and the bias is ``b0``. A regressor fitted
-    on these two outputs places its units where either varies; the weights are then solved
-    on the product basis (:func:`fit_product_layer`).
+    ``y - Ω s0 - a|Ω|``, and the scale factor is the first estimate ``s0``; where it is high
+    the row shows the scale factor, ``(y - b0 - a|Ω|) / Ω``, and the bias is ``b0``. A
+    regressor fitted on these two outputs places its units where either varies; the weights
+    are then solved on the product basis (:func:`fit_product_layer`).
+
+    Parameters
+    ----------
+    y, omega : ndarray of shape (n_samples,)
+        The drift target and the input rate, deg/h.
+    first : PreliminaryFit
+        :func:`preliminary_fit`'s result.
 
     Returns
     -------
     Y : ndarray of shape (n_samples, 2)
     """
+    noise = first.noise
     low = np.abs(noise.kappa * omega) <= noise.sigma0
-    shown = np.divide(y - bias, omega, out=np.zeros_like(y), where=~low)
+    shown = y - first.asymmetry * np.abs(omega)
+    ratio = np.divide(shown - first.bias, omega, out=np.zeros_like(y), where=~low)
     return np.column_stack(
-        [np.where(low, y - omega * scale_factor, bias), np.where(low, scale_factor, shown)]
+        [
+            np.where(low, shown - omega * first.scale_factor, first.bias),
+            np.where(low, first.scale_factor, ratio),
+        ]
     )
 
 
-def fit_product_layer(Phi, y, omega, noise, penalty=None):
-    """Solve the output layer of ``y = Φ w_b + Ω Φ w_s`` by weighted least squares.
+def fit_product_layer(Phi, y, omega, penalty=None):
+    """Solve the output layer of ``y = Φ w_b + Ω Φ w_s + a |Ω|`` by weighted least squares.
+
+    The rows are weighed by their rate noise ``1 / (σ₀² + κ² Ω²)``, learnt from the
+    residuals of the previous solve (reweighted until it settles, at most 10 solves): the
+    bias is learnt where it is seen best, at low input rates, and the scale factor at high
+    ones. ``a`` is a constant asymmetry between positive and negative input rates, which no
+    ``b + Ω s`` holds and which would otherwise leak into the bias.
 
     Parameters
     ----------
@@ -238,8 +359,6 @@ def fit_product_layer(Phi, y, omega, noise, penalty=None):
         The drift target, deg/h.
     omega : ndarray of shape (n_samples,)
         The input rate, deg/h.
-    noise : RateNoise
-        The rows' noise model (weights ``1 / (σ₀² + κ² Ω²)``).
     penalty : ndarray of shape (n_columns,), default=None
         Ridge penalty per column of ``Φ`` (for both blocks; the scale-factor block's
         columns are ``Ω Φ`` divided by the input rates' root mean square), per row of mean
@@ -247,8 +366,8 @@ def fit_product_layer(Phi, y, omega, noise, penalty=None):
 
     Returns
     -------
-    W : ndarray of shape (n_columns, 2)
-        The weights of ``b`` (column 0) and of ``s`` (column 1, dimensionless).
+    fit : ProductFit
+        The ``weights`` (n_columns, 2), the ``asymmetry`` and the rows' ``noise``.
 
     Examples
     --------
@@ -257,48 +376,50 @@ def fit_product_layer(Phi, y, omega, noise, penalty=None):
     >>> Phi = np.column_stack([T, np.ones(30)])
     >>> omega = np.tile([0.0, 2e5, -2e5], 10)
     >>> y = 0.3 * T + omega * (2e-4 * T + 1e-4)
-    >>> W = fit_product_layer(Phi, y, omega, RateNoise(0.01, 0.0))
+    >>> fit = fit_product_layer(Phi, y, omega)
+    >>> W = fit.weights
     >>> np.round(W[:, 0], 8).tolist(), np.round(W[:, 1] * 1e6, 4).tolist()
     ([0.3, 0.0], [200.0, 100.0])
     """
-    scale = _omega_scale(omega)
-    D = np.hstack([Phi, Phi * (omega / scale)[:, None]])
-    weights = noise.weights(omega)
-    full_penalty = None
     if penalty is not None:
-        # The network's objective, Σ w (y - f)² / Σ w + α ||coef||² on targets and weights
-        # divided by the target's spread, is the weighted sum of squares plus α Σ w ||coef||²
-        # in the target's own units: the weights have mean 1, so Σ w is the number of rows.
-        full_penalty = np.tile(np.asarray(penalty, dtype=np.float64), 2) * y.size
-    theta = _weighted_solve(D, y, weights, full_penalty)
-    width = Phi.shape[1]
-    return np.column_stack([theta[:width], theta[width:] / scale])
+        penalty = np.asarray(penalty, dtype=np.float64)
+    W, asymmetry, noise = _iterate(Phi, y, omega, penalty, _LAYER_ITERATIONS)
+    return ProductFit(W, asymmetry, noise)
 
 
-def drift_of(prediction, omega):
-    """The drift at the input rate ``omega``: ``b + Ω s`` from a ``[b, s]`` prediction.
+def drift_of(prediction, omega, asymmetry=0.0):
+    """The drift at the input rate ``omega``: ``b + Ω s + a |Ω|`` from a ``[b, s]`` prediction.
 
     Examples
     --------
     >>> import numpy as np
     >>> drift_of(np.array([[0.5, 1e-4]]), np.array([3.6e5])).round(6).tolist()
     [36.5]
+    >>> drift_of(np.array([[0.5, 1e-4]]), np.array([-3.6e5]), asymmetry=1e-5).round(6).tolist()
+    [-31.9]
     """
     prediction = np.asarray(prediction, dtype=np.float64).reshape(-1, 2)
-    return prediction[:, 0] + np.asarray(omega, dtype=np.float64) * prediction[:, 1]
+    omega = np.asarray(omega, dtype=np.float64)
+    return prediction[:, 0] + omega * prediction[:, 1] + asymmetry * np.abs(omega)
 
 
-def input_rate_estimate(prediction, rate):
-    """The input rate a gyro output stands for: ``Ω̂ = (rate - b) / (1 + s)``.
+def input_rate_estimate(prediction, rate, asymmetry=0.0):
+    """The input rate a gyro output stands for: ``Ω̂ = (rate - b) / (1 + s + a sign(rate - b))``.
+
+    The inverse of :func:`drift_of`: ``rate - b = Ω (1 + s + a sign Ω)``, and ``rate - b``
+    has the sign of ``Ω`` (``1 + s ± a`` is positive).
 
     Examples
     --------
     >>> import numpy as np
     >>> input_rate_estimate(np.array([[0.5, 1e-4]]), np.array([36.5 + 3.6e5])).round(6).tolist()
     [360000.0]
+    >>> input_rate_estimate(np.array([[0.5, 1e-4]]), np.array([-31.9 - 3.6e5]), 1e-5).round(6)
+    array([-360000.])
     """
     prediction = np.asarray(prediction, dtype=np.float64).reshape(-1, 2)
-    return (np.asarray(rate, dtype=np.float64) - prediction[:, 0]) / (1.0 + prediction[:, 1])
+    excess = np.asarray(rate, dtype=np.float64) - prediction[:, 0]
+    return excess / (1.0 + prediction[:, 1] + asymmetry * np.sign(excess))
 
 
 def input_rate_of(X, column):
