@@ -97,6 +97,7 @@ __all__ = [
     "LAYERED_COMPONENT_COLUMNS",
     "draw_layered_params",
     "glass_stiffness",
+    "layered_thermal",
     "shupe_weights",
     "simulate_layered_run",
 ]
@@ -269,6 +270,37 @@ def simulate_layered_run(
     """
     n_samples = reference.shape[0]
     thermal_seed, noise_seed = rng.randint(np.iinfo(np.int32).max, size=2)
+    parts = layered_thermal(
+        p,
+        breakpoint_times,
+        breakpoint_temperatures,
+        n_samples,
+        sampling_period,
+        noise,
+        glass,
+        thermal_seed,
+    )
+    noise_rng = np.random.RandomState(noise_seed)
+    parts.update(gyro_output(reference, parts["drift"], sampling_period, p, noise, noise_rng))
+    return parts
+
+
+def layered_thermal(
+    p,
+    breakpoint_times,
+    breakpoint_temperatures,
+    n_samples,
+    sampling_period,
+    noise,
+    glass,
+    thermal_seed,
+):
+    """The thermal part of one layered run: temperatures, sensor reading and drift terms.
+
+    Everything :func:`simulate_layered_run` returns but the gyro output and its noise
+    (``thermal_seed`` seeds the chamber fluctuation), so that a caller can change the input
+    rate the gyro sees (the rate-table simulator's scale factor) before the output is drawn.
+    """
     per_block = int(np.ceil(sampling_period / MAX_FINE_STEP - 1e-9))
     step = sampling_period / per_block
     # Fine grid from one sample period before the first sample: block n (the gyro's n-th
@@ -333,6 +365,4 @@ def simulate_layered_run(
     }
     for index in range(p["n_layers"]):
         parts[f"layer_{index}"] = layers[index, at_samples]
-    noise_rng = np.random.RandomState(noise_seed)
-    parts.update(gyro_output(reference, drift, sampling_period, p, noise, noise_rng))
     return parts

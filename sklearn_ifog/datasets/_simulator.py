@@ -34,7 +34,7 @@ from sklearn_ifog.datasets._gyro import (
 from sklearn_ifog.datasets._layered import (
     LAYERED_COMPONENT_COLUMNS,
     draw_layered_params,
-    simulate_layered_run,
+    layered_thermal,
 )
 from sklearn_ifog.metrics import earth_rate
 
@@ -258,8 +258,8 @@ def _chamber_profile(profile, rng, ramp_rate, temperature_range):
     return np.asarray(times), np.asarray(temperatures), rate * _SECONDS_PER_MINUTE
 
 
-def _simulate_run(unit_params, chamber_setpoint, sampling_period, reference, noise, rng):
-    """Arrays of one run: temperatures, drift components and gyro output."""
+def _lumped_thermal(unit_params, chamber_setpoint, sampling_period, noise, rng):
+    """Arrays of one lumped run but the gyro output: temperatures and drift components."""
     n_samples = chamber_setpoint.shape[0]
     p = unit_params
     if noise:
@@ -286,12 +286,8 @@ def _simulate_run(unit_params, chamber_setpoint, sampling_period, reference, noi
     shupe = shupe_coefficient(coil_mean, p["k0"], p["k1"], p["reference_temperature"]) * coil_rate
     bias = static_bias(coil_mean, p["bias_coefficients"], p["reference_temperature"])
     drift = bias + shupe
-
-    noise_parts = gyro_output(reference, drift, sampling_period, p, noise, rng)
-    rate = noise_parts.pop("rate")
     return {
         "temperature": temperature,
-        "rate": rate,
         "drift": drift,
         "chamber_temperature": chamber,
         "coil_outer": outer,
@@ -300,8 +296,55 @@ def _simulate_run(unit_params, chamber_setpoint, sampling_period, reference, noi
         "coil_rate": coil_rate,
         "static_bias": bias,
         "shupe": shupe,
-        **noise_parts,
     }
+
+
+def simulate_thermal(physics, params, times, setpoints, n_samples, sampling_period, noise, rng):
+    """The thermal part of one run of any physics, and the generator of its gyro noise.
+
+    Parameters
+    ----------
+    physics : {"lumped", "layered", "layered_glass"}
+        Thermal model.
+    params : dict
+        The unit's coefficients (from the physics' draw).
+    times, setpoints : ndarray
+        Breakpoints of the chamber set-point, seconds and degC.
+    n_samples : int
+        Samples of the run, at ``0, sampling_period, ...``.
+    sampling_period : float
+        Seconds.
+    noise : bool
+        Whether to add the chamber fluctuation (and, later, the gyro noise).
+    rng : numpy.random.RandomState
+        The campaign's generator; the draws are those the physics always made, in order.
+
+    Returns
+    -------
+    parts : dict of ndarray
+        Temperature reading, drift, chamber temperature and the physics' hidden components
+        (all but the gyro output and its noise).
+    output_rng : numpy.random.RandomState
+        The generator :func:`~sklearn_ifog.datasets._gyro.gyro_output` must draw the run's
+        noise from next (``rng`` itself for "lumped", the run's noise seed for the layered
+        physics), so that output = thermal part + :func:`gyro_output` is the run bit for bit.
+    """
+    if physics == "lumped":
+        time = np.arange(n_samples) * sampling_period
+        setpoint = np.interp(time, times, setpoints)
+        return _lumped_thermal(params, setpoint, sampling_period, noise, rng), rng
+    thermal_seed, noise_seed = rng.randint(np.iinfo(np.int32).max, size=2)
+    parts = layered_thermal(
+        params,
+        times,
+        setpoints,
+        n_samples,
+        sampling_period,
+        noise,
+        physics == "layered_glass",
+        thermal_seed,
+    )
+    return parts, np.random.RandomState(noise_seed)
 
 
 def _check_profile(profile):
@@ -720,20 +763,12 @@ def _simulate_campaign_run(
     n_samples = int(np.floor(times[-1] / sampling_period)) + 1
     time = np.arange(n_samples) * sampling_period
     reference = np.full(n_samples, reference_value)
-    if physics == "lumped":
-        setpoint = np.interp(time, times, setpoints)
-        arrays = _simulate_run(params, setpoint, sampling_period, reference, noise, rng)
-    else:
-        arrays = simulate_layered_run(
-            params,
-            times,
-            setpoints,
-            reference,
-            sampling_period,
-            noise,
-            physics == "layered_glass",
-            rng,
-        )
+    arrays, output_rng = simulate_thermal(
+        physics, params, times, setpoints, n_samples, sampling_period, noise, rng
+    )
+    arrays.update(
+        gyro_output(reference, arrays["drift"], sampling_period, params, noise, output_rng)
+    )
     columns = {
         "unit": np.full(n_samples, params["unit"], dtype=np.int64),
         "run": np.full(n_samples, run_id, dtype=np.int64),
