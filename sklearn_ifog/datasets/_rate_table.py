@@ -100,10 +100,10 @@ __all__ = [
     "scale_factor_terms",
 ]
 
-# Turntable input rates of a scale-factor test, deg/s: zero, then both signs of each decade
-# up to a navigation gyro's usual test range.
+# Turntable rates of a scale-factor test, deg/s: zero, then both signs of each decade up to
+# 300 deg/s (documented where the package exports it, sklearn_ifog.datasets).
 DEFAULT_RATES = (0.0, 1.0, -1.0, 10.0, -10.0, 100.0, -100.0, 300.0, -300.0)
-# The scale-factor models, each adding terms to the one before.
+# The scale-factor presets, each adding terms to the one before.
 RATE_TABLE_PRESETS = ("coil", "coil_source", "asymmetric")
 MAX_TABLE_RATE = 1000.0  # deg/s: beyond any navigation gyro's range
 NONLINEARITY_FULL_SCALE = 300.0  # deg/s: the rate at which s_nonlinearity = ν
@@ -302,9 +302,15 @@ def _simulate_table_run(params, run_id, *, profile, settings, rng):
         # The table finishes its last cycle: the chamber holds its last set-point meanwhile.
         times, setpoints = np.append(times, time[-1]), np.append(setpoints, setpoints[-1])
     parts, output_rng = simulate_thermal(
-        settings["physics"], params, times, setpoints, n_samples, sampling_period,
-        settings["noise"], rng,
-    )  # fmt: skip
+        settings["physics"],
+        params,
+        times,
+        setpoints,
+        n_samples,
+        sampling_period,
+        settings["noise"],
+        rng,
+    )
     source_true, source_sensor, source_reading = _source_temperatures(
         params, parts["chamber_temperature"], sampling_period
     )
@@ -503,7 +509,7 @@ default="cycle"
     dwell : float, default=120.0
         Seconds each rate is held; a whole multiple of ``sampling_period``.
     sampling_period : float, default=30.0
-        Sample spacing, seconds, in [0.1, 600]. The default campaign has about 7,000 rows
+        Sample spacing, seconds, in [0.1, 600]. The default campaign has 4,000-8,000 rows
         (it depends on the drawn profiles); rows scale as 1/sampling_period.
     temperature_range : (float, float), default=(-40.0, 70.0)
         Lowest and highest chamber temperature, degC (a navigation gyro's full range).
