@@ -129,10 +129,12 @@ def _product_solve(Phi, y, omega, noise, penalty=None):
     weights = np.ones(y.size) if noise is None else noise.weights(omega)
     full_penalty = None
     if penalty is not None:
-        # The network's objective, Σ w (y - f)² / Σ w + α ||coef||² on targets and weights
-        # divided by the target's spread, is the weighted sum of squares plus α Σ w ||coef||²
-        # in the target's own units: the weights have mean 1, so Σ w is the number of rows.
-        full_penalty = np.concatenate([np.tile(penalty, 2), [0.0]]) * y.size
+        # Each column's penalty in proportion to what the weighted rows say of it (the
+        # diagonal of Dᵀ W D): with equal weights and a unit-variance column that is α n,
+        # the network's own α; a scale-factor column, whose rows of high input rate weigh
+        # little, is then not shrunk by a penalty the bias columns' rows set.
+        information = np.einsum("ij,ij,i->j", D, D, weights)
+        full_penalty = np.concatenate([np.tile(penalty, 2), [0.0]]) * information
     theta = _weighted_solve(D, y, weights, full_penalty)
     width = Phi.shape[1]
     W = np.column_stack([theta[:width], theta[width : 2 * width] / scale])
@@ -360,9 +362,10 @@ def fit_product_layer(Phi, y, omega, penalty=None):
     omega : ndarray of shape (n_samples,)
         The input rate, deg/h.
     penalty : ndarray of shape (n_columns,), default=None
-        Ridge penalty per column of ``Φ`` (for both blocks; the scale-factor block's
-        columns are ``Ω Φ`` divided by the input rates' root mean square), per row of mean
-        weight 1 (the network's ``alpha`` convention); None: none.
+        Relative ridge penalty per column of ``Φ``, for both blocks: column ``j`` of the
+        design is penalised by ``penalty[j]`` times its weighted sum of squares (with equal
+        weights and a standardised column, ``α n``: the network's ``alpha`` convention);
+        None: none.
 
     Returns
     -------
