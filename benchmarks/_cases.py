@@ -39,6 +39,11 @@ def load_psim_tvc(*args, **kwargs):
 #: The simulator's physics presets (``make_thermal_campaign(physics=...)``).
 PHYSICS = ("lumped", "layered", "layered_glass")
 
+#: The rate-table simulator's scale-factor presets (``make_rate_table_campaign(preset=...)``)
+#: as gyros of the register: a rate-table seed draws another gyro than the same seed of
+#: ``make_thermal_campaign``, so they are named apart.
+RATE_TABLE_PHYSICS = ("rate_table:coil", "rate_table:coil_source", "rate_table:asymmetric")
+
 #: The register of simulated gyros: per script, ``physics`` (the presets it draws) and its
 #: seed groups. A seed of ``make_thermal_campaign`` draws the gyro, so ``(physics, seed)`` is
 #: the same gyro in every script, and a gyro is tuning or judged for the whole project
@@ -170,6 +175,15 @@ SEEDS = {
         "retired": (),
         "judged": (),
         "chose": "no simulated gyro: the shipped recording only (see REAL_RECORDING)",
+    },
+    "bench_scale_factor": {
+        "physics": RATE_TABLE_PHYSICS,
+        "tuning": (0, 1, 2),
+        "retired": (),
+        "judged": (4451, 4452, 4453),
+        "chose": "the scale factor's product-basis fit (its rate-noise weights, asymmetry "
+        "term and per-column penalty) was developed on rate-table seed 0 (issue 44); "
+        "--quick runs seed 0. 4451-4453: fresh in issue 44, run once at its end",
     },
     "bench_unitwise": {
         "physics": ("lumped", "layered_glass"),
@@ -517,6 +531,52 @@ def rbf_thermal_campaign(seed, quick=False):
         n_runs=1 if quick else 3,
         sampling_period=60.0,
         random_state=seed,
+    )
+
+
+# -- bench_scale_factor --
+
+#: How far bench_scale_factor's units stray from their lot's design: a production lot of one
+#: design, so that a unit held out is one of the lot's kind.
+RATE_TABLE_LOT_SPREAD = 0.1
+
+
+def make_rate_table_campaign(*args, **kwargs):
+    """:func:`sklearn_ifog.datasets.make_rate_table_campaign`, imported on first call."""
+    from sklearn_ifog.datasets import make_rate_table_campaign as make
+
+    return make(*args, **kwargs)
+
+
+def rate_table_campaign(preset, seed, quick):
+    """One rate-table campaign of ``bench_scale_factor.py``, as the simulator's Bunch.
+
+    A lot of 3 units (``lot_spread=RATE_TABLE_LOT_SPREAD``), each recorded on 3 runs of the
+    "cycle" profile over -40..70 degC while the table steps through 0, ±1, ±10, ±100 and
+    ±300 deg/s (the simulator's defaults, ``preset`` its scale-factor physics); ``quick``
+    (CI): 2 units of 2 runs at one sample a minute.
+    """
+    n_units, n_runs, period = (2, 2, 60.0) if quick else (3, 3, 30.0)
+    return make_rate_table_campaign(
+        n_units=n_units,
+        n_runs=n_runs,
+        preset=preset,
+        sampling_period=period,
+        dwell=120.0,
+        lot_spread=RATE_TABLE_LOT_SPREAD,
+        random_state=seed,
+    )
+
+
+def rate_table_lot(n_units, seed):
+    """bench_scale_factor's timed lot: ``n_units`` units of 2 runs (default preset), as
+    ``(X, y)``."""
+    return make_rate_table_campaign(
+        n_units=n_units,
+        n_runs=2,
+        lot_spread=RATE_TABLE_LOT_SPREAD,
+        random_state=seed,
+        return_X_y=True,
     )
 
 

@@ -647,9 +647,14 @@ class CompensationPipeline(Pipeline):
             # where held-out runs confirm it (a firmware's scale-factor line in T, at worst
             # a constant).
             omega = scale_factor.input_rate_of(X, self.input_rate)
-            modelled = self._predict_features(features.transform(X)).reshape(-1, 2)[:, 1]
-            shown = Y[:, 0] - omega * modelled - self.asymmetry_ * np.abs(omega)
-            Y = np.column_stack([shown, modelled])
+            modelled = self._predict_features(features.transform(X)).reshape(-1, 2)
+            shown = Y[:, 0] - omega * modelled[:, 1] - self.asymmetry_ * np.abs(omega)
+            # Where the input rate's noise exceeds the bias noise the row does not show the
+            # bias (what the scale factor's model leaves there would decide the fallback):
+            # it gives the model's bias instead, as the network's proxy targets do.
+            noise = self.rate_noise_
+            low = np.abs(noise.kappa * omega) <= noise.sigma0
+            Y = np.column_stack([np.where(low, shown, modelled[:, 0]), modelled[:, 1]])
             self.input_rate_range_ = (float(omega.min()), float(omega.max()))
         self.fallback_ = fit_fallback(
             None if column is None else raw[:, column],

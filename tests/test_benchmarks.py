@@ -72,6 +72,11 @@ QUICK_RUNS = {
         ["bench_streaming_quick.md", "bench_streaming_quick.json"],
         True,
     ),
+    "bench_scale_factor": (
+        ["--quick", "--out", "{out}"],
+        ["scale_factor_quick.md", "scale_factor_quick.json"],
+        True,
+    ),
     "bench_unitwise": (
         ["--quick", "--out", "{out}"],
         ["unitwise_quick.md", "unitwise_quick.json"],
@@ -299,7 +304,7 @@ def test_the_seed_register_covers_every_script():
     assert set(cases.SEEDS) == scripts, sorted(set(cases.SEEDS) ^ scripts)
     for script, groups in cases.SEEDS.items():
         assert set(groups) == {"physics", "tuning", "retired", "judged", "chose"}, script
-        assert set(groups["physics"]) <= set(cases.PHYSICS), script
+        assert set(groups["physics"]) <= {*cases.PHYSICS, *cases.RATE_TABLE_PHYSICS}, script
         assert groups["chose"], script
         seeds = [*groups["tuning"], *groups["retired"], *groups["judged"]]
         assert len(seeds) == len(set(seeds)), f"{script}: a seed in two groups"
