@@ -1,4 +1,6 @@
-"""Gyro metrics: mean squared deviation, Earth rate, Allan deviation, bias stability, scorers.
+"""Gyro metrics: mean squared deviation, Earth rate, Allan deviation, bias stability, scorers,
+and the scale factor of rate-table data (ppm per temperature bin, its peak-to-peak,
+linearity, asymmetry, the residual at each input rate).
 
 Rates are in deg/h, times in seconds. The Allan-curve readings follow IEEE Std 952-1997
 (Annex C, "Allan variance method of data reduction").
@@ -16,6 +18,13 @@ from sklearn.utils import check_array
 from sklearn_ifog import _table
 from sklearn_ifog._compat import Interval, StrOptions, _check_sample_weight, validate_params
 from sklearn_ifog._per_run import ALL_RUNS, compensation_arrays, sample_period
+from sklearn_ifog._scale_factor_metrics import (
+    residual_by_input_rate,
+    scale_factor_asymmetry,
+    scale_factor_error,
+    scale_factor_linearity,
+    scale_factor_peak_to_peak,
+)
 
 __all__ = [
     "EARTH_ROTATION_RATE",
@@ -35,6 +44,11 @@ __all__ = [
     "neg_mean_interval_width_scorer",
     "neg_mean_squared_deviation_scorer",
     "per_run_metrics",
+    "residual_by_input_rate",
+    "scale_factor_asymmetry",
+    "scale_factor_error",
+    "scale_factor_linearity",
+    "scale_factor_peak_to_peak",
 ]
 
 #: Earth's sidereal rotation rate in deg/h (7.2921150e-5 rad/s, IERS / WGS 84).

@@ -4,7 +4,9 @@
   temperature on a second axis (the reference paper's Figs. 10 and 12), the stretches outside
   the model's calibration domain shaded;
 - :func:`plot_allan_deviation`: Allan deviation curves, e.g. before and after compensation;
-- :func:`plot_msd_by_model`: mean squared deviation per model on a log scale.
+- :func:`plot_msd_by_model`: mean squared deviation per model on a log scale;
+- :func:`plot_scale_factor`: the scale-factor error (ppm) of rate-table data against
+  temperature, before and after compensation.
 
 matplotlib is optional (``pip install 'sklearn-ifog[plot]'``) and only imported when a
 function here is called. With ``ax=None`` the functions build a
@@ -28,6 +30,7 @@ __all__ = [
     "plot_allan_deviation",
     "plot_compensation",
     "plot_msd_by_model",
+    "plot_scale_factor",
     "save_figure",
 ]
 
@@ -458,6 +461,91 @@ def plot_msd_by_model(msd, *, before=None, floor=None, ax=None, title=None):
     ax.set_xticks(positions, list(entries), rotation=30, ha="right")
     ax.set_ylabel("MSD ((°/h)²)")
     ax.grid(True, axis="y", which="both", alpha=0.3)
+    if title is not None:
+        ax.set_title(title)
+    return ax
+
+
+def plot_scale_factor(
+    input_rate, temperature, before, after=None, *, run=None, bins=10, ax=None, title=None
+):
+    """Plot the scale-factor error (ppm) against temperature, before and after compensation.
+
+    For each error, the scale-factor error of every temperature bin
+    (:func:`sklearn_ifog.metrics.scale_factor_error`): all runs pooled as a line, and with
+    several runs each run's as dots of the same colour. Bins without a scale factor (one
+    input rate only, e.g. zero) are gaps.
+
+    Parameters
+    ----------
+    input_rate : array-like of shape (n_samples,)
+        True input rate, deg/h.
+    temperature : array-like of shape (n_samples,)
+        Coil temperature, deg C.
+    before : array-like of shape (n_samples,)
+        Error before compensation, deg/h: ``rate - input_rate`` (the drift target ``y``).
+    after : array-like of shape (n_samples,), default=None
+        Error after compensation, deg/h: ``y - model.predict(X)``; None draws ``before``
+        only.
+    run : array-like of shape (n_samples,), default=None
+        Run label of each row; None: one run.
+    bins : int or array-like of float, default=10
+        Temperature bins, as for :func:`~sklearn_ifog.metrics.scale_factor_error`.
+    ax : matplotlib.axes.Axes, default=None
+        Axes to draw into; None makes a new figure.
+    title : str, default=None
+        Axes title.
+
+    Returns
+    -------
+    ax : matplotlib.axes.Axes
+
+    Raises
+    ------
+    ValueError
+        If no temperature bin has a scale factor to draw (its input rates all equal), or
+        an input is bad (as for :func:`~sklearn_ifog.metrics.scale_factor_error`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn_ifog.plotting import plot_scale_factor
+    >>> temperature = np.linspace(-40.0, 70.0, 400)
+    >>> omega = np.tile([0.0, 3.6e5, -3.6e5, 1.08e6], 100)
+    >>> before = omega * 1e-6 * (4.0 * temperature)  # 4 ppm/degC
+    >>> after = before - omega * 1e-6 * (3.9 * temperature)
+    >>> ax = plot_scale_factor(omega, temperature, before, after, bins=4)
+    >>> ax.get_legend_handles_labels()[1]
+    ['before', 'after']
+    >>> ax.get_lines()[1].get_ydata().round(1).tolist()
+    [-2.6, 0.2, 2.9, 5.7]
+    """
+    from sklearn_ifog._per_run import ALL_RUNS
+    from sklearn_ifog.metrics import scale_factor_error
+
+    errors = {"before": before} if after is None else {"before": before, "after": after}
+    tables = {
+        label: scale_factor_error(input_rate, error, temperature, run=run, bins=bins)
+        for label, error in errors.items()
+    }
+    if not any(np.isfinite(table["ppm"]).any() for table in tables.values()):
+        raise ValueError(
+            "No temperature bin has a scale factor to draw: its rows' input_rate must take at "
+            "least two values (a scale factor is the slope of the error on the input rate)."
+        )
+    if ax is None:
+        ax = _new_axes((7.0, 4.5))
+    for (label, table), color in zip(tables.items(), (_RAW_COLOR, "tab:blue"), strict=False):
+        pooled = table[table["run"] == ALL_RUNS]
+        ax.plot(pooled["temperature"], pooled["ppm"], marker="o", color=color, label=label)
+        runs = table[table["run"] != ALL_RUNS]
+        if run is not None and runs["run"].nunique() > 1:
+            ax.plot(runs["temperature"], runs["ppm"], ".", color=color, alpha=0.5)
+    ax.axhline(0.0, color="black", linewidth=0.6)
+    ax.set_xlabel("temperature (°C)")
+    ax.set_ylabel("scale-factor error (ppm)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize="small")
     if title is not None:
         ax.set_title(title)
     return ax
