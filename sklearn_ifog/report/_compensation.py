@@ -12,6 +12,7 @@ from sklearn_ifog import _table
 from sklearn_ifog._per_run import ALL_RUNS, compensation_arrays
 from sklearn_ifog.report._columns import RunColumns
 from sklearn_ifog.report._document import Report
+from sklearn_ifog.report._scale_factor import add_scale_factor, wants_scale_factor
 from sklearn_ifog.report._sections import (
     _add_allan_deviation,
     _add_calibration,
@@ -40,6 +41,8 @@ def compensation_report(
     interval=None,
     model=None,
     X=None,
+    scale_factor=None,
+    temperature_bins=10,
 ):
     """Measure a compensation and write its report (Markdown and HTML) with figures.
 
@@ -54,7 +57,12 @@ def compensation_report(
     :class:`~sklearn_ifog.CompensationPipeline`, or a meta-estimator around them), a
     "Calibration domain" section says whether rows lay outside it and what the model's
     ``uncalibrated`` policy did there, with a table per run (:func:`per_run_calibration`), and
-    the figures shade the stretches outside.
+    the figures shade the stretches outside. For rate-table data (a model fitted with
+    ``input_rate``, or ``scale_factor=True``), a "Scale factor" section: the scale-factor
+    error in ppm per temperature bin before and after compensation, its peak-to-peak over
+    temperature, the linearity and asymmetry, the residual at each input rate and a figure
+    of the ppm against temperature; the figures of the output then draw its error (output
+    minus input rate), since the input rates dwarf it.
 
     Parameters
     ----------
@@ -95,6 +103,13 @@ def compensation_report(
         a line saying so.
     X : array-like or DataFrame of shape (n_samples, n_columns), default=None
         The rows ``model`` predicted the drift from, in the order of ``columns``.
+    scale_factor : bool, default=None
+        Whether to add the "Scale factor" section, with ``columns.reference`` as the input
+        rate (deg/h) of every row; None: when ``model`` (or the model it wraps) was fitted
+        with ``input_rate``.
+    temperature_bins : int or array-like of float, default=10
+        The scale-factor section's temperature bins: a number of equal bins over the rows'
+        range, or their edges, deg C (:func:`~sklearn_ifog.metrics.scale_factor_error`).
 
     Returns
     -------
@@ -105,7 +120,12 @@ def compensation_report(
         (list of Path), ``paths`` (``{"markdown": Path, "html": Path}``), and with a
         model that has a calibration domain ``calibration`` (the per-row
         :func:`calibration_status`) and ``calibration_table``
-        (:func:`per_run_calibration`, indexed like ``table``); both None otherwise.
+        (:func:`per_run_calibration`, indexed like ``table``); both None otherwise; and
+        ``scale_factor``: with the scale-factor section, a Bunch of its ``table`` (ppm per
+        run and temperature bin, ``ppm_before`` and ``ppm_after``; the ``"(all runs)"`` rows
+        pool the runs), ``summary`` (peak-to-peak, linearity and asymmetry in ppm, before
+        and after) and ``by_input_rate`` (the error's root mean square at each input rate,
+        deg/h, before and after), None without.
 
     Raises
     ------
@@ -114,7 +134,8 @@ def compensation_report(
     ValueError
         If ``title`` and ``report`` are both given, ``interval`` does not have one
         (lower, upper) pair per sample, ``model`` is given without ``X`` (or the
-        reverse), or ``X`` does not have one row per sample. Nothing is written then.
+        reverse), ``X`` does not have one row per sample, ``scale_factor`` is not None, True
+        or False, or ``temperature_bins`` is bad. Nothing is written then.
 
     See Also
     --------
@@ -199,6 +220,7 @@ def compensation_report(
             "give title only to start a new report, or make the report with Report(title)."
         )
     directory = Path(directory)
+    with_scale_factor = wants_scale_factor(scale_factor, model)
     run = columns.run
     table = per_run_metrics(
         rate=columns.rate,
@@ -227,6 +249,7 @@ def compensation_report(
         has_runs=run is not None,
         interval=None,
         outside=None,
+        errors=with_scale_factor,  # the figures draw output minus input rate
     )
     if interval is not None:
         _add_interval(table, data, interval, run)
@@ -243,7 +266,11 @@ def compensation_report(
     _add_summary(report, heading, data, table, data_name, bias_window, no_time, unit_table)
     if model is not None:
         _add_calibration(report, data, status, calibration_table)
-    figures = _add_compensation_figures(report, directory, data, max_runs)
+    scale = None
+    if with_scale_factor:
+        scale = add_scale_factor(report, directory, data, run, temperature_bins)
+    figures = [] if scale is None else scale.pop("figures")
+    figures += _add_compensation_figures(report, directory, data, max_runs)
     figures += _add_allan_deviation(report, directory, data)
     if model_metadata:
         _add_model(report, model_metadata)
@@ -256,6 +283,7 @@ def compensation_report(
         paths=paths,
         calibration=status,
         calibration_table=calibration_table,
+        scale_factor=scale,
     )
 
 

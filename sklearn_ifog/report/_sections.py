@@ -139,15 +139,23 @@ def _add_compensation_figures(report, directory, data, max_runs):
     report.add_heading("Raw and compensated output", level=3)
     if len(shown) < len(labels):
         report.add_paragraph(f"The first {len(shown)} of {len(labels)} runs are drawn.")
+    # rate-table data: the input rates dwarf the drift, so draw the output's error instead
+    errors = data.get("errors", False)
+    offset = data.reference if errors else np.zeros_like(data.reference)
+    if errors:
+        report.add_paragraph(
+            "The input rates (the reference) dwarf the drift: the figures draw the error, "
+            "output minus input rate, before and after compensation."
+        )
     for index, label in enumerate(shown):
         rows_of_run = data.segments[label]
         outside = None if data.outside is None else data.outside[rows_of_run]
         ax, _ = plot_compensation(
             data.time[rows_of_run] - data.time[rows_of_run][0],
-            data.rate[rows_of_run],
-            data.compensated[rows_of_run],
+            data.rate[rows_of_run] - offset[rows_of_run],
+            data.compensated[rows_of_run] - offset[rows_of_run],
             data.temperature[rows_of_run],
-            reference=data.reference[rows_of_run],
+            reference=(data.reference - offset)[rows_of_run],
             interval=None if data.interval is None else data.interval[rows_of_run],
             outside=outside,
             title=f"run {label}" if data.has_runs else None,
@@ -158,10 +166,12 @@ def _add_compensation_figures(report, directory, data, max_runs):
         shaded = ""
         if outside is not None and outside.any():
             shaded = "; shaded where the rows lie outside the calibration domain"
+        what = "error (output minus input rate)" if errors else "output"
         report.add_figure(
             path,
-            f"Run {label}: raw (grey) and compensated output{band}, reference (dashed) and "
-            f"temperature (red, right axis){shaded}.",
+            f"Run {label}: raw (grey) and compensated {what}{band}, "
+            f"{'zero' if errors else 'reference'} (dashed) and temperature (red, right "
+            f"axis){shaded}.",
         )
     return figures
 
