@@ -105,14 +105,33 @@ def _outside_lines(status, runs, run_name, units=None, unit_name=None):
     return lines
 
 
-def _compensate_frame(model, metadata, model_path, data_path):
-    """(frame, columns, X, rate, drift) for a model and a CSV, everything validated."""
+def _compensate_frame(model, metadata, model_path, data_path, *, estimate_input_rate=False):
+    """(frame, columns, X, rate, drift) for a model and a CSV, everything validated.
+
+    With ``estimate_input_rate``, a scale-factor model (fitted with ``--input-rate``)
+    estimates every row's input rate from the output (:meth:`~sklearn_ifog.
+    CompensationPipeline.compensate`; the file may lack the input-rate column, the output
+    then stands in for it in X) and the drift is the output minus that estimate.
+    """
     columns = Columns.from_metadata(metadata, model_path)
     frame = read_csv(data_path)
-    X, _ = model_input(frame, columns, data_path)
+    if columns.input_rate is None or not estimate_input_rate:
+        X, _ = model_input(frame, columns, data_path)
+        return (
+            frame,
+            columns,
+            X,
+            read_rate(frame, columns, data_path),
+            _predict(model, X, data_path),
+        )
     rate = read_rate(frame, columns, data_path)
-    drift = _predict(model, X, data_path)
-    return frame, columns, X, rate, drift
+    X, _ = model_input(frame, columns, data_path, stand_in=rate)
+    try:
+        with _outside_reported_per_run():
+            estimate = np.asarray(model.compensate(X, rate), dtype=np.float64)
+    except (ValueError, TypeError) as error:
+        raise InputError(f"{data_path}: {one_line(error)}") from None
+    return frame, columns, X, rate, rate - estimate
 
 
 def command_compensate(args):
@@ -122,7 +141,9 @@ def command_compensate(args):
     model_path, data_path = Path(args.model), Path(args.data)
     check_output_parent(args.output)
     model, metadata = load_model(model_path)
-    frame, columns, X, rate, drift = _compensate_frame(model, metadata, model_path, data_path)
+    frame, columns, X, rate, drift = _compensate_frame(
+        model, metadata, model_path, data_path, estimate_input_rate=True
+    )
     for option, name in (
         ("--drift-column", args.drift_column),
         ("--compensated-column", args.compensated_column),
@@ -185,6 +206,19 @@ def command_compensate(args):
         f"Compensated {len(output)} rows of {data_path}; wrote {args.output} with columns "
         f"{', '.join(repr(name) for name in added)} added."
     )
+    if columns.input_rate is not None:
+        stood_in = (
+            ""
+            if columns.input_rate in frame.columns
+            else (
+                f"; the file has no {columns.input_rate!r} column, the output stood in for it in "
+                "the calibration check"
+            )
+        )
+        print(
+            f"The model learnt the scale factor: {args.compensated_column!r} is the estimated "
+            f"input rate (rate - bias) / (1 + scale-factor error), deg/h{stood_in}."
+        )
     if status is not None:
         runs = None if columns.run is None else frame[columns.run].to_numpy()
         units = None if columns.unit is None else frame[columns.unit].to_numpy()

@@ -112,7 +112,9 @@ def _fit_columns(args):
         raise InputError("--latitude needs --azimuth COL (the azimuth of each row, degrees)")
     if args.latitude is not None and not -90.0 <= args.latitude <= 90.0:
         raise InputError(f"--latitude must be in [-90, 90] degrees, got {args.latitude:g}")
+    _check_input_rate(args)
     columns = Columns(
+        input_rate=args.input_rate,
         temperature=args.temperature,
         time=args.time,
         run=args.run,
@@ -127,6 +129,26 @@ def _fit_columns(args):
     if args.reference is None and args.latitude is None:
         columns.defaulted.add("--reference")
     return columns
+
+
+def _check_input_rate(args):
+    """--input-rate: a column of its own, for one pipeline (no --unit, no --interval)."""
+    if args.input_rate is None:
+        return
+    for option, given in (("--unit", args.unit), ("--interval", args.interval)):
+        if given is not None:
+            raise InputError(
+                f"--input-rate (a scale-factor model) does not take {option} yet; fit one "
+                f"model on the rate-table data without {option}"
+            )
+    roles = [("--rate", args.rate or "rate"), ("--time", args.time), ("--run", args.run)]
+    roles += [("--temperature", name) for name in args.temperature]
+    for option, name in roles:
+        if name == args.input_rate:
+            raise InputError(
+                f"--input-rate {args.input_rate!r} is also the {option} column; it must be the "
+                "column of the true input rate (the rate table's, deg/h)"
+            )
 
 
 def _build_pipeline(columns, args):
@@ -146,6 +168,7 @@ def _build_pipeline(columns, args):
         time=columns.time,
         run=columns.run,
         terms=None if args.terms is None else tuple(args.terms),
+        input_rate=columns.input_rate,
     )
     if columns.unit is None:
         return pipeline
@@ -335,8 +358,27 @@ def command_fit(args):
         f"\nFitted {what} on {X.shape[0]} rows of {path}: training MSD "
         f"{msd_before:.3g} -> {msd_after:.3g} (deg/h)^2 (reduction {msd_before / msd_after:.3g}x)."
     )
+    if columns.input_rate is not None:
+        _print_scale_factor(frame, columns, X, target, prediction, path)
     print(f"Wrote the model to {args.output}")
     return EXIT_OK
+
+
+def _print_scale_factor(frame, columns, X, target, prediction, path):
+    """One line: the training rows' scale-factor error over temperature, before and after."""
+    from sklearn_ifog.metrics import scale_factor_peak_to_peak
+
+    omega = X[columns.input_rate].to_numpy(dtype=np.float64)
+    temperature = X[columns.temperature[0]].to_numpy(dtype=np.float64)
+    runs = None if columns.run is None else _labels(frame, columns.run, "--run", path)
+    before, after = (
+        scale_factor_peak_to_peak(omega, error, temperature, run=runs)
+        for error in (target, target - prediction)
+    )
+    print(
+        f"Scale-factor error over temperature (peak-to-peak of 10 bins, training rows): "
+        f"{before:.3g} -> {after:.3g} ppm."
+    )
 
 
 def _quiet_units(model):

@@ -125,8 +125,10 @@ class Columns:
         latitude=None,
         azimuth=None,
         unit=None,
+        input_rate=None,
     ):
         self.temperature = list(temperature)
+        self.input_rate = input_rate
         self.unit = unit
         self.time = time
         self.run = run
@@ -139,7 +141,10 @@ class Columns:
 
     def as_dict(self):
         names = ("temperature", "time", "run", "rate", "reference", "latitude", "azimuth", "unit")
-        return {name: getattr(self, name) for name in names}
+        stored = {name: getattr(self, name) for name in names}
+        if self.input_rate is not None:  # a bias-only model's metadata stays as it was
+            stored["input_rate"] = self.input_rate
+        return stored
 
     def role(self, option):
         """Where a column name came from, for messages: the command line or the model."""
@@ -162,8 +167,9 @@ class Columns:
         return columns
 
     def model_columns(self):
-        """The columns the fitted model reads, in order (the unit column first, if any)."""
-        extra = [name for name in (self.time, self.run) if name is not None]
+        """The columns the fitted model reads, in order (the unit column first, if any; the
+        input rate last, if any)."""
+        extra = [name for name in (self.time, self.run, self.input_rate) if name is not None]
         unit = [] if self.unit is None else [self.unit]
         return [*unit, *self.temperature, *extra]
 
@@ -171,9 +177,17 @@ class Columns:
         return self.reference is not None or self.latitude is not None
 
 
-def model_input(frame, columns, path):
-    """Validate and select the pipeline's input columns; return (X, runs)."""
+def model_input(frame, columns, path, *, stand_in=None):
+    """Validate and select the pipeline's input columns; return (X, runs).
+
+    A model fitted with ``--input-rate`` reads that column too; where the file lacks it and
+    ``stand_in`` (the gyro output) is given, the output stands in for the input rate.
+    """
     roles = [(columns.role("--temperature"), name) for name in columns.temperature]
+    if columns.input_rate is not None and (
+        stand_in is None or columns.input_rate in frame.columns
+    ):
+        roles.append((columns.role("--input-rate"), columns.input_rate))
     if columns.time is not None:
         roles.append((columns.role("--time"), columns.time))
     if columns.run is not None:
@@ -183,7 +197,14 @@ def model_input(frame, columns, path):
     require_columns(frame, roles, path)
     if columns.unit is not None:
         _labels(frame, columns.unit, columns.role("--unit"), path)
-    X = frame[columns.model_columns()].copy()
+    names = columns.model_columns()
+    X = frame[[name for name in names if name != columns.input_rate]].copy()
+    if columns.input_rate is not None:
+        if columns.input_rate in frame.columns:
+            rates = _numeric(frame, columns.input_rate, columns.role("--input-rate"), path)
+        else:
+            rates = np.asarray(stand_in, dtype=np.float64)
+        X[columns.input_rate] = rates  # last, as model_columns() puts it
     for name in columns.temperature:
         X[name] = _numeric(frame, name, columns.role("--temperature"), path)
     runs = None

@@ -100,6 +100,13 @@ def _add_fit(commands):
     )
     fit.add_argument("--azimuth", metavar="COL", help="azimuth of the sensitive axis, deg")
     fit.add_argument(
+        "--input-rate",
+        metavar="COL",
+        help="true input rate column (deg/h) of rate-table data, usually the --reference "
+        "column: learn the scale factor too, the drift as bias + input rate x scale-factor "
+        "error, both over temperature; 'compensate' then writes the estimated input rate",
+    )
+    fit.add_argument(
         "--groups",
         metavar="COL",
         help="column whose values form the CV folds (default for --cv unit: 'unit'; "
@@ -168,7 +175,10 @@ def _add_compensate(commands):
         "temperatures, rates and thermal states the model was calibrated on; its "
         "prediction there follows the model's uncalibrated policy) and 'calibration_distance' "
         "(decorrelated standard deviations from the calibrated box), and print one line "
-        "per run with rows outside.",
+        "per run with rows outside. For a model fitted with --input-rate (a scale factor), "
+        "the compensated column is the estimated input rate (rate - bias) / (1 + "
+        "scale-factor error), deg/h, and the drift column rate minus it; the file needs no "
+        "input-rate column (the output stands in for it in the calibration check).",
     )
     compensate.add_argument("model", metavar="MODEL")
     compensate.add_argument("data", metavar="DATA.csv")
@@ -196,7 +206,9 @@ def _add_report(commands):
         "and compensated output with the temperature, the Allan deviation; for a model "
         "that knows its calibration domain, the rows outside it per run (share, largest "
         "distance, degrees C beyond the calibrated temperatures), what the model did there, "
-        "and those stretches shaded in the figures.",
+        "and those stretches shaded in the figures. For a model fitted with --input-rate, a "
+        "scale-factor section: ppm per temperature bin before and after, its peak-to-peak, "
+        "linearity, asymmetry and the residual at each input rate.",
     )
     report.add_argument("model", metavar="MODEL")
     report.add_argument("data", metavar="DATA.csv")
