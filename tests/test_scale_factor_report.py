@@ -175,7 +175,9 @@ def test_cli_input_rate_round_trip(rate_table, fitted, tmp_path, capsys):
     rate_table.drop(columns="reference").to_csv(field, index=False)
     out = tmp_path / "out.csv"
     assert main(["compensate", str(model_path), str(field), "-o", str(out)]) == 0
-    assert "estimated input rate" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "'compensated' is the estimated input rate" in printed
+    assert "no 'reference' column, the output stood in for it" in printed
     written = pd.read_csv(out)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", OutsideCalibrationWarning)
@@ -184,6 +186,11 @@ def test_cli_input_rate_round_trip(rate_table, fitted, tmp_path, capsys):
     np.testing.assert_allclose(
         written["drift"], rate_table["rate"] - expected, rtol=1e-12, atol=1e-9
     )
+    # with the true input rate in the file: the same estimate (the output's alone)
+    full_out = tmp_path / "full_out.csv"
+    assert main(["compensate", str(model_path), str(data), "-o", str(full_out)]) == 0
+    assert "stood in" not in capsys.readouterr().out
+    np.testing.assert_allclose(pd.read_csv(full_out)["compensated"], written["compensated"])
     # within the noise of the input rate: the scale factor is taken out
     assert np.sqrt(np.mean((written["compensated"] - rate_table["reference"]) ** 2)) < 0.1
 
