@@ -10,7 +10,9 @@ of the final regressor is read by :mod:`sklearn_ifog._output_layer`.
 Every float goes through ``float(...)`` of a float64, so ``json`` (which writes ``repr``)
 and the C generator (``repr`` / ``%.9g``) keep round-trip precision.
 
-Schema (version 7; version 6 named the policy's key ``"outside"``, now ``"uncalibrated"`` as
+Schema (version 8; version 7 had no ``"scale_factor"``, which version 8 writes only for a
+pipeline fitted with ``input_rate``, so a version-7 document means what it meant: the drift
+is the prediction; version 6 named the policy's key ``"outside"``, now ``"uncalibrated"`` as
 the pipeline's parameter; version 5 ended "clip" on the temperature clamp, where the row
 could stay outside the widened box; version 4 had the margin where version 5 has the calibrated
 threshold, and no boost; version 3 no rate term in the domain (``"rate_columns"``...),
@@ -18,7 +20,7 @@ version 2 no ``"domain"``, version 1 an EMA ``smoothing`` in samples and its ``a
 
     {
       "schema": "sklearn-ifog-pipeline",
-      "schema_version": 7,
+      "schema_version": 8,
       "generator": "sklearn-ifog <version>",
       "features": {
         "op": "thermal_features",
@@ -37,8 +39,10 @@ version 2 no ``"domain"``, version 1 an EMA ``smoothing`` in samples and its ``a
       "n_features": int,             # features entering the first step
       "n_outputs": int,
       "single_output": bool,         # the Pipeline predicts a 1-D array
-      "domain": <domain> | null      # a CompensationPipeline's calibration domain and
+      "domain": <domain> | null,     # a CompensationPipeline's calibration domain and
                                      # uncalibrated policy; null for a plain Pipeline
+      "scale_factor": <scale_factor> # only for a pipeline fitted with input_rate (absent
+                                     # otherwise: the prediction is the drift)
     }
 
 Each step is ``{"name", "class", "op", "n_inputs", "n_outputs", ...}`` with ``op``:
@@ -133,6 +137,26 @@ prediction ``y``; rows outside follow ``uncalibrated``:
   stays in the widened box) and in every temperature range.
 - ``"none"``: ``y``.
 
+With a scale factor (:mod:`sklearn_ifog.scale_factor`, a
+:class:`~sklearn_ifog.pipeline.CompensationPipeline` fitted with ``input_rate``), the two
+outputs (``n_outputs`` 2, and the fallback's) are the bias ``b`` (deg/h) and the
+scale-factor error ``s`` (dimensionless), the policy applied to the pair as to any two
+outputs::
+
+    {
+      "input_rate": <column name or position>,   # the input rate's column of the fit, deg/h
+      "input_rate_unit": "deg/h",
+      "outputs": ["bias", "scale_factor"],        # the meaning of the two outputs
+      "input_rate_range": [<low>, <high>],        # the calibrated input rates, deg/h
+      "slack": <float>                            # share of max(|low|, |high|)
+    }
+
+A gyro output ``rate`` stands for the input rate ``(rate - b) / (1 + s)``; the drift at a
+known input rate ``w`` is ``b + w * s``. An input rate (the output standing in for it when
+it is not known) is beyond the calibrated ones, and the row outside the calibration (the
+flag only: the policy reads the domain's distance alone), when it is below ``low - d`` or
+above ``high + d``, ``d = slack * max(|low|, |high|)``.
+
 The feature rules are those of :class:`sklearn_ifog.ThermalFeatures`. Per sensor and per
 time constant ``tau`` of ``time_constants``, a deficit ``e`` (the temperature minus its
 first-order lag) is carried: ``e = 0`` at a run's first row, then at each sample, with
@@ -171,9 +195,10 @@ from sklearn_ifog._contract import (
 from sklearn_ifog._output_layer import layer_kind, read_layer, supported_names
 from sklearn_ifog.features import ThermalFeatures
 from sklearn_ifog.policy import BlendWithFallback, policy_for
+from sklearn_ifog.scale_factor import INPUT_RATE_UNIT
 
 SCHEMA_NAME = "sklearn-ifog-pipeline"
-SCHEMA_VERSION = 7
+SCHEMA_VERSION = 8
 
 
 def _floats(values):
@@ -420,7 +445,7 @@ def describe_pipeline(pipeline):
     }
     _check_finite(spec, _step_label(name, regressor))
     described.append(spec)
-    return {
+    spec = {
         "schema": SCHEMA_NAME,
         "schema_version": SCHEMA_VERSION,
         "generator": f"sklearn-ifog {_version.__version__}",
@@ -431,6 +456,10 @@ def describe_pipeline(pipeline):
         "single_output": single_output,
         "domain": describe_domain(pipeline, n_features, n_outputs),
     }
+    scale = describe_scale_factor(pipeline, n_outputs)
+    if scale is not None:  # absent for the bias alone: a version-7 document's meaning
+        spec["scale_factor"] = scale
+    return spec
 
 
 def _check_chain(name, step, width):
@@ -552,3 +581,63 @@ def describe_domain(pipeline, n_features, n_outputs):
     _check_finite(numbers_only, "the calibration domain")
     _check_finite({**spec["fallback"], "column": None}, "the calibration domain's fallback")
     return spec
+
+
+def describe_scale_factor(pipeline, n_outputs):
+    """The ``"scale_factor"`` entry of the schema: None unless fitted with ``input_rate``.
+
+    Parameters
+    ----------
+    pipeline : sklearn.pipeline.Pipeline
+        Fitted; a :class:`~sklearn_ifog.pipeline.CompensationPipeline` with ``input_rate``
+        predicts the bias and the scale-factor error (:mod:`sklearn_ifog.scale_factor`).
+    n_outputs : int
+        The outputs of its final step (2 with a scale factor).
+
+    Returns
+    -------
+    scale_factor : dict or None
+        See the module docstring.
+
+    Raises
+    ------
+    ValueError
+        If the pipeline was fitted with ``input_rate`` but does not predict two outputs or
+        has no calibrated input-rate range (``input_rate_range_``).
+
+    Examples
+    --------
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn_ifog import make_compensation_pipeline
+    >>> from sklearn_ifog.datasets import make_thermal_campaign
+    >>> X, y = make_thermal_campaign(
+    ...     n_units=1, n_runs=1, sampling_period=120.0, random_state=0, return_X_y=True
+    ... )
+    >>> omega = 3600.0 * (X.index.to_numpy() % 3 - 1) * 100.0  # -100, 0, 100 deg/s
+    >>> X = X.assign(reference=omega)
+    >>> model = make_compensation_pipeline(LinearRegression(), input_rate="reference")
+    >>> model = model.fit(X, y + 1e-4 * omega)
+    >>> entry = describe_scale_factor(model, n_outputs=2)
+    >>> entry["input_rate"], entry["outputs"], entry["input_rate_range"], entry["slack"]
+    ('reference', ['bias', 'scale_factor'], [-360000.0, 360000.0], 0.05)
+    >>> describe_scale_factor(model[:], n_outputs=2) is None  # a plain Pipeline
+    True
+    """
+    column = getattr(pipeline, "input_rate", None)
+    if column is None:
+        return None
+    check_is_fitted(pipeline, "input_rate_range_")
+    bounds = pipeline.input_rate_range_
+    if n_outputs != 2 or bounds is None or not np.all(np.isfinite(bounds)):
+        raise ValueError(
+            f"Cannot export the scale factor: a pipeline fitted with input_rate={column!r} "
+            f"predicts 2 outputs (bias, scale factor) within a finite input_rate_range_, got "
+            f"{n_outputs} output(s) and input_rate_range_={bounds!r}; refit it."
+        )
+    return {
+        "input_rate": _column(column),
+        "input_rate_unit": INPUT_RATE_UNIT,
+        "outputs": ["bias", "scale_factor"],
+        "input_rate_range": _floats(bounds),
+        "slack": float(_tuning.INPUT_RATE_SLACK),
+    }

@@ -14,7 +14,7 @@ def to_json(pipeline, path):
     languages: the ThermalFeatures rules (sensor columns, time column, terms, the smoothing
     and the lags' time constants in seconds, time unit), then every step in order with its
     operation and parameters, under a ``"schema"`` name and a ``"schema_version"``
-    (currently 7), and for a :class:`~sklearn_ifog.pipeline.CompensationPipeline` its
+    (currently 8), and for a :class:`~sklearn_ifog.pipeline.CompensationPipeline` its
     calibration domain and ``uncalibrated`` policy (``"domain"``; null for a plain Pipeline).
     Per sensor and per time constant ``tau`` of ``time_constants``, the
     deficit ``e`` of the temperature ``u`` behind its first-order lag is 0 at a run's first
@@ -50,6 +50,17 @@ def to_json(pipeline, path):
     policies are those of :meth:`~sklearn_ifog.pipeline.CompensationPipeline.predict`,
     written out in ``sklearn_ifog/_description.py`` (``"blend"`` weighs by this distance,
     ``"clip"`` projects by the box's term alone).
+
+    A pipeline fitted with ``input_rate`` (a scale factor, issue 44) predicts two outputs, the
+    bias ``b`` (deg/h) and the scale-factor error ``s`` (dimensionless), the policy and its
+    fallback acting on that pair; its document adds ``"scale_factor"``: the ``input_rate``
+    column, ``input_rate_unit`` (``"deg/h"``), ``outputs`` (``["bias",
+    "scale_factor"]``), the calibrated ``input_rate_range`` (deg/h) and the ``slack`` (a share
+    of its larger magnitude). A gyro output ``rate`` stands for the input rate ``(rate - b) /
+    (1 + s)``; the drift at a known input rate ``w`` is ``b + w * s``; an input rate (the
+    output standing in for it) below ``low - d`` or above ``high + d``, ``d = slack *
+    max(|low|, |high|)``, is outside the calibration too. A document without the entry (every
+    bias-only model, and every document of schema version 7) predicts the drift.
 
     Parameters
     ----------
@@ -88,7 +99,7 @@ def to_json(pipeline, path):
     >>> with tempfile.TemporaryDirectory() as directory:
     ...     spec = json.loads(to_json(model, Path(directory) / "model.json").read_text())
     >>> spec["schema_version"], [step["op"] for step in spec["steps"]], spec["domain"]
-    (7, ['linear'], None)
+    (8, ['linear'], None)
 
     A CompensationPipeline also writes where it was calibrated:
 
