@@ -16,6 +16,7 @@ from sklearn_ifog.export._c_parts import (
     adaptation_parts,
     domain_parts,
     features_body,
+    scale_parts,
     state_parts,
 )
 from sklearn_ifog.export._c_steps import RENDERERS
@@ -64,6 +65,7 @@ def render_c(
     header, source : str
         The contents of ``{prefix}.h`` and ``{prefix}.c``.
     """
+    _check_scale_factor(spec, adapt)
     writer = Writer(prefix, precision)
     steps = spec["steps"]
     buffers = ["features"] + [f"x{k}" for k in range(1, len(steps))] + ["drift"]
@@ -114,8 +116,21 @@ def render_c(
         else "",
         **domain,
         **adaptation,
+        **scale_parts(spec, prefix),
     }
     return HEADER.substitute(fields), SOURCE.substitute(fields)
+
+
+def _check_scale_factor(spec, adapt):
+    """Refuse ``adapt`` for a model with a scale factor (the recalibration learns a drift)."""
+    scale = spec.get("scale_factor")
+    if scale is not None and adapt is not None:
+        raise ValueError(
+            f"adapt={adapt!r} is not available for a pipeline fitted with input_rate="
+            f"{scale['input_rate']!r}: the online recalibration learns rate - reference as a "
+            "bias-only drift, where a scale-factor model's is b + input_rate * s. Use "
+            "adapt=None (refit on new rate-table data to recalibrate)."
+        )
 
 
 def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, forgetting=0.999):
@@ -159,6 +174,21 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
     the policy and does not update the recalibration, and the ``"bias"`` offset is added
     after the policy (the rule of :class:`~sklearn_ifog.streaming.StreamingCompensator`).
 
+    A pipeline fitted with ``input_rate`` (a scale factor, issue 44) predicts the pair of the
+    bias ``b`` (deg/h) and the scale-factor error ``s``: ``{prefix}_step``, ``{prefix}_batch``
+    and ``{prefix}_predict_features`` give that pair (``{PREFIX}_N_OUTPUTS`` is 2), the
+    domain's policy applied to it as ``predict`` does (``"blend"`` with the two-output
+    fallback, ``"clip"`` at the projected row); ``{PREFIX}_HAS_SCALE_FACTOR`` is 1 and
+    ``{PREFIX}_INPUT_RATE_LOW`` / ``_HIGH`` / ``_SLACK`` hold the calibrated input rates.
+    ``{prefix}_compensate(&state, time, temperature, rate, compensated)`` takes one gyro
+    output and gives the input rate it stands for, ``(rate - b) / (1 + s)``
+    (``pipeline.compensate``); ``{prefix}_drift_at(&state, time, temperature, input_rate,
+    drift)`` the drift ``b + s * input_rate`` at a known input rate (``pipeline.predict``);
+    after either, ``state.last_outside`` is also 1 when the output (or the known input
+    rate) lies beyond the calibrated input rates (``outside_calibration``; the policy reads
+    the domain alone), and ``{prefix}_beyond_input_rates`` makes that test alone. Without
+    ``input_rate`` nothing of this is written.
+
     Parameters
     ----------
     pipeline : sklearn.pipeline.Pipeline or CompensationPipeline
@@ -174,7 +204,8 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
         A C identifier: prefix of every generated name and the files' base name.
     adapt : {None, "bias", "output"}, default=None
         Online recalibration (see :class:`~sklearn_ifog.streaming.StreamingCompensator`);
-        needs ``precision="double"`` (the initial covariance spans eight orders of
+        not with a pipeline fitted with ``input_rate`` (a ``ValueError``); needs
+        ``precision="double"`` (the initial covariance spans eight orders of
         magnitude: single precision cannot carry it).
     forgetting : float, default=0.999
         Forgetting factor of the recalibration, in (0, 1].
@@ -190,8 +221,9 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
         If a step is of a type the exporter does not know (the message names the step).
     ValueError
         On a bad ``precision`` or ``prefix``, a first step that is not ThermalFeatures, a
-        parameter that is not finite, or a CompensationPipeline whose ``uncalibrated`` or
-        ``margin`` is not one it could predict with.
+        parameter that is not finite, a CompensationPipeline whose ``uncalibrated`` or
+        ``margin`` is not one it could predict with, or ``adapt`` with a pipeline fitted
+        with ``input_rate``.
 
     Examples
     --------
@@ -238,6 +270,7 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
             "covariance factor is updated in double."
         )
     spec = describe_pipeline(pipeline)
+    _check_scale_factor(spec, adapt)
     prior, degree = None, None
     if adapt is not None or forgetting != 0.999:
         # The compensator's checks of adapt and forgetting, and its initial weights and

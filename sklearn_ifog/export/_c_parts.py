@@ -1,7 +1,8 @@
 """The parts of the generated C that depend on the model beyond its steps: the
-ThermalFeatures front end (its body and the state's lags), the calibration domain, and the
-online recalibration; each returns the text :func:`sklearn_ifog.export._c.render_c` puts
-into the templates (:mod:`sklearn_ifog.export._templates`)."""
+ThermalFeatures front end (its body and the state's lags), the calibration domain, the
+online recalibration and the scale factor; each returns the text
+:func:`sklearn_ifog.export._c.render_c` puts into the templates
+(:mod:`sklearn_ifog.export._templates`)."""
 
 import math
 
@@ -46,7 +47,15 @@ from sklearn_ifog.export._templates._domain import (
     TEMPERATURE_DEFINE,
     TEMPERATURE_NOVELTY,
 )
+from sklearn_ifog.export._templates._scale import (
+    SCALE_DEFINE,
+    SCALE_FUNCTIONS,
+    SCALE_OUTPUT_NOTE,
+    SCALE_PROTOTYPES,
+)
 from sklearn_ifog.export._templates._source import (
+    COMPENSATE_FUNCTION,
+    COMPENSATE_PROTOTYPE,
     LAG_COEFFICIENTS,
     LAG_DECLARATIONS,
     LAG_DEFINE,
@@ -54,6 +63,7 @@ from sklearn_ifog.export._templates._source import (
     LAG_RESET,
     LAG_TABLE_COMMENT,
     LAG_UPDATE,
+    OUTPUT_NOTE,
     PREDICT_EVALUATE,
     PREDICT_GUARDED,
     RECORD_DOMAIN,
@@ -311,7 +321,7 @@ def domain_parts(writer, spec, prefix, adapt):
             description=fragment.description,
             temperature_note=temperature_note,
             rate_note=rate_note,
-            adapt_note="" if adapt is None else f" (or {prefix}_adapt)",
+            adapt_note=_state_note(spec, prefix, adapt),
         ),
         "domain_fields": DOMAIN_FIELDS.substitute(names),
         "domain_reset": DOMAIN_RESET,
@@ -321,6 +331,13 @@ def domain_parts(writer, spec, prefix, adapt):
         "predict_features_body": PREDICT_GUARDED.substitute(names),
         "policy_note": POLICY_NOTE,
     }
+
+
+def _state_note(spec, prefix, adapt):
+    """The other functions after which the state holds the last sample's flag."""
+    if spec.get("scale_factor") is not None:
+        return f" (or {prefix}_drift_at)"
+    return "" if adapt is None else f" (or {prefix}_adapt)"
 
 
 def _record(domain, call):
@@ -412,4 +429,36 @@ def adaptation_parts(writer, spec, prefix, adapt, forgetting, prior, degree):
         "adapt_init": ADAPT_INIT.substitute(names),
         "adapt_functions": "".join(functions),
         "step_drift": STEP_ADAPTED.substitute(names, record=_record(domain, drift_call)),
+    }
+
+
+def scale_parts(spec, prefix):
+    """The header's output note and defines, and ``{prefix}_compensate``'s prototypes and
+    functions: the drift model's, or with a ``"scale_factor"`` entry the input rate's
+    (``{prefix}_compensate``, ``{prefix}_drift_at``, ``{prefix}_beyond_input_rates``)."""
+    names = {"prefix": prefix, "PREFIX": prefix.upper()}
+    scale = spec.get("scale_factor")
+    if scale is None:
+        return {
+            "output_note": OUTPUT_NOTE.substitute(names, n_outputs=spec["n_outputs"]),
+            "scale_define": "",
+            "compensate_prototype": COMPENSATE_PROTOTYPE.substitute(names),
+            "compensate_function": COMPENSATE_FUNCTION.substitute(names),
+        }
+    low, high = (float(value) for value in scale["input_rate_range"])
+    # The slack in deg/h, as the pipeline computes it (share times the larger magnitude).
+    slack = scale["slack"] * max(abs(low), abs(high))
+    return {
+        "output_note": SCALE_OUTPUT_NOTE.substitute(
+            names, column=c_comment(repr(scale["input_rate"]))
+        ),
+        "scale_define": SCALE_DEFINE.substitute(
+            names,
+            share=f"{scale['slack']:g}",
+            low=format_c_literal(low),
+            high=format_c_literal(high),
+            slack=format_c_literal(slack),
+        ),
+        "compensate_prototype": SCALE_PROTOTYPES.substitute(names),
+        "compensate_function": SCALE_FUNCTIONS.substitute(names),
     }

@@ -20,8 +20,7 @@ $pipeline_lines
  * Inputs of one sample: time in seconds$time_note, and the temperature in degC of each
  * of the $n_sensors sensor column(s), in this order: $sensor_list.
  * Features ($n_features): $feature_list.
- * Output: the predicted drift in deg/h ($n_outputs value(s)); compensated rate = rate - drift.
-$domain_comment *
+$output_note$domain_comment *
  * Use: ${prefix}_init(&state) once; ${prefix}_reset(&state) at the start of every run (recording);
  * then ${prefix}_step(&state, time, temperature, drift) for each sample, in time order.
  */
@@ -31,7 +30,7 @@ $domain_comment *
 #define ${PREFIX}_N_SENSORS $n_sensors
 #define ${PREFIX}_N_FEATURES $n_features
 #define ${PREFIX}_N_OUTPUTS $n_outputs
-$domain_define$lag_define$adapt_define
+$domain_define$lag_define$adapt_define$scale_define
 typedef $real ${prefix}_real;
 
 /* Everything the compensator remembers between samples of one run. */
@@ -55,12 +54,7 @@ void ${prefix}_step(
     ${prefix}_state *state, double time, const double temperature[${PREFIX}_N_SENSORS],
     ${prefix}_real drift[${PREFIX}_N_OUTPUTS]);
 
-/* One sample: compensated[k] = rate[k] - drift[k] (deg/h). */
-void ${prefix}_compensate(
-    ${prefix}_state *state, double time, const double temperature[${PREFIX}_N_SENSORS],
-    const ${prefix}_real rate[${PREFIX}_N_OUTPUTS],
-    ${prefix}_real compensated[${PREFIX}_N_OUTPUTS]);
-
+$compensate_prototype
 /* A whole run at once: time[n_samples]$time_null, temperature[n_samples * N_SENSORS]
  * (row-major: all sensors of sample 0, then of sample 1, ...),
  * drift[n_samples * N_OUTPUTS] (row-major). */
@@ -153,19 +147,7 @@ void ${prefix}_step(
     ${prefix}_features(state, time, temperature, features);
 $step_drift}
 
-void ${prefix}_compensate(
-    ${prefix}_state *state, double time, const double temperature[${PREFIX}_N_SENSORS],
-    const ${prefix}_real rate[${PREFIX}_N_OUTPUTS],
-    ${prefix}_real compensated[${PREFIX}_N_OUTPUTS])
-{
-    ${prefix}_real drift[${PREFIX}_N_OUTPUTS];
-    int output;
-    ${prefix}_step(state, time, temperature, drift);
-    for (output = 0; output < ${PREFIX}_N_OUTPUTS; ++output) {
-        compensated[output] = rate[output] - drift[output];
-    }
-}
-
+$compensate_function
 void ${prefix}_batch(
     long n_samples, const double time[], const double temperature[], ${prefix}_real drift[])
 {
@@ -237,4 +219,38 @@ RECORD_DOMAIN = Template(
 PREDICT_EVALUATE = Template("    ${prefix}_evaluate(row, drift);\n")
 PREDICT_GUARDED = Template(
     "    double distance;\n    (void)${prefix}_guarded(row, drift, &distance);\n"
+)
+
+# The output line of the header's comment, ``{prefix}_compensate``'s prototype and its body,
+# for a model that predicts the drift (a scale factor's are in ``_scale``).
+OUTPUT_NOTE = Template(
+    " * Output: the predicted drift in deg/h ($n_outputs value(s)); "
+    "compensated rate = rate - drift.\n"
+)
+
+COMPENSATE_PROTOTYPE = Template(
+    """\
+/* One sample: compensated[k] = rate[k] - drift[k] (deg/h). */
+void ${prefix}_compensate(
+    ${prefix}_state *state, double time, const double temperature[${PREFIX}_N_SENSORS],
+    const ${prefix}_real rate[${PREFIX}_N_OUTPUTS],
+    ${prefix}_real compensated[${PREFIX}_N_OUTPUTS]);
+"""
+)
+
+COMPENSATE_FUNCTION = Template(
+    """\
+void ${prefix}_compensate(
+    ${prefix}_state *state, double time, const double temperature[${PREFIX}_N_SENSORS],
+    const ${prefix}_real rate[${PREFIX}_N_OUTPUTS],
+    ${prefix}_real compensated[${PREFIX}_N_OUTPUTS])
+{
+    ${prefix}_real drift[${PREFIX}_N_OUTPUTS];
+    int output;
+    ${prefix}_step(state, time, temperature, drift);
+    for (output = 0; output < ${PREFIX}_N_OUTPUTS; ++output) {
+        compensated[output] = rate[output] - drift[output];
+    }
+}
+"""
 )
