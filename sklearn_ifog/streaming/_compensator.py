@@ -41,6 +41,7 @@ from sklearn_ifog.streaming._recalibration import (
     check_adaptation,
     recalibration_prior,
 )
+from sklearn_ifog.streaming._scale_factor import input_rates_of
 from sklearn_ifog.streaming._state import new_state, restored_state, saved_state, start_run
 
 _ONE = np.ones(1)
@@ -179,6 +180,21 @@ class StreamingCompensator:
     the policy to the recalibrated network (``"clip"``: the recalibrated network at the
     domain's edge; ``"blend"``: the recalibrated network blended with the fallback line).
 
+    Scale factor: built from a pipeline fitted with ``input_rate`` (issue 44: it predicts
+    the bias ``b`` and the scale-factor error ``s`` of every sample,
+    :mod:`sklearn_ifog.scale_factor`), the compensator takes one gyro output per sample and
+    its ``compensated`` output is the input rate that output stands for, ``(rate - b) / (1 +
+    s)``, equal to the batch ``pipeline.compensate(X, rate)`` (1e-12 relative), the domain's
+    policy applied to the pair ``[b, s]`` as there; ``drift`` is ``rate - compensated``
+    (``b + s`` times the input rate). :attr:`last_outside` also flags a sample whose output
+    lies beyond the calibrated input rates (the output standing in for the input rate, as in
+    ``compensate``). :meth:`update` without ``rate``, on rows holding the input-rate column,
+    gives ``pipeline.predict``'s drift ``b + Ω s`` at that input rate (and its flags); rows
+    with ``rate`` need no input-rate column. :meth:`step` needs ``rate``. ``adapt`` and a
+    ConformalRegressor are not available with a scale factor (a ``ValueError`` naming
+    ``adapt`` and ``input_rate``): the recalibration learns ``rate - reference`` as a
+    bias-only drift, and the band is calibrated on the drift.
+
     A call that raises (bad input) leaves the state exactly as it was.
 
     Parameters
@@ -193,6 +209,7 @@ class StreamingCompensator:
         ``predict_interval`` (each fold model with its own domain and policy, as there).
     adapt : {None, "bias", "output"}, default=None
         Online recalibration from the samples given a ``reference`` (None: none). Not with
+        a pipeline fitted with ``input_rate`` (a ``ValueError``, see above), nor with
         a :class:`~sklearn_ifog.ConformalRegressor` (a ``ValueError``): its band is
         calibrated on the out-of-fold residuals of the fitted model, and says nothing of a
         recalibrated one; recalibrate its ``estimator_`` (a plain Pipeline) instead.
@@ -218,7 +235,8 @@ class StreamingCompensator:
     n_sensors : int
         Temperature sensors per sample.
     n_outputs : int
-        Outputs (gyro axes) the Pipeline predicts.
+        Outputs (gyro axes) the Pipeline predicts (1 with a scale factor: one gyro output in,
+        its input rate out).
     compiled : bool
         Whether the steps after ThermalFeatures were compiled (else scikit-learn evaluates
         them).
@@ -290,6 +308,21 @@ class StreamingCompensator:
     ...     batch = model.predict(cold)
     >>> bool(np.allclose(drift, batch, rtol=1e-12, atol=1e-12))
     True
+
+    Scale factor: a model calibrated on a rate table (the input rates, deg/h, in a column
+    ``reference``; here a scale-factor error of 200 ppm) turns each gyro output into its
+    input rate, as the batch ``compensate`` does, from rows without that column.
+
+    >>> table = X.assign(reference=3.6e5 * (np.arange(len(X)) % 3 - 1.0))
+    >>> output = table["reference"] * (1 + 2e-4) + y
+    >>> model = make_compensation_pipeline(LinearRegression(), input_rate="reference")
+    >>> model = model.fit(table, output - table["reference"])
+    >>> estimate, drift = StreamingCompensator(model).update(X, rate=output)
+    >>> bool(np.allclose(estimate, model.compensate(X, output), rtol=1e-12, atol=0))
+    True
+    >>> error = output - table["reference"]  # the output's error at 100 deg/s, deg/h
+    >>> round(float(error[2]), 1), round(float(estimate[2] - table["reference"][2]), 2)
+    (72.1, -0.01)
     """
 
     def __init__(self, pipeline, *, adapt=None, forgetting=0.999):
@@ -300,6 +333,8 @@ class StreamingCompensator:
         self._last_where = (None, None)
         self.conformal, pipeline = _unwrap(pipeline, adapt)
         features = _thermal_step(pipeline)
+        # A scale factor (input_rate): the pair [b, s] made the input rate (None: the bias).
+        self._scale = input_rates_of(pipeline, adapt, self.conformal is not None)
         spec = _feature_spec(features)
         self.pipeline = pipeline
         self.adapt = adapt
@@ -344,6 +379,8 @@ class StreamingCompensator:
             probe = np.asarray(self._rest.predict(self._frame(np.zeros((1, n_features)))))
             self._single_output = probe.ndim == 1
             self.n_outputs = 1 if probe.ndim == 1 else probe.shape[1]
+        if self._scale is not None:  # one gyro output in, its input rate out
+            self.n_outputs, self._single_output = 1, True
 
     @property
     def last_outside(self):
@@ -455,7 +492,9 @@ class StreamingCompensator:
         -------
         compensated : float or ndarray of shape (n_outputs,) or None
             ``rate - drift`` (None when ``rate`` is None); a Python float for a single
-            output.
+            output. With a scale factor, the input rate ``(rate - b) / (1 + s)`` (``rate``
+            is needed: a ``ValueError`` without it) and ``drift`` is ``rate -
+            compensated``.
         drift : float or ndarray of shape (n_outputs,)
             Predicted drift, deg/h (before this sample's own update; outside the
             calibration domain, under the pipeline's ``uncalibrated`` policy). Sets
@@ -508,6 +547,11 @@ class StreamingCompensator:
             distance, outside = domain.row_where(row)
             if outside and not domain.policy.keeps_model:
                 drift = self._row_policy(row, drift, distance, rls, fast)
+        if self._scale is not None:  # drift: the pair [b, s]
+            compensated, drift, beyond = self._scale.row(drift, rates)
+            self._last_where = (outside or beyond, distance)
+            self.state = {**state, **feature_state, "rls": rls}
+            return compensated, drift
         if adapt == "bias":
             base = drift
             bias = rls.weights[0]
@@ -645,7 +689,11 @@ class StreamingCompensator:
         Returns
         -------
         compensated : ndarray or None
-            ``rate - drift`` (None when ``rate`` is None).
+            ``rate - drift`` (None when ``rate`` is None). With a scale factor, the input rate
+            ``(rate - b) / (1 + s)``, as ``pipeline.compensate(X, rate)`` (``X`` needs no
+            input-rate column), and ``drift`` is ``rate - compensated``; without ``rate``,
+            ``X`` holds the input-rate column and ``drift`` is ``pipeline.predict(X)``'s
+            ``b + Ω s``.
         drift : ndarray of shape (n_samples,) or (n_samples, n_outputs)
             Predicted drift, deg/h, as ``pipeline.predict`` gives it, its
             ``uncalibrated`` policy included (each sample's before its own update). Sets
@@ -662,6 +710,9 @@ class StreamingCompensator:
         # errors as ``pipeline.predict``.
         thermal = self._thermal
         X = _table.as_table(X)
+        omega = None
+        if self._scale is not None:  # X with the input-rate column, or its input rates
+            X, rate, omega = self._scale.table(X, rate, thermal)
         if hasattr(thermal, "n_features_in_"):
             validate_data(thermal, X, reset=False, skip_check_array=True)
         spec = self._features
@@ -670,9 +721,9 @@ class StreamingCompensator:
         )
         rates = None if rate is None else number_array(rate, "rate", "deg/h")
         references = None if reference is None else reference_values(reference)
-        return self._advance(temperature, time, run, rates, references)
+        return self._advance(temperature, time, run, rates, references, omega)
 
-    def _advance(self, temperature, time, run, rate, reference):
+    def _advance(self, temperature, time, run, rate, reference, omega=None):
         spec = self._features
         n_samples = temperature.shape[0]
         time, reference, has_reference = check_chunk(
@@ -706,6 +757,11 @@ class StreamingCompensator:
             if domain is not None:
                 base = domain.apply(features, base, distance, outside, evaluate)
         rls = state["rls"]
+        if self._scale is not None:  # base: the pairs [b, s] (no adapt, no band)
+            compensated, drift, beyond = self._scale.rows(base, rate, omega)
+            self.state, self.last_interval = state, None
+            self._last_where = (outside | beyond, distance)
+            return compensated, drift
         if self.adapt is None:
             drift = base
         else:
