@@ -536,9 +536,10 @@ def rbf_thermal_campaign(seed, quick=False):
 
 # -- bench_scale_factor --
 
-#: How far bench_scale_factor's units stray from their lot's design: a production lot of one
-#: design, so that a unit held out is one of the lot's kind.
-RATE_TABLE_LOT_SPREAD = 0.1
+#: How far bench_scale_factor's units stray from their lot's design: the similar lot of
+#: bench_unitwise (a production lot of one design), so that a unit held out is one of the
+#: lot's kind, as far from the others as bench_unitwise's similar units are.
+RATE_TABLE_LOT_SPREAD = 0.15
 
 
 def make_rate_table_campaign(*args, **kwargs):

@@ -63,6 +63,7 @@ from sklearn.linear_model import LinearRegression
 
 from sklearn_ifog import ThermalFeatures, UnitwiseRegressor, make_compensation_pipeline
 from sklearn_ifog.domain import OutsideCalibrationWarning
+from sklearn_ifog.metrics import scale_factor_error
 
 from _cases import SEEDS, rate_table_campaign, rate_table_lot  # isort: skip
 from _results import add_out_argument, command_line, publish  # isort: skip
@@ -123,24 +124,24 @@ def make_model(name):
 
 def peak_to_peak(frame, residual):
     """The residual scale-factor error's peak-to-peak over temperature, ppm: per run, over
-    its 5 degC bins, the largest over the runs. (TEMPORARY local version.)"""
-    omega = frame["reference"].to_numpy()
-    T = frame["temperature"].to_numpy()
-    runs = frame["run"].to_numpy()
-    spans = []
-    for run in np.unique(runs):
-        rows = runs == run
-        bins = np.floor(T[rows] / BIN_WIDTH)
-        values = []
-        for b in np.unique(bins):
-            k = bins == b
-            o, e = omega[rows][k], residual[rows][k]
-            if np.ptp(o) == 0:
-                continue
-            A = np.column_stack([np.ones(k.sum()), o])
-            values.append(np.linalg.lstsq(A, e, rcond=None)[0][1] * 1e6)
-        spans.append(np.ptp(values))
-    return float(max(spans))
+    its 5 degC bins of the coil sensor (:func:`~sklearn_ifog.metrics.scale_factor_error`),
+    the largest over the runs."""
+    temperature = frame["temperature"].to_numpy()
+    edges = np.arange(
+        np.floor(temperature.min() / BIN_WIDTH) * BIN_WIDTH,
+        temperature.max() + BIN_WIDTH,
+        BIN_WIDTH,
+    )
+    table = scale_factor_error(
+        frame["reference"].to_numpy(),
+        residual,
+        temperature,
+        run=frame["run"].to_numpy(),
+        bins=edges,
+    )
+    per_run = table[table["run"] != "(all runs)"]
+    spans = per_run.groupby("run")["ppm"].agg(lambda ppm: np.nanmax(ppm) - np.nanmin(ppm))
+    return float(spans.max())
 
 
 def folds(frame, split):

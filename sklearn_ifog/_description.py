@@ -148,14 +148,15 @@ outputs::
       "input_rate_unit": "deg/h",
       "outputs": ["bias", "scale_factor"],        # the meaning of the two outputs
       "input_rate_range": [<low>, <high>],        # the calibrated input rates, deg/h
-      "slack": <float>                            # share of max(|low|, |high|)
+      "slack": <float>,                           # share of max(|low|, |high|)
+      "asymmetry": <float>                        # a: positive minus negative inputs / 2
     }
 
-A gyro output ``rate`` stands for the input rate ``(rate - b) / (1 + s)``; the drift at a
-known input rate ``w`` is ``b + w * s``. An input rate (the output standing in for it when
-it is not known) is beyond the calibrated ones, and the row outside the calibration (the
-flag only: the policy reads the domain's distance alone), when it is below ``low - d`` or
-above ``high + d``, ``d = slack * max(|low|, |high|)``.
+A gyro output ``rate`` stands for the input rate ``(rate - b) / (1 + s + a sign(rate -
+b))``; the drift at a known input rate ``w`` is ``b + w * s + a |w|``. An input rate (the
+output standing in for it when it is not known) is beyond the calibrated ones, and the row
+outside the calibration (the flag only: the policy reads the domain's distance alone), when
+it is below ``low - d`` or above ``high + d``, ``d = slack * max(|low|, |high|)``.
 
 The feature rules are those of :class:`sklearn_ifog.ThermalFeatures`. Per sensor and per
 time constant ``tau`` of ``time_constants``, a deficit ``e`` (the temperature minus its
@@ -640,4 +641,5 @@ def describe_scale_factor(pipeline, n_outputs):
         "outputs": ["bias", "scale_factor"],
         "input_rate_range": _floats(bounds),
         "slack": float(_tuning.INPUT_RATE_SLACK),
+        "asymmetry": float(pipeline.asymmetry_),
     }

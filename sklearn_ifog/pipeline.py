@@ -36,7 +36,7 @@ from sklearn_ifog._output_layer import (
     write_weights,
 )
 from sklearn_ifog._table import as_float_rows, as_table, label_column
-from sklearn_ifog._tuning import HANDOVER_FOLDS, INPUT_RATE_SLACK, ROUNDOFF_SHARE
+from sklearn_ifog._tuning import HANDOVER_FOLDS, ROUNDOFF_SHARE
 from sklearn_ifog.domain import (
     CalibrationDomain,
     OutsideCalibrationWarning,
@@ -851,9 +851,7 @@ class CompensationPipeline(Pipeline):
         larger calibrated magnitude; all False without ``input_rate``)."""
         if self.input_rate_range_ is None:
             return np.zeros(np.shape(omega), dtype=bool)
-        low, high = self.input_rate_range_
-        slack = INPUT_RATE_SLACK * max(abs(low), abs(high))
-        return (omega < low - slack) | (omega > high + slack)
+        return scale_factor.beyond_input_rates(omega, *self.input_rate_range_)
 
     def _warn_input_rates(self, omega):
         beyond = self._beyond_input_rates(omega)

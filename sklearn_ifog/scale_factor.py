@@ -27,6 +27,7 @@ from scipy.optimize import nnls
 
 from sklearn_ifog import _table
 from sklearn_ifog._output_layer import read_layer
+from sklearn_ifog._tuning import INPUT_RATE_SLACK
 
 __all__ = [
     "INPUT_RATE_UNIT",
@@ -35,6 +36,7 @@ __all__ = [
     "PreliminaryFit",
     "ProductFit",
     "RateNoise",
+    "beyond_input_rates",
     "check_input_rate",
     "drift_of",
     "fit_product_layer",
@@ -63,13 +65,43 @@ _LAYER_ITERATIONS = 10
 
 
 class RateNoise(NamedTuple):
-    """The rows' noise model: variance ``sigma0**2 + (kappa * input_rate)**2``."""
+    """The rows' noise model: variance ``sigma0**2 + (kappa * input_rate)**2``.
+
+    Parameters
+    ----------
+    sigma0 : float
+        The noise at zero input rate, deg/h (the bias noise).
+    kappa : float
+        How the noise grows with the input rate (dimensionless: deg/h per deg/h), what a
+        thermal model of the scale factor leaves of it.
+
+    Examples
+    --------
+    >>> noise = RateNoise(sigma0=0.01, kappa=1e-6)  # at 1e4 deg/h the variance doubles
+    >>> noise.weights([0.0, 1e4]).round(3).tolist()
+    [1.333, 0.667]
+    """
 
     sigma0: float
     kappa: float
 
     def weights(self, omega):
-        """Row weights ``1 / variance``, scaled to mean 1."""
+        """Row weights ``1 / variance``, scaled to mean 1.
+
+        Parameters
+        ----------
+        omega : array-like of shape (n_samples,)
+            The rows' input rates, deg/h.
+
+        Returns
+        -------
+        weights : ndarray of shape (n_samples,)
+
+        Examples
+        --------
+        >>> RateNoise(sigma0=1.0, kappa=1e-3).weights([0.0, 1e3]).tolist()
+        [1.3333333333333333, 0.6666666666666666]
+        """
         variance = self.sigma0**2 + (self.kappa * np.asarray(omega, dtype=np.float64)) ** 2
         weights = 1.0 / variance
         return weights / weights.mean()
@@ -96,9 +128,21 @@ def _omega_scale(omega):
 class ProductFit(NamedTuple):
     """A fitted output layer of ``b(x) + Ω s(x) + a |Ω|`` (:func:`fit_product_layer`).
 
-    ``weights``: ``W`` of shape (n_columns, 2), ``b``'s then ``s``'s (dimensionless), in
-    :func:`~sklearn_ifog._output_layer.layer_weights`' order; ``asymmetry``: the constant
-    ``a`` (dimensionless); ``noise``: the :class:`RateNoise` of its residuals.
+    Parameters
+    ----------
+    weights : ndarray of shape (n_columns, 2)
+        ``b``'s weights, then ``s``'s (dimensionless), in
+        :func:`~sklearn_ifog._output_layer.layer_weights`' order.
+    asymmetry : float
+        The constant ``a`` (dimensionless).
+    noise : RateNoise
+        The noise model of its residuals.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> ProductFit(np.zeros((3, 2)), 1e-5, RateNoise(0.01, 0.0)).asymmetry
+    1e-05
     """
 
     weights: np.ndarray
@@ -107,8 +151,25 @@ class ProductFit(NamedTuple):
 
 
 class PreliminaryFit(NamedTuple):
-    """:func:`preliminary_fit`'s result: ``bias`` (deg/h) and ``scale_factor`` at every
-    row, the ``asymmetry`` and the rows' ``noise``."""
+    """:func:`preliminary_fit`'s result.
+
+    Parameters
+    ----------
+    bias : ndarray of shape (n_samples,)
+        ``b0`` at every row, deg/h.
+    scale_factor : ndarray of shape (n_samples,)
+        ``s0`` at every row (dimensionless).
+    asymmetry : float
+        The constant ``a`` (dimensionless).
+    noise : RateNoise
+        The noise model of its residuals.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> PreliminaryFit(np.zeros(2), np.full(2, 1e-4), 0.0, RateNoise(0.01, 0.0)).bias.shape
+    (2,)
+    """
 
     bias: np.ndarray
     scale_factor: np.ndarray
@@ -331,6 +392,14 @@ def proxy_targets(y, omega, first):
     Returns
     -------
     Y : ndarray of shape (n_samples, 2)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> omega = np.array([0.0, 1e6])
+    >>> first = PreliminaryFit(np.zeros(2), np.full(2, 1e-4), 0.0, RateNoise(0.01, 1e-7))
+    >>> proxy_targets(np.array([0.5, 110.0]), omega, first).tolist()
+    [[0.5, 0.0001], [0.0, 0.00011]]
     """
     noise = first.noise
     low = np.abs(noise.kappa * omega) <= noise.sigma0
@@ -393,6 +462,20 @@ def fit_product_layer(Phi, y, omega, penalty=None):
 def drift_of(prediction, omega, asymmetry=0.0):
     """The drift at the input rate ``omega``: ``b + Ω s + a |Ω|`` from a ``[b, s]`` prediction.
 
+    Parameters
+    ----------
+    prediction : array-like of shape (n_samples, 2)
+        The bias ``b`` (deg/h) and the scale-factor error ``s`` of every row.
+    omega : array-like of shape (n_samples,)
+        The input rates, deg/h.
+    asymmetry : float, default=0.0
+        The constant asymmetry ``a``.
+
+    Returns
+    -------
+    drift : ndarray of shape (n_samples,)
+        deg/h.
+
     Examples
     --------
     >>> import numpy as np
@@ -412,6 +495,20 @@ def input_rate_estimate(prediction, rate, asymmetry=0.0):
     The inverse of :func:`drift_of`: ``rate - b = Ω (1 + s + a sign Ω)``, and ``rate - b``
     has the sign of ``Ω`` (``1 + s ± a`` is positive).
 
+    Parameters
+    ----------
+    prediction : array-like of shape (n_samples, 2)
+        The bias ``b`` (deg/h) and the scale-factor error ``s`` of every row.
+    rate : array-like of shape (n_samples,)
+        The gyro outputs, deg/h.
+    asymmetry : float, default=0.0
+        The constant asymmetry ``a``.
+
+    Returns
+    -------
+    input_rate : ndarray of shape (n_samples,)
+        deg/h.
+
     Examples
     --------
     >>> import numpy as np
@@ -425,8 +522,51 @@ def input_rate_estimate(prediction, rate, asymmetry=0.0):
     return excess / (1.0 + prediction[:, 1] + asymmetry * np.sign(excess))
 
 
+def beyond_input_rates(omega, low, high, slack=INPUT_RATE_SLACK):
+    """Whether input rates lie beyond the calibrated ``[low, high]`` (deg/h).
+
+    Beyond by more than ``slack`` times the larger calibrated magnitude (``omega < low - d``
+    or ``omega > high + d``): the rule of
+    :meth:`~sklearn_ifog.pipeline.CompensationPipeline.outside_calibration` with
+    ``input_rate``, of streaming and, in the same arithmetic, of the C export.
+
+    Parameters
+    ----------
+    omega : float or ndarray
+        Input rates, deg/h.
+    low, high : float
+        The calibrated input rates' extremes, deg/h (``input_rate_range_``).
+    slack : float, default=0.05
+        Share of ``max(|low|, |high|)`` that still counts as calibrated.
+
+    Returns
+    -------
+    beyond : bool or ndarray of bool
+        In the shape of ``omega``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> beyond_input_rates(np.array([0.0, 1.1e6, 1.2e6, -1.2e6]), -1.08e6, 1.08e6).tolist()
+    [False, False, True, True]
+    """
+    margin = slack * max(abs(low), abs(high))
+    return (omega < low - margin) | (omega > high + margin)
+
+
 def input_rate_of(X, column):
     """The input-rate column ``column`` of ``X`` as float64 (deg/h), checked.
+
+    Parameters
+    ----------
+    X : {ndarray, pandas.DataFrame, polars.DataFrame}
+        The rows.
+    column : str or int
+        The column's name or position.
+
+    Returns
+    -------
+    omega : ndarray of shape (n_samples,)
 
     Raises
     ------
@@ -456,12 +596,25 @@ def layer_penalty(final):
 
     An RBF network's Gaussian weights take its ``alpha``, its tail's its ``tail_alpha`` (its
     ``alpha`` when that is ``"auto"``), the intercept none; a linear model's columns none.
-    In :func:`fit_product_layer`'s convention (standardised targets, rows of mean weight 1).
+    In :func:`fit_product_layer`'s convention (relative to each column's information).
+
+    Parameters
+    ----------
+    final : RBFNetRegressor or linear regressor
+        Fitted.
 
     Returns
     -------
     penalty : ndarray of shape (n_columns,)
         In the order of :func:`~sklearn_ifog._output_layer.layer_design`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.linear_model import LinearRegression
+    >>> X = np.arange(6.0).reshape(3, 2)
+    >>> layer_penalty(LinearRegression().fit(X, X[:, 0])).tolist()
+    [0.0, 0.0, 0.0]
     """
     layer = read_layer(final)
     if layer.kind != "rbf_network":

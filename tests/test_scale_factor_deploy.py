@@ -30,19 +30,21 @@ from sklearn_ifog._tuning import INPUT_RATE_SLACK
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.domain import OutsideCalibrationWarning
 from sklearn_ifog.export import to_c, to_c_units, to_json
+from sklearn_ifog.scale_factor import beyond_input_rates
 from sklearn_ifog.streaming import StreamingCompensator
-from sklearn_ifog.streaming._scale_factor import beyond_input_rates
 
 CC = shutil.which("cc")
 RTOL = 1e-12
 POLICIES = ["blend", "clip", "none"]
 # The turntable's steps, deg/h (0, ±1, ±10, ±100, ±300 deg/s), two samples each.
 RATES = np.array([0, 1, -1, 10, -10, 100, -100, 300, -300]) * 3600.0
+ASYMMETRY = 15e-6
 
 
 def _rate_table(seed, temperature_range, n_runs, rates=RATES, first_run=0):
     """Rows with an input-rate column ``reference`` (deg/h), the drift ``y`` and the gyro
-    output ``rate = reference + y`` (a scale factor of about 4 ppm/degC)."""
+    output ``rate = reference + y`` (a scale factor of about 4 ppm/degC and an asymmetry of
+    15 ppm between positive and negative inputs, so the exports' sign branch is exercised)."""
     X, y = make_thermal_campaign(
         n_units=1,
         n_runs=n_runs,
@@ -57,7 +59,7 @@ def _rate_table(seed, temperature_range, n_runs, rates=RATES, first_run=0):
     T = X["temperature"].to_numpy()
     s = 1e-6 * (4.0 * (T - 15.0) + 0.02 * (T - 15.0) ** 2)
     X = X.assign(run=X["run"] + first_run, reference=omega)
-    y = y.to_numpy() + omega * s
+    y = y.to_numpy() + omega * s + ASYMMETRY * np.abs(omega)
     return X, y, omega + y
 
 
@@ -184,7 +186,9 @@ def test_schema_carries_the_scale_factor(calibration, tmp_path):
         "outputs": ["bias", "scale_factor"],
         "input_rate_range": [low, high],
         "slack": INPUT_RATE_SLACK,
+        "asymmetry": model.asymmetry_,
     }
+    assert model.asymmetry_ == pytest.approx(ASYMMETRY, rel=0.02)
     assert (low, high) == (RATES.min(), RATES.max())
     # A bias-only pipeline writes no entry (a version-7 document's meaning).
     bias_only = make_compensation_pipeline(LinearRegression()).fit(*calibration)
@@ -213,8 +217,12 @@ def test_json_reproduces_compensate_and_predict(name, policy, calibration, trial
 
     omega = frame[scale["input_rate"]].to_numpy()
     expected = _expected(model, frame, rate)
-    _assert_close((rate - pair[:, 0]) / (1.0 + pair[:, 1]), expected["compensated"], 1e-10)
-    _assert_close(pair[:, 0] + omega * pair[:, 1], expected["drift"], 1e-10)
+    a = scale["asymmetry"]
+    excess = rate - pair[:, 0]
+    _assert_close(
+        excess / (1.0 + pair[:, 1] + a * np.sign(excess)), expected["compensated"], 1e-10
+    )
+    _assert_close(pair[:, 0] + omega * pair[:, 1] + a * np.abs(omega), expected["drift"], 1e-10)
     np.testing.assert_array_equal(outside | beyond(rate), expected["compensate_outside"])
     np.testing.assert_array_equal(outside | beyond(omega), expected["drift_outside"])
 

@@ -458,6 +458,7 @@ def scale_parts(spec, prefix):
             low=format_c_literal(low),
             high=format_c_literal(high),
             slack=format_c_literal(slack),
+            asymmetry=format_c_literal(float(scale.get("asymmetry", 0.0))),
         ),
         "compensate_prototype": SCALE_PROTOTYPES.substitute(names),
         "compensate_function": SCALE_FUNCTIONS.substitute(names),

@@ -10,41 +10,10 @@ known input rate ``Ω``) and flags the input rates beyond the calibrated ones, a
 """
 
 from sklearn_ifog import _table, scale_factor
-from sklearn_ifog._tuning import INPUT_RATE_SLACK
+from sklearn_ifog.scale_factor import beyond_input_rates
 from sklearn_ifog.streaming._inputs import number_array
 
-__all__ = ["InputRates", "beyond_input_rates", "input_rates_of"]
-
-
-def beyond_input_rates(omega, low, high, slack=INPUT_RATE_SLACK):
-    """Whether input rates lie beyond the calibrated ``[low, high]`` (deg/h).
-
-    Beyond by more than ``slack`` times the larger calibrated magnitude: the rule of
-    :meth:`~sklearn_ifog.pipeline.CompensationPipeline.outside_calibration` with
-    ``input_rate``, in the same arithmetic (``omega < low - d`` or ``omega > high + d``).
-
-    Parameters
-    ----------
-    omega : float or ndarray
-        Input rates, deg/h.
-    low, high : float
-        The calibrated input rates' extremes, deg/h (``input_rate_range_``).
-    slack : float, default=0.05
-        Share of ``max(|low|, |high|)`` that still counts as calibrated.
-
-    Returns
-    -------
-    beyond : bool or ndarray of bool
-        In the shape of ``omega``.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> beyond_input_rates(np.array([0.0, 1.1e6, 1.2e6, -1.2e6]), -1.08e6, 1.08e6).tolist()
-    [False, False, True, True]
-    """
-    margin = slack * max(abs(low), abs(high))
-    return (omega < low - margin) | (omega > high + margin)
+__all__ = ["InputRates", "input_rates_of"]
 
 
 class InputRates:
@@ -56,12 +25,15 @@ class InputRates:
         The pipeline's ``input_rate`` column.
     low, high : float
         The calibrated input rates, deg/h (``input_rate_range_``).
+    asymmetry : float, default=0.0
+        The pipeline's ``asymmetry_``: the drift is ``b + Ω s + a |Ω|``.
     """
 
-    def __init__(self, column, low, high):
+    def __init__(self, column, low, high, asymmetry=0.0):
         self.column = column
         self.low = float(low)
         self.high = float(high)
+        self.asymmetry = float(asymmetry)
 
     def beyond(self, omega):
         """:func:`beyond_input_rates` with the calibrated range."""
@@ -75,8 +47,9 @@ class InputRates:
         """
         if rate is None:
             raise self._needs_rate("step")
-        bias, scale = float(pair[0]), float(pair[1])
-        estimate = (rate - bias) / (1.0 + scale)
+        excess = rate - float(pair[0])
+        sign = (excess > 0) - (excess < 0)
+        estimate = excess / (1.0 + float(pair[1]) + self.asymmetry * sign)
         return estimate, rate - estimate, bool(self.beyond(rate))
 
     def rows(self, pairs, rate, omega):
@@ -88,9 +61,9 @@ class InputRates:
         ``b + Ω s`` at the rows' input rate ``omega`` (``pipeline.predict``'s), no input rate.
         """
         if rate is not None:
-            estimate = scale_factor.input_rate_estimate(pairs, rate)
+            estimate = scale_factor.input_rate_estimate(pairs, rate, self.asymmetry)
             return estimate, rate - estimate, self.beyond(rate)
-        return None, scale_factor.drift_of(pairs, omega), self.beyond(omega)
+        return None, scale_factor.drift_of(pairs, omega, self.asymmetry), self.beyond(omega)
 
     def table(self, X, rate, first_step):
         """``(X, rate, omega)`` of a chunk: ``X`` with the input-rate column (the output
@@ -159,4 +132,4 @@ def input_rates_of(pipeline, adapt, conformal):
             "rate the compensator returns. Stream its estimator_ instead."
         )
     low, high = pipeline.input_rate_range_
-    return InputRates(column, low, high)
+    return InputRates(column, low, high, pipeline.asymmetry_)
