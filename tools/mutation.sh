@@ -3,7 +3,7 @@
 #
 # Usage: tools/mutation.sh MODULE [MUTANT_GLOB ...]
 #   MODULE       domain | fallback | policy | features | lags | ols | conformal |
-#                conformal_numerics
+#                conformal_numerics | scale_factor
 #   MUTANT_GLOB  optional mutmut mutant names or globs to restrict the run to a subset,
 #                e.g. 'sklearn_ifog.domain.x_fit_fallback__mutmut_*' (default: every mutant
 #                of the module)
@@ -59,12 +59,17 @@ conformal_numerics)
     source_file=sklearn_ifog/_conformal_numerics.py
     tests="tests/test_conformal.py tests/test_conformal_mutants.py"
     ;;
+scale_factor)
+    source_file=sklearn_ifog/scale_factor.py
+    # The deployment tests (C compiled per case) are left out for speed.
+    tests="tests/test_scale_factor.py"
+    ;;
 conformal)
     source_file=sklearn_ifog/conformal.py
     tests="tests/test_conformal.py tests/test_conformal_domain.py tests/test_conformal_mutants.py"
     ;;
 *)
-    echo "tools/mutation.sh: unknown module '$module' (expected domain, fallback, policy, features, lags, ols, conformal or conformal_numerics)" >&2
+    echo "tools/mutation.sh: unknown module '$module' (expected domain, fallback, policy, features, lags, ols, conformal, conformal_numerics or scale_factor)" >&2
     exit 2
     ;;
 esac
