@@ -156,7 +156,7 @@ def compensate(model, X, rate):
     if len(rate) != n_samples:
         raise ValueError(f"rate has {len(rate)} values but X has {n_samples} rows.")
     if getattr(model, "input_rate", None) is not None and hasattr(model, "compensate"):
-        # A scale-factor model: the input rate (rate - b) / (1 + s), not rate - drift.
+        # A scale-factor model: the input rate (rate - b) / (1 + s ± a), not rate - drift.
         compensated = model.compensate(X, np.asarray(rate, dtype=np.float64))
         return _named_like(rate, compensated, index)
     prediction = np.asarray(model.predict(X), dtype=np.float64)

@@ -181,9 +181,11 @@ def to_c(pipeline, directory, precision="double", prefix="ifog", *, adapt=None, 
     fallback, ``"clip"`` at the projected row); ``{PREFIX}_HAS_SCALE_FACTOR`` is 1 and
     ``{PREFIX}_INPUT_RATE_LOW`` / ``_HIGH`` / ``_SLACK`` hold the calibrated input rates.
     ``{prefix}_compensate(&state, time, temperature, rate, compensated)`` takes one gyro
-    output and gives the input rate it stands for, ``(rate - b) / (1 + s)``
-    (``pipeline.compensate``); ``{prefix}_drift_at(&state, time, temperature, input_rate,
-    drift)`` the drift ``b + s * input_rate`` at a known input rate (``pipeline.predict``);
+    output and gives the input rate it stands for, ``(rate - b) / (1 + s + a sign(rate -
+    b))`` (``pipeline.compensate``; ``a`` is ``{PREFIX}_ASYMMETRY``, the pipeline's
+    ``asymmetry_``); ``{prefix}_drift_at(&state, time, temperature, input_rate, drift)`` the
+    drift ``b + s * input_rate + a * |input_rate|`` at a known input rate
+    (``pipeline.predict``);
     after either, ``state.last_outside`` is also 1 when the output (or the known input
     rate) lies beyond the calibrated input rates (``outside_calibration``; the policy reads
     the domain alone), and ``{prefix}_beyond_input_rates`` makes that test alone. Without

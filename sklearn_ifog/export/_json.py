@@ -55,9 +55,10 @@ def to_json(pipeline, path):
     bias ``b`` (deg/h) and the scale-factor error ``s`` (dimensionless), the policy and its
     fallback acting on that pair; its document adds ``"scale_factor"``: the ``input_rate``
     column, ``input_rate_unit`` (``"deg/h"``), ``outputs`` (``["bias",
-    "scale_factor"]``), the calibrated ``input_rate_range`` (deg/h) and the ``slack`` (a share
-    of its larger magnitude). A gyro output ``rate`` stands for the input rate ``(rate - b) /
-    (1 + s)``; the drift at a known input rate ``w`` is ``b + w * s``; an input rate (the
+    "scale_factor"]``), the calibrated ``input_rate_range`` (deg/h), the ``slack`` (a share
+    of its larger magnitude) and the ``asymmetry`` ``a``. A gyro output ``rate`` stands for
+    the input rate ``(rate - b) / (1 + s + a sign(rate - b))``; the drift at a known input
+    rate ``w`` is ``b + w * s + a |w|``; an input rate (the
     output standing in for it) below ``low - d`` or above ``high + d``, ``d = slack *
     max(|low|, |high|)``, is outside the calibration too. A document without the entry (every
     bias-only model, and every document of schema version 7) predicts the drift.

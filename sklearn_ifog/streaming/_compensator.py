@@ -180,20 +180,20 @@ class StreamingCompensator:
     the policy to the recalibrated network (``"clip"``: the recalibrated network at the
     domain's edge; ``"blend"``: the recalibrated network blended with the fallback line).
 
-    Scale factor: built from a pipeline fitted with ``input_rate`` (issue 44: it predicts
-    the bias ``b`` and the scale-factor error ``s`` of every sample,
-    :mod:`sklearn_ifog.scale_factor`), the compensator takes one gyro output per sample and
-    its ``compensated`` output is the input rate that output stands for, ``(rate - b) / (1 +
-    s)``, equal to the batch ``pipeline.compensate(X, rate)`` (1e-12 relative), the domain's
-    policy applied to the pair ``[b, s]`` as there; ``drift`` is ``rate - compensated``
-    (``b + s`` times the input rate). :attr:`last_outside` also flags a sample whose output
-    lies beyond the calibrated input rates (the output standing in for the input rate, as in
-    ``compensate``). :meth:`update` without ``rate``, on rows holding the input-rate column,
-    gives ``pipeline.predict``'s drift ``b + Ω s`` at that input rate (and its flags); rows
-    with ``rate`` need no input-rate column. :meth:`step` needs ``rate``. ``adapt`` and a
-    ConformalRegressor are not available with a scale factor (a ``ValueError`` naming
-    ``adapt`` and ``input_rate``): the recalibration learns ``rate - reference`` as a
-    bias-only drift, and the band is calibrated on the drift.
+    Scale factor: built from a pipeline fitted with ``input_rate`` (issue 44: it predicts the
+    bias ``b`` and the scale-factor error ``s`` of every sample,
+    :mod:`sklearn_ifog.scale_factor`), the compensator takes one gyro output per sample and its
+    ``compensated`` output is the input rate that output stands for, ``(rate - b) / (1 + s ±
+    a)`` (``a`` the pipeline's ``asymmetry_``, with the sign of ``rate - b``), equal to the
+    batch ``pipeline.compensate(X, rate)`` (1e-12 relative), the domain's policy applied to the
+    pair ``[b, s]`` as there; ``drift`` is ``rate - compensated``. :attr:`last_outside` also
+    flags a sample whose output lies beyond the calibrated input rates (the output standing in
+    for the input rate, as in ``compensate``). :meth:`update` without ``rate``, on rows holding
+    the input-rate column, gives ``pipeline.predict``'s drift ``b + Ω s + a |Ω|`` at that input
+    rate (and its flags); rows with ``rate`` need no input-rate column. :meth:`step` needs
+    ``rate``. ``adapt`` and a ConformalRegressor are not available with a scale factor (a
+    ``ValueError`` naming ``adapt`` and ``input_rate``): the recalibration learns ``rate -
+    reference`` as a bias-only drift, and the band is calibrated on the drift.
 
     A call that raises (bad input) leaves the state exactly as it was.
 
@@ -492,7 +492,7 @@ class StreamingCompensator:
         -------
         compensated : float or ndarray of shape (n_outputs,) or None
             ``rate - drift`` (None when ``rate`` is None); a Python float for a single
-            output. With a scale factor, the input rate ``(rate - b) / (1 + s)`` (``rate``
+            output. With a scale factor, the input rate ``(rate - b) / (1 + s ± a)`` (``rate``
             is needed: a ``ValueError`` without it) and ``drift`` is ``rate -
             compensated``.
         drift : float or ndarray of shape (n_outputs,)
@@ -690,10 +690,10 @@ class StreamingCompensator:
         -------
         compensated : ndarray or None
             ``rate - drift`` (None when ``rate`` is None). With a scale factor, the input rate
-            ``(rate - b) / (1 + s)``, as ``pipeline.compensate(X, rate)`` (``X`` needs no
+            ``(rate - b) / (1 + s ± a)``, as ``pipeline.compensate(X, rate)`` (``X`` needs no
             input-rate column), and ``drift`` is ``rate - compensated``; without ``rate``,
             ``X`` holds the input-rate column and ``drift`` is ``pipeline.predict(X)``'s
-            ``b + Ω s``.
+            ``b + Ω s + a |Ω|``.
         drift : ndarray of shape (n_samples,) or (n_samples, n_outputs)
             Predicted drift, deg/h, as ``pipeline.predict`` gives it, its
             ``uncalibrated`` policy included (each sample's before its own update). Sets

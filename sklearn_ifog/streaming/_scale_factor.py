@@ -4,9 +4,9 @@ A :class:`~sklearn_ifog.pipeline.CompensationPipeline` fitted with ``input_rate`
 outputs, the bias ``b`` and the scale-factor error ``s`` (:mod:`sklearn_ifog.scale_factor`);
 the compensator applies the calibration domain's policy to that pair exactly as the batch
 path does, then :class:`InputRates` turns it into what the pipeline's ``compensate`` and
-``predict`` return (the input rate ``(rate - b) / (1 + s)``, or the drift ``b + Ω s`` at a
-known input rate ``Ω``) and flags the input rates beyond the calibrated ones, as
-``outside_calibration`` does.
+``predict`` return (the input rate ``(rate - b) / (1 + s ± a)``, or the drift
+``b + Ω s + a |Ω|`` at a known input rate ``Ω``) and flags the input rates beyond the
+calibrated ones, as ``outside_calibration`` does.
 """
 
 from sklearn_ifog import _table, scale_factor
@@ -58,7 +58,8 @@ class InputRates:
         With ``rate`` (the gyro output, shape ``(n_samples,)``): the input rate it stands
         for, ``pipeline.compensate``'s, the drift ``rate - input rate``, and the output
         standing in for the input rate in the calibration check. Without it: the drift
-        ``b + Ω s`` at the rows' input rate ``omega`` (``pipeline.predict``'s), no input rate.
+        ``b + Ω s + a |Ω|`` at the rows' input rate ``omega`` (``pipeline.predict``'s), no
+        input rate.
         """
         if rate is not None:
             estimate = scale_factor.input_rate_estimate(pairs, rate, self.asymmetry)
