@@ -22,6 +22,7 @@ from sklearn_ifog import scale_factor as sf
 from sklearn_ifog.compensation import compensate
 from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.domain import OutsideCalibrationWarning
+from sklearn_ifog.persistence import load_model, save_model
 
 RATES = np.array([0, 1, -1, 10, -10, 100, -100, 300, -300]) * 3600.0
 
@@ -263,6 +264,21 @@ def test_bad_input_is_named(table):
         fitted.predict(X.drop(columns="reference"))
     with pytest.raises(ValueError, match="one finite gyro output per row"):
         fitted.compensate(X, y[:-1])
+
+
+@pytest.mark.parametrize("fmt", ["joblib", "skops"])
+def test_a_scale_factor_model_saves_and_loads(table, tmp_path, fmt):
+    X, y, _, _ = table
+    model = make_compensation_pipeline(RBFNetRegressor(random_state=0), input_rate="reference")
+    model.fit(X, y)
+    path = tmp_path / f"model.{fmt}"
+    save_model(model, path)
+    loaded = load_model(path)
+    np.testing.assert_array_equal(loaded.predict(X), model.predict(X))
+    assert loaded.rate_noise_ == model.rate_noise_
+    assert loaded.asymmetry_ == model.asymmetry_
+    rate = X["reference"].to_numpy() + y
+    np.testing.assert_array_equal(loaded.compensate(X, rate), model.compensate(X, rate))
 
 
 def test_without_input_rate_nothing_changes(table):
