@@ -62,7 +62,7 @@ conformal_numerics)
 scale_factor)
     source_file=sklearn_ifog/scale_factor.py
     # The deployment tests (C compiled per case) are left out for speed.
-    tests="tests/test_scale_factor.py"
+    tests="tests/test_scale_factor.py tests/test_scale_factor_mutants.py"
     ;;
 conformal)
     source_file=sklearn_ifog/conformal.py
