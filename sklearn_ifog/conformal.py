@@ -523,7 +523,21 @@ class ConformalRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         -------
         self : object
             Fitted estimator.
+
+        Raises
+        ------
+        ValueError
+            If ``estimator`` is a scale-factor model (``input_rate`` set): its band would
+            be read from the bias and scale-factor pair its regressor predicts, which no
+            band here is calibrated for.
         """
+        if getattr(self.estimator, "input_rate", None) is not None:
+            raise ValueError(
+                "ConformalRegressor does not take a scale-factor model (input_rate="
+                f"{self.estimator.input_rate!r}): its regressor predicts the bias and the "
+                "scale-factor error, not the drift the band is calibrated on. Fit the model "
+                "alone, or a bias-only model (input_rate=None) for intervals."
+            )
         X, y, groups, unit = self._fit_input(X, y, groups)
         n_samples = y.shape[0]
         splits = self._splits(X, y, groups)

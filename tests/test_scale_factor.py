@@ -17,7 +17,12 @@ from sklearn.linear_model import LinearRegression, Ridge
 from sklearn.model_selection import GridSearchCV, GroupKFold
 from sklearn.neural_network import MLPRegressor
 
-from sklearn_ifog import RBFNetRegressor, UnitwiseRegressor, make_compensation_pipeline
+from sklearn_ifog import (
+    ConformalRegressor,
+    RBFNetRegressor,
+    UnitwiseRegressor,
+    make_compensation_pipeline,
+)
 from sklearn_ifog import scale_factor as sf
 from sklearn_ifog.compensation import compensate
 from sklearn_ifog.datasets import make_thermal_campaign
@@ -257,6 +262,8 @@ def test_bad_input_is_named(table):
         make_compensation_pipeline(LinearRegression(), input_rate="reference", handover=True).fit(
             X, y
         )
+    with pytest.raises(ValueError, match=r"ConformalRegressor does not take.*input_rate"):
+        ConformalRegressor(model).fit(X, y)
     with pytest.raises(ValueError, match="one drift target"):
         model.fit(X, np.column_stack([y, y]))
     fitted = clone(model).fit(X, y)

@@ -548,14 +548,3 @@ def test_stream_errors_name_the_problem(calibration, trial):
         compensator.update(bare.iloc[:5], np.r_[rate[:4], np.nan])
     assert compensator.get_state() == state, "a refused call changes nothing"
     assert compensator.last_outside is None
-
-
-def test_stream_refuses_a_conformal_band_around_a_scale_factor(calibration):
-    from sklearn_ifog import ConformalRegressor
-
-    X, y = calibration
-    pipeline = make_compensation_pipeline(LinearRegression(), input_rate="reference")
-    model = ConformalRegressor(pipeline).fit(X, y, groups=X["run"])
-    with pytest.raises(ValueError, match=r"ConformalRegressor around .* input_rate='reference'"):
-        StreamingCompensator(model)
-    assert StreamingCompensator(model.estimator_).n_outputs == 1  # its estimator_ streams

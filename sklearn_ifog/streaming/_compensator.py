@@ -191,9 +191,9 @@ class StreamingCompensator:
     for the input rate, as in ``compensate``). :meth:`update` without ``rate``, on rows holding
     the input-rate column, gives ``pipeline.predict``'s drift ``b + Ω s + a |Ω|`` at that input
     rate (and its flags); rows with ``rate`` need no input-rate column. :meth:`step` needs
-    ``rate``. ``adapt`` and a ConformalRegressor are not available with a scale factor (a
-    ``ValueError`` naming ``adapt`` and ``input_rate``): the recalibration learns ``rate -
-    reference`` as a bias-only drift, and the band is calibrated on the drift.
+    ``rate``. ``adapt`` is not available with a scale factor (a ``ValueError`` naming
+    ``adapt`` and ``input_rate``): the recalibration learns ``rate - reference`` as a
+    bias-only drift (and a ConformalRegressor refuses a scale-factor model at its fit).
 
     A call that raises (bad input) leaves the state exactly as it was.
 
@@ -334,7 +334,7 @@ class StreamingCompensator:
         self.conformal, pipeline = _unwrap(pipeline, adapt)
         features = _thermal_step(pipeline)
         # A scale factor (input_rate): the pair [b, s] made the input rate (None: the bias).
-        self._scale = input_rates_of(pipeline, adapt, self.conformal is not None)
+        self._scale = input_rates_of(pipeline, adapt)
         spec = _feature_spec(features)
         self.pipeline = pipeline
         self.adapt = adapt

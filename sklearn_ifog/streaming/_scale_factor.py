@@ -106,15 +106,15 @@ class InputRates:
         )
 
 
-def input_rates_of(pipeline, adapt, conformal):
+def input_rates_of(pipeline, adapt):
     """The :class:`InputRates` of a pipeline fitted with ``input_rate`` (None without one).
 
     Raises
     ------
     ValueError
         With ``adapt`` (the recalibration learns ``rate - reference`` as the drift, which
-        with a scale factor is ``b + Ω s``: not supported) or around a ConformalRegressor
-        (its band is for the drift of a bias-only model).
+        with a scale factor is ``b + Ω s + a |Ω|``: not supported). A ConformalRegressor
+        never holds a scale-factor model (its ``fit`` refuses one).
     """
     column = getattr(pipeline, "input_rate", None)
     if column is None:
@@ -125,12 +125,6 @@ def input_rates_of(pipeline, adapt, conformal):
             f"{column!r}: the online recalibration learns rate - reference as a bias-only "
             "drift, where a scale-factor model's is b + input_rate * s. Use adapt=None (refit "
             "on new rate-table data to recalibrate)."
-        )
-    if conformal:
-        raise ValueError(
-            f"A ConformalRegressor around a pipeline fitted with input_rate={column!r} is not "
-            "available for streaming: its band is calibrated on the drift, not on the input "
-            "rate the compensator returns. Stream its estimator_ instead."
         )
     low, high = pipeline.input_rate_range_
     return InputRates(column, low, high, pipeline.asymmetry_)
