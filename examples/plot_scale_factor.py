@@ -56,10 +56,12 @@ print(f"outside the calibration: {model.outside_calibration(X[test]).mean():.1%}
 # ------------------------------------------
 # In each temperature bin the scale-factor error is the least-squares slope of the error on
 # the input rate, in ppm (:func:`~sklearn_ifog.metrics.scale_factor_error`). Before
-# compensation the error is ``y = rate - reference``; after, ``y - model.predict(X)``.
+# compensation the error is ``y = rate - reference``; after, ``y - model.predict(X)``,
+# drawn again in the lower panel on its own scale.
 from sklearn_ifog.metrics import (
     residual_by_input_rate,
     scale_factor_asymmetry,
+    scale_factor_error,
     scale_factor_peak_to_peak,
 )
 from sklearn_ifog.plotting import plot_scale_factor
@@ -67,8 +69,16 @@ from sklearn_ifog.plotting import plot_scale_factor
 held = frame[test]
 omega, temperature = held["reference"].to_numpy(), held["temperature"].to_numpy()
 before, after = y[test], y[test] - drift
-plot_scale_factor(omega, temperature, before, after, title="Held-out run")
-plt.tight_layout()
+fig, (ax, ax_after) = plt.subplots(2, 1, sharex=True, figsize=(7, 6), height_ratios=(2, 1))
+plot_scale_factor(omega, temperature, before, after, ax=ax, title="Held-out run")
+ax.set_xlabel("")
+left = scale_factor_error(omega, after, temperature)
+ax_after.plot(left["temperature"], left["ppm"], marker="o", color="tab:blue")
+ax_after.axhline(0.0, color="black", linewidth=0.6)
+ax_after.set_ylabel("after (ppm)")
+ax_after.set_xlabel("temperature (°C)")
+ax_after.grid(True, alpha=0.3)
+fig.tight_layout()
 
 for name, error in (("before", before), ("after", after)):
     peak = scale_factor_peak_to_peak(omega, error, temperature)
