@@ -333,7 +333,7 @@ def checks_of(summary, lot, quick):
     return verdicts, passed
 
 
-def markdown(summary, lot, command, seeds, elapsed):
+def markdown(summary, lot, command, seeds, elapsed, verdicts):
     lines = [
         "# Scale factor over temperature (issue 44)",
         "",
@@ -387,6 +387,10 @@ def markdown(summary, lot, command, seeds, elapsed):
         f"default scale-factor pipeline fitted in {lot['seconds']:.1f} s "
         f"({lot['n_jobs']} processes).",
         "",
+        "## Verdicts",
+        "",
+        *(f"- {line}" for line in verdicts),
+        "",
     ]
     return "\n".join(lines)
 
@@ -433,7 +437,7 @@ def main(argv=None):
     publish(
         args.out,
         stem,
-        markdown(summary, lot, command, seeds, elapsed),
+        markdown(summary, lot, command, seeds, elapsed, verdicts),
         results,
         script=__file__,
         command=command,
