@@ -880,38 +880,49 @@ class CompensationPipeline(Pipeline):
         ----------
         X : iterable
             Rows in the layout of :meth:`fit` (the input-rate column may be absent).
-        rate : array-like of shape (n_samples,)
-            The gyro output, deg/h.
+        rate : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            The gyro output, deg/h (one column per output of a bias-only model that
+            predicts several, e.g. gyro axes).
 
         Returns
         -------
-        compensated : ndarray of shape (n_samples,)
+        compensated : ndarray of the shape of ``rate``
             The estimated input rate, deg/h.
 
         Raises
         ------
         ValueError
-            If ``rate`` is not one value per row of ``X`` or not finite.
+            If ``rate`` is not one finite value per row of ``X`` (and output).
         """
         values = np.asarray(rate, dtype=np.float64)
         n_samples = as_table(X).shape[0]
-        if values.shape != (n_samples,) or not np.isfinite(values).all():
+        if values.shape[:1] != (n_samples,) or not np.isfinite(values).all():
             raise ValueError(
                 f"rate must hold one finite gyro output per row of X ({n_samples}), got "
                 f"shape {values.shape}."
             )
-        if self.input_rate is not None:
-            first = self.steps[0][1]
-            X = scale_factor.with_input_rate(
-                X,
-                self.input_rate,
-                values,
-                getattr(first, "feature_names_in_", None),
-                first.n_features_in_,
-            )
-        prediction = self._policed(X)
         if self.input_rate is None:
-            return values - prediction.reshape(n_samples)
+            prediction = self._policed(X)
+            if prediction.size != values.size:
+                raise ValueError(
+                    f"rate has shape {values.shape}, the model predicts "
+                    f"{prediction.shape}: give one gyro output per row and output."
+                )
+            return values - prediction.reshape(values.shape)
+        if values.ndim != 1:
+            raise ValueError(
+                f"rate must be 1-D for a scale-factor model (one gyro output per row), got "
+                f"shape {values.shape}."
+            )
+        first = self.steps[0][1]
+        X = scale_factor.with_input_rate(
+            X,
+            self.input_rate,
+            values,
+            getattr(first, "feature_names_in_", None),
+            first.n_features_in_,
+        )
+        prediction = self._policed(X)
         self._warn_input_rates(values)
         return scale_factor.input_rate_estimate(prediction, values, self.asymmetry_)
 

@@ -297,3 +297,16 @@ def test_without_input_rate_nothing_changes(table):
     assert plain.rate_noise_ is None
     rate = X["reference"].to_numpy() + y
     np.testing.assert_array_equal(plain.compensate(X, rate), rate - plain.predict(X))
+
+
+def test_compensate_of_a_bias_only_model_of_several_outputs(table):
+    X, y, _, _ = table
+    Y = np.column_stack([y, -y])
+    model = make_compensation_pipeline(LinearRegression()).fit(X, Y)
+    rate = X[["reference"]].to_numpy() + Y
+    np.testing.assert_array_equal(model.compensate(X, rate), rate - model.predict(X))
+    with pytest.raises(ValueError, match="the model predicts"):
+        model.compensate(X, rate[:, 0])
+    scale = make_compensation_pipeline(LinearRegression(), input_rate="reference").fit(X, y)
+    with pytest.raises(ValueError, match="1-D for a scale-factor model"):
+        scale.compensate(X, rate)
