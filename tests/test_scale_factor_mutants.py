@@ -180,3 +180,67 @@ def test_beyond_input_rates_at_the_slack():
     assert flags.tolist() == [False, True, False]
     asymmetric = sf.beyond_input_rates(np.array([-0.6e6]), -0.5e6, 1e6)  # slack 5 % of 1e6
     assert asymmetric.tolist() == [True]
+
+
+def _heteroscedastic(seed):
+    """Rows whose noise grows with the input rate: 0.01 deg/h at rest, 10 deg/h at 1e6."""
+    rng = np.random.default_rng(seed)
+    omega = rng.choice([0.0, 1e4, -1e4, 1e5, -1e5, 1e6, -1e6], 9000)
+    T = rng.uniform(-1.0, 1.0, omega.size)
+    noise = rng.normal(0.0, 0.01 + 1e-5 * np.abs(omega))
+    y = 0.3 * T + 0.1 + omega * (1e-4 + 2e-5 * T) + noise
+    return np.column_stack([T, np.ones_like(T)]), y, omega
+
+
+def test_the_rows_are_weighed_by_their_rate_noise():
+    """What the model cannot hold at fast rates (here an even nonlinearity, 1e-11 Ω² (1 + T):
+    10 deg/h at 1e6 deg/h, a thousandth of that at 1e4) must not leak into the bias: weighed
+    by their rate noise, the fast rows say little of it and the bias is found to about a
+    hundredth of a deg/h; rows of equal weight would leave it off by tenths."""
+    for seed in (0, 1, 2):
+        rng = np.random.default_rng(seed)
+        omega = rng.choice([0.0, 1e4, -1e4, 1e5, -1e5, 1e6, -1e6], 9000)
+        T = rng.uniform(-1.0, 1.0, omega.size)
+        y = 0.3 * T + 0.1 + omega * (1e-4 + 2e-5 * T) + 1e-11 * omega**2 * (1 + T)
+        y = y + rng.normal(0.0, 0.01, omega.size)
+        Phi = np.column_stack([T, np.ones_like(T)])
+        fit = sf.fit_product_layer(Phi, y, omega)
+        np.testing.assert_allclose(fit.weights[:, 0], [0.3, 0.1], atol=0.02)
+        assert fit.noise.kappa > 1e-6  # the nonlinearity is seen as rate noise
+        equal = sf._product_solve(Phi, y, omega, None)[0]
+        assert np.abs(equal[:, 0] - [0.3, 0.1]).max() > 0.1
+
+
+def test_the_scale_factor_of_noisy_fast_rows():
+    Phi, y, omega = _heteroscedastic(5)
+    fit = sf.fit_product_layer(Phi, y, omega)
+    np.testing.assert_allclose(fit.weights[:, 0], [0.3, 0.1], atol=0.003)
+    np.testing.assert_allclose(fit.weights[:, 1], [2e-5, 1e-4], atol=1e-6)  # 3 sd
+    assert fit.noise.kappa == pytest.approx(1e-5, rel=0.2)
+
+
+def test_the_penalty_shrinks_the_layer():
+    Phi, y, omega = _heteroscedastic(3)
+    free = sf.fit_product_layer(Phi, y, omega, np.zeros(2))
+    shrunk = sf.fit_product_layer(Phi, y, omega, np.array([10.0, 0.0]))
+    # the penalised slope columns (T and Ω T) move towards 0, the intercepts stay free
+    assert abs(shrunk.weights[0, 0]) < 0.2 * abs(free.weights[0, 0])
+    assert abs(shrunk.weights[0, 1]) < 0.2 * abs(free.weights[0, 1])
+    np.testing.assert_allclose(shrunk.weights[1], free.weights[1], rtol=0.05)
+
+
+def test_a_modelled_asymmetry_is_no_rate_noise():
+    Phi, _, omega = _heteroscedastic(4)
+    rng = np.random.default_rng(4)
+    clean = 0.3 * Phi[:, 0] + 0.1 + omega * 1e-4 + rng.normal(0.0, 0.01, omega.size)
+    fit = sf.fit_product_layer(Phi, clean + 2e-5 * np.abs(omega), omega)
+    assert fit.asymmetry == pytest.approx(2e-5, rel=1e-3)
+    assert fit.noise.kappa < 1e-8  # what is left does not grow with the input rate
+
+
+def test_the_unit_message_gives_the_factor():
+    omega = np.tile([0.0, 3600.0, -3600.0], 10)
+    with pytest.raises(
+        ValueError, match=r"by a factor of about 1\.06: a scale-factor error of 0\.06"
+    ):
+        sf.check_input_rate(omega, 0.06 * omega, "table")
