@@ -145,6 +145,8 @@ def test_layer_penalty_of_a_network_and_of_a_linear_model():
     assert penalty[-1] == 0.0  # the intercept is never penalised
     auto = RBFNetRegressor(n_centers=5, alpha=1e-3, tail_alpha="auto", random_state=0)
     np.testing.assert_array_equal(sf.layer_penalty(auto.fit(X, y))[n_centers:-1], 1e-3)
+    untailed = RBFNetRegressor(n_centers=5, alpha=1e-3, tail=False, random_state=0).fit(X, y)
+    assert sf.layer_penalty(untailed).shape == (layer_design(untailed, X).shape[1],)
     linear = sf.layer_penalty(LinearRegression().fit(X, y))
     np.testing.assert_array_equal(linear, np.zeros(3))
 
@@ -154,10 +156,13 @@ def test_the_weighted_solve_is_weighted_ridge():
     D = rng.normal(size=(50, 3))
     y = rng.normal(size=50)
     w = rng.uniform(0.5, 2.0, 50)
-    p = np.array([0.0, 2.0, 5.0])
+    p = np.array([0.0, 0.5, 5.0])
     theta = sf._weighted_solve(D, y, w, p)
     expected = np.linalg.solve(D.T @ (w[:, None] * D) + np.diag(p), D.T @ (w * y))
     np.testing.assert_allclose(theta, expected, rtol=1e-10)
+    small = np.array([0.0, 0.5, 0.5])  # every penalty below 1 is a penalty too
+    expected = np.linalg.solve(D.T @ (w[:, None] * D) + np.diag(small), D.T @ (w * y))
+    np.testing.assert_allclose(sf._weighted_solve(D, y, w, small), expected, rtol=1e-10)
     plain = np.linalg.lstsq(np.sqrt(w)[:, None] * D, np.sqrt(w) * y, rcond=None)[0]
     np.testing.assert_allclose(sf._weighted_solve(D, y, w), plain, rtol=1e-10)
 
