@@ -217,7 +217,7 @@ def command_compensate(args):
         )
         print(
             f"The model learnt the scale factor: {args.compensated_column!r} is the estimated "
-            f"input rate (rate - bias) / (1 + scale-factor error), deg/h{stood_in}."
+            f"input rate (rate - bias) / (1 + scale-factor error ± asymmetry), deg/h{stood_in}."
         )
     if status is not None:
         runs = None if columns.run is None else frame[columns.run].to_numpy()

@@ -177,8 +177,9 @@ def _add_compensate(commands):
         "(decorrelated standard deviations from the calibrated box), and print one line "
         "per run with rows outside. For a model fitted with --input-rate (a scale factor), "
         "the compensated column is the estimated input rate (rate - bias) / (1 + "
-        "scale-factor error), deg/h, and the drift column rate minus it; the file needs no "
-        "input-rate column (the output stands in for it in the calibration check).",
+        "scale-factor error ± asymmetry), deg/h, and the drift column rate minus it; the "
+        "file needs no input-rate column (the output stands in for it in the calibration "
+        "check).",
     )
     compensate.add_argument("model", metavar="MODEL")
     compensate.add_argument("data", metavar="DATA.csv")
