@@ -228,7 +228,7 @@ def _shupe_potential(temperature, k1, reference_temperature):
     return delta + 0.5 * k1 * delta**2
 
 
-def layered_drift(p, layers, coil_mean, glass):
+def layered_drift(p, layers, coil_mean, glass, transition=None):
     """Non-Shupe drift terms on any grid: static bias and thermo-elastic stress, deg/h.
 
     Parameters
@@ -241,6 +241,10 @@ def layered_drift(p, layers, coil_mean, glass):
         Mean coil temperature, degC.
     glass : bool
         Whether the potting has a glass transition.
+    transition : dict or None, default=None
+        With ``glass``, a transition other than the logistic at Tg: arrays of shape (n,)
+        ``glass_temperature`` (where the bias bends) and ``stiffness``, from
+        :func:`sklearn_ifog.datasets._transitions.transition_state`.
 
     Returns
     -------
@@ -252,8 +256,13 @@ def layered_drift(p, layers, coil_mean, glass):
     stiffness = 1.0
     if glass:
         width, Tg = p["glass_width"], p["glass_temperature"]
+        if transition is not None:
+            Tg = transition["glass_temperature"]
         bias = bias + p["glass_bias_slope"] * width * _softplus((coil_mean - Tg) / width)
-        stiffness = glass_stiffness(coil_mean, Tg, width, p["rubbery_ratio"])
+        if transition is None:
+            stiffness = glass_stiffness(coil_mean, Tg, width, p["rubbery_ratio"])
+        else:
+            stiffness = transition["stiffness"]
     gradient = layers[0] - layers[-1]
     stress = p["stress_coefficient"] * (1.0 + p["stress_k1"] * delta) * stiffness * gradient
     return bias, stress
@@ -294,12 +303,16 @@ def layered_thermal(
     noise,
     glass,
     thermal_seed,
+    transition=None,
 ):
     """The thermal part of one layered run: temperatures, sensor reading and drift terms.
 
     Everything :func:`simulate_layered_run` returns but the gyro output and its noise
     (``thermal_seed`` seeds the chamber fluctuation), so that a caller can change the input
     rate the gyro sees (the rate-table simulator's scale factor) before the output is drawn.
+    ``transition`` (with ``glass``), a function ``(coil_mean, step) -> state`` on the fine
+    grid, replaces the logistic step (see :func:`layered_drift`); the returned parts then
+    add the ``stiffness`` and ``glass_temperature`` at each sample.
     """
     per_block = int(np.ceil(sampling_period / MAX_FINE_STEP - 1e-9))
     step = sampling_period / per_block
@@ -340,7 +353,8 @@ def layered_thermal(
     w = shupe_weights(p["n_layers"], p["shupe_gradient"], p["shupe_asymmetry"])
     potential = w @ _shupe_potential(layers[:, ::per_block], p["k1"], T0)
     shupe = np.diff(potential) / sampling_period * _SECONDS_PER_MINUTE
-    bias_fine, stress_fine = layered_drift(p, layers, coil_mean, glass)
+    state = None if transition is None else transition(coil_mean, step)
+    bias_fine, stress_fine = layered_drift(p, layers, coil_mean, glass, state)
     bias = block_average(bias_fine, per_block)
     stress = block_average(stress_fine, per_block)
     drift = bias + shupe + stress
@@ -365,4 +379,6 @@ def layered_thermal(
     }
     for index in range(p["n_layers"]):
         parts[f"layer_{index}"] = layers[index, at_samples]
+    if state is not None:
+        parts.update({name: values[at_samples] for name, values in state.items()})
     return parts

@@ -36,6 +36,13 @@ from sklearn_ifog.datasets._layered import (
     draw_layered_params,
     layered_thermal,
 )
+from sklearn_ifog.datasets._transitions import (
+    TRANSITION_COMPONENT_COLUMNS,
+    TRANSITION_PRESETS,
+    draw_transition_params,
+    transition_rng,
+    transition_state,
+)
 from sklearn_ifog.metrics import earth_rate
 
 __all__ = ["make_thermal_campaign", "noise_floor"]
@@ -45,7 +52,7 @@ __all__ = ["make_thermal_campaign", "noise_floor"]
 # a heating-only calibration never showed).
 MIX_PROFILES = ("paper", "cycle", "staircase")
 PROFILES = (*MIX_PROFILES, "cooling")
-PHYSICS = ("lumped", "layered", "layered_glass")
+PHYSICS = ("lumped", "layered", "layered_glass", *TRANSITION_PRESETS)
 FRAME_COLUMNS = (
     "unit",
     "run",
@@ -76,6 +83,10 @@ _PHYSICS_COMPONENTS = {
     "lumped": COMPONENT_COLUMNS,
     "layered": LAYERED_COMPONENT_COLUMNS,
     "layered_glass": LAYERED_COMPONENT_COLUMNS,
+    **{
+        name: (*LAYERED_COMPONENT_COLUMNS, *TRANSITION_COMPONENT_COLUMNS)
+        for name in TRANSITION_PRESETS
+    },
 }
 
 # Reference temperature of the Shupe coefficient and of the static-bias polynomial: the middle
@@ -304,8 +315,8 @@ def simulate_thermal(physics, params, times, setpoints, n_samples, sampling_peri
 
     Parameters
     ----------
-    physics : {"lumped", "layered", "layered_glass"}
-        Thermal model.
+    physics : str
+        Thermal model, one of ``PHYSICS``.
     params : dict
         The unit's coefficients (from the physics' draw).
     times, setpoints : ndarray
@@ -334,6 +345,12 @@ def simulate_thermal(physics, params, times, setpoints, n_samples, sampling_peri
         setpoint = np.interp(time, times, setpoints)
         return _lumped_thermal(params, setpoint, sampling_period, noise, rng), rng
     thermal_seed, noise_seed = rng.randint(np.iinfo(np.int32).max, size=2)
+    transition = None
+    if physics in TRANSITION_PRESETS:
+
+        def transition(coil_mean, step):
+            return transition_state(params, coil_mean, TRANSITION_PRESETS[physics], step)
+
     parts = layered_thermal(
         params,
         times,
@@ -341,8 +358,9 @@ def simulate_thermal(physics, params, times, setpoints, n_samples, sampling_peri
         n_samples,
         sampling_period,
         noise,
-        physics == "layered_glass",
+        physics == "layered_glass" or transition is not None,
         thermal_seed,
+        transition,
     )
     return parts, np.random.RandomState(noise_seed)
 
@@ -724,12 +742,33 @@ def _draw_units(physics, n_units, lot_spread, rng):
             )
 
     if lot_spread is None:
-        return [draw(unit) for unit in range(n_units)], None
-    design_params = draw(None)
-    unit_params = [
-        scatter_unit_params(design_params, unit, lot_spread, rng) for unit in range(n_units)
-    ]
+        unit_params, design_params = [draw(unit) for unit in range(n_units)], None
+    else:
+        design_params = draw(None)
+        unit_params = [
+            scatter_unit_params(design_params, unit, lot_spread, rng) for unit in range(n_units)
+        ]
+    if physics in TRANSITION_PRESETS:
+        unit_params, design_params = _add_transition_params(unit_params, design_params, lot_spread)
     return unit_params, design_params
+
+
+def _add_transition_params(unit_params, design_params, lot_spread):
+    """The transition presets' extra coefficients, after every draw of the campaign's rng.
+
+    Each unit (or the lot's design) draws them from its own stream
+    (:func:`~sklearn_ifog.datasets._transitions.draw_transition_params`); a lot's units
+    scatter the design's like the others, from the unit's stream.
+    """
+    if design_params is None:
+        return [{**p, **draw_transition_params(p)} for p in unit_params], None
+    extra = draw_transition_params(design_params)
+    units = []
+    for params in unit_params:
+        scattered = scatter_unit_params(extra, params["unit"], lot_spread, transition_rng(params))
+        del scattered["unit"]
+        units.append({**params, **scattered})
+    return units, {**design_params, **extra}
 
 
 class _CampaignRun(NamedTuple):
