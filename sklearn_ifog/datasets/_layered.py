@@ -10,10 +10,11 @@ Per run (one recording of one unit at one azimuth)::
 with ``Tm`` the mean coil temperature, ``k(T) = 1 + k1 (T - T0)``, ``w_i = G x_i + a / N``
 (``x_i`` from +1 at the outer layer to -1 at the inner one), ``s(T) = s0 (1 + s1 (T - T0))``,
 ``E`` the potting's relative stiffness (1 without a glass transition) and ``b`` the static
-bias (plus ``beta_g w softplus((Tm - Tg) / w)`` with a glass transition). The heat network is
-:mod:`sklearn_ifog.datasets._thermal`; everything is computed on a fine grid (step <= 1 s)
-and the gyro rate is the mean over each sample period (the Shupe term exactly, as a
-difference of its potential; the others by the trapezoidal rule).
+bias (plus ``beta_g w softplus((Tm - Tg) / w)`` with a glass transition; the transitions
+that are not one logistic step are in :mod:`sklearn_ifog.datasets._transitions`). The heat
+network is :mod:`sklearn_ifog.datasets._thermal`; everything is computed on a fine grid
+(step <= 1 s) and the gyro rate is the mean over each sample period (the Shupe term exactly,
+as a difference of its potential; the others by the trapezoidal rule).
 
 Per-unit coefficients, drawn uniformly ("±": random sign). *Typical* = representative of a
 navigation-grade IFOG (coil ~1 km on a ~100 mm spool, potted, in a housing) rather than taken
@@ -63,6 +64,26 @@ Tg                         10-25 degC                  glass transition of a sof
 w (glass_width)            1.5-4 degC                  typical breadth of a polymer transition
 E_rubbery / E_glassy       0.1-0.4                     typical drop of the modulus across Tg
 beta_g (glass_bias_slope)  ±(3-8)e-3 deg/h/degC        chosen of the order of b1
+m (glass_exponent)         exp(±u), u in ln 2..ln 5    "layered_glass_asymmetric": Richards
+                           (0.2-0.5 or 2-5)            (generalised logistic) step; polymer
+                                                       relaxations are asymmetric in T
+                                                       (Kohlrausch-Williams-Watts stretched
+                                                       kinetics; Ferry, *Viscoelastic
+                                                       Properties of Polymers*)
+Tg2 (glass_temperature_2)  -5..35 degC, >= 4 max(w,    "layered_glass_two": a second coating
+                           w2) from Tg                 or potting layer, or a secondary
+                                                       (beta) relaxation (Ferry; dual-coated
+                                                       fibre: soft primary, hard secondary)
+w2 (glass_width_2)         1.5-4 degC                  as w
+r2 (rubbery_ratio_2)       0.4-0.8                     typical: a smaller drop than the main
+                                                       transition's
+dH (glass_hysteresis)      2-6 degC                    "layered_glass_hysteresis": Tg on
+                                                       heating minus Tg on cooling (DSC/DMA
+                                                       of epoxies and acrylates: the measured
+                                                       Tg shifts by a few degC with the
+                                                       direction and rate of the scan)
+delta (glass_memory)       0.5-1.5 degC                typical: temperature travel over which
+                                                       the state forgets the last direction
 ARW, bias instability,     as the lumped physics       IEEE Std 952-1997 (navigation grade)
 turn-on, quantum
 =========================  ==========================  =======================================

@@ -519,7 +519,8 @@ default="cycle"
     latitude : float, default=45.0
         Latitude of the test site, degrees: the vertical Earth-rate component
         ``Ω_e sin(latitude)`` is part of every input.
-    physics : {"lumped", "layered", "layered_glass"}, default="lumped"
+    physics : {"lumped", "layered", "layered_glass", "layered_glass_asymmetric", \
+"layered_glass_two", "layered_glass_hysteresis"}, default="lumped"
         Thermal model of the coil and of the bias drift, as in :func:`make_thermal_campaign`
         (the coil's outer and inner layers give the scale factor's gradient term).
     noise : bool, default=True

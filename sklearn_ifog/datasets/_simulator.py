@@ -504,7 +504,8 @@ default="paper"
         Whether to add the chamber fluctuation, turn-on bias, bias instability, angle random
         walk and output quantisation. With ``noise=False`` the output is exactly
         ``reference + drift`` (the temperature reading stays quantised).
-    physics : {"lumped", "layered", "layered_glass"}, default="layered"
+    physics : {"lumped", "layered", "layered_glass", "layered_glass_asymmetric", \
+"layered_glass_two", "layered_glass_hysteresis"}, default="layered"
         Thermal model. ``"lumped"``: the two-lag model described above (unchanged, bit for
         bit; the coil the reference paper's features describe). ``"layered"``, the default
         because a navigation-grade coil is wound in many layers, potted, and read by a
@@ -518,11 +519,19 @@ default="paper"
         on the housing, outside the coil; gyro samples are means over the sample period
         (internal step <= 1 s). ``"layered_glass"``: as "layered", plus a glass transition of
         the potting at Tg (10-25 degC): the stress coefficient falls to the rubbery stiffness
-        (logistic step) and the bias slope changes above Tg. The layered presets draw two
-        seeds per run, so a seed gives the same thermal history at every sample period, and
-        "layered" and "layered_glass" share every unit and run. Their coefficients and
-        sources are listed under ``sklearn_ifog.datasets._layered`` (see
-        :ref:`physics`).
+        (logistic step) and the bias slope changes above Tg. Three transitions that no
+        logistic describes: ``"layered_glass_asymmetric"``, an asymmetric (generalised
+        logistic) step, sharp on one side of Tg and slow on the other, its exponent drawn
+        per unit; ``"layered_glass_two"``, two transitions at two temperatures (-5..35
+        degC, at least four widths apart), each with its own stiffness drop;
+        ``"layered_glass_hysteresis"``, a Tg higher on heating than on cooling by 2-6 degC,
+        following the sign of the coil's temperature rate and kept through a soak. The
+        layered presets draw two seeds per run, so a seed gives the same thermal history at
+        every sample period, and every layered preset shares every unit and run with
+        "layered" (the three transitions draw their extra coefficients from a stream of
+        their own). Their coefficients and sources are listed under
+        ``sklearn_ifog.datasets._layered`` (see :ref:`physics` and
+        :ref:`glass_transitions`).
     lot_spread : float or None, default=None
         None: every unit is drawn independently (its coefficients anywhere in the ranges of
         the Notes table). A float: the units form a production *lot* of one design: the
@@ -575,6 +584,9 @@ default="paper"
             add stress (deg/h), housing, sensor (true sensor temperature, before offset and
             quantisation) and layer_0 (outer) .. layer_4 (inner), degC; their coil_rate
             and drift terms are means over the sample period, temperatures instantaneous.
+            The three transition presets add stiffness (the potting's relative stiffness)
+            and glass_temperature (the transition temperature in force, degC), at the
+            sample time.
         DESCR : str
             Description of the data set.
 
