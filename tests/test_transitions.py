@@ -300,3 +300,23 @@ def test_presets_are_listed_and_bad_names_are_refused():
         make_thermal_campaign(n_units=1, n_runs=1, physics="layered_glass_hysteretic")
     with pytest.raises(ValueError, match="kind must be one of"):
         transition_state({"glass_temperature": 15.0}, np.zeros(3), "gompertz", 1.0)
+
+
+def test_hysteresis_state_equals_its_recursion_step_by_step():
+    """The state is solved without a loop over the samples (blocks of decay): it equals the
+    recursion it stands for, step by step, on a long history that travels hundreds of
+    memories (several blocks)."""
+    rng = np.random.default_rng(0)
+    n = 200_000
+    history = 20.0 + 60.0 * np.sin(np.linspace(0.0, 40.0, n)) + np.cumsum(rng.normal(0, 0.01, n))
+    memory, step, rate_scale = 0.5, 1.0, 0.02
+    travel = np.diff(history)
+    target = np.tanh(travel / step * 60.0 / rate_scale)
+    keep = np.exp(-np.abs(travel) / memory)
+    start = history[0] - 20.0
+    expected = [np.sign(start) * -np.expm1(-abs(start) / memory)]
+    for goal, factor in zip(target.tolist(), keep.tolist(), strict=True):
+        expected.append(goal + (expected[-1] - goal) * factor)
+    assert np.abs(travel).sum() / memory > 3 * 300.0  # several blocks
+    state = hysteresis_state(history, step, memory=memory, rate_scale=rate_scale)
+    np.testing.assert_allclose(state, expected, rtol=0, atol=1e-10)

@@ -144,6 +144,11 @@ def two_step_stiffness(temperature, p):
     return first * second
 
 
+# Decay (in memories of temperature travel) summed per block of the vectorised recursion:
+# exp(2 * 300) is within float64's range.
+_BLOCK = 300.0
+
+
 def hysteresis_state(temperature, step, memory, rate_scale=HYSTERESIS_RATE_SCALE):
     """The coating's heating/cooling state along a temperature history, in [-1, 1].
 
@@ -175,13 +180,34 @@ def hysteresis_state(temperature, step, memory, rate_scale=HYSTERESIS_RATE_SCALE
     """
     temperature = np.asarray(temperature, dtype=np.float64)
     travel = np.diff(temperature)
-    target = np.tanh(travel / step * _SECONDS_PER_MINUTE / rate_scale).tolist()
-    keep = np.exp(-np.abs(travel) / memory).tolist()
+    target = np.tanh(travel / step * _SECONDS_PER_MINUTE / rate_scale)
     start = temperature[0] - ROOM_TEMPERATURE
-    state = [float(np.sign(start) * -np.expm1(-abs(start) / memory))]
-    for goal, factor in zip(target, keep, strict=True):
-        state.append(goal + (state[-1] - goal) * factor)
-    return np.asarray(state)
+    first = float(np.sign(start) * -np.expm1(-abs(start) / memory))
+    return np.concatenate([[first], _relax(first, target, np.abs(travel) / memory)])
+
+
+def _relax(first, target, decay):
+    """``h[k] = target[k] + (h[k-1] - target[k]) exp(-decay[k])`` from ``h[-1] = first``.
+
+    A first-order recursion whose coefficient changes at every step, solved without a loop
+    over the samples: with ``L`` the cumulative decay, ``h[k] = exp(-L[k]) (first + Σ_{j<=k}
+    exp(L[j]) (1 - exp(-decay[j])) target[j])``. ``exp(L)`` is kept below ``exp(_BLOCK)``
+    by restarting the sum in blocks of that much decay, each from the last state of the one
+    before (the only loop, over blocks: one block for a run that travels less than
+    ``_BLOCK`` memories).
+    """
+    gain = -np.expm1(-decay)
+    cumulative = np.cumsum(decay)
+    blocks = np.floor(cumulative / _BLOCK).astype(np.int64)
+    state = np.empty_like(target)
+    previous, origin = first, 0.0
+    for block in np.unique(blocks):
+        rows = np.flatnonzero(blocks == block)
+        level = cumulative[rows] - origin  # in [0, 2 _BLOCK): exp stays finite
+        partial = np.cumsum(np.exp(level) * gain[rows] * target[rows])
+        state[rows] = np.exp(-level) * (previous + partial)
+        previous, origin = state[rows[-1]], cumulative[rows[-1]]
+    return state
 
 
 def transition_state(p, coil_mean, kind, step):
