@@ -70,8 +70,7 @@ applications", J. Lightwave Technol. 12(3), 550-567, 1994; F. Mohr and F. Schadt
 from numbers import Integral, Real
 
 import numpy as np
-import pandas as pd
-from sklearn.utils import Bunch, check_random_state
+from sklearn.utils import check_random_state
 
 from sklearn_ifog._compat import Interval, StrOptions, validate_params
 from sklearn_ifog.datasets._gyro import (
@@ -88,6 +87,7 @@ from sklearn_ifog.datasets._simulator import (
     _check_profile,
     _check_range,
     _draw_units,
+    campaign_bunch,
     scatter_unit_params,
     simulate_thermal,
 )
@@ -654,39 +654,14 @@ default="cycle"
                     params, len(runs), profile=profile_name, settings=settings, rng=rng
                 )
             )
-    return _campaign_bunch(runs, unit_params, design_params, physics, as_frame, return_X_y)
-
-
-def _campaign_bunch(runs, unit_params, design_params, physics, as_frame, return_X_y):
-    """Concatenate the runs into the frame, data, target and components (or X, y)."""
-    component_columns = (*_PHYSICS_COMPONENTS[physics], *SCALE_FACTOR_COMPONENTS)
-    columns = {name: np.concatenate([run[0][name] for run in runs]) for name in FRAME_COLUMNS}
-    components = {
-        name: np.concatenate([run[1][name] for run in runs]) for name in component_columns
-    }
-    run_params = [run[2] for run in runs]
-    target_values = columns["rate"] - columns["reference"]
-    if as_frame:
-        frame = pd.DataFrame(columns, columns=list(FRAME_COLUMNS))
-        data = frame[list(FEATURE_NAMES)]
-        target = pd.Series(target_values, name=TARGET_NAME)
-        components = pd.DataFrame(components, columns=list(component_columns))
-        run_params = pd.DataFrame(run_params)
-    else:
-        frame = None
-        data = np.column_stack([columns[name].astype(np.float64) for name in FEATURE_NAMES])
-        target = target_values
-    if return_X_y:
-        return data, target
-    return Bunch(
-        frame=frame,
-        data=data,
-        target=target,
-        feature_names=list(FEATURE_NAMES),
-        target_names=[TARGET_NAME],
+    return campaign_bunch(
+        runs,
+        (*_PHYSICS_COMPONENTS[physics], *SCALE_FACTOR_COMPONENTS),
         unit_params=unit_params,
         design_params=design_params,
-        run_params=run_params,
-        components=components,
-        DESCR=_DESCR,
+        as_frame=as_frame,
+        return_X_y=return_X_y,
+        frame_columns=FRAME_COLUMNS,
+        feature_names=FEATURE_NAMES,
+        descr=_DESCR,
     )

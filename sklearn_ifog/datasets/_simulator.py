@@ -700,23 +700,51 @@ default="paper"
                     rng=rng,
                 )
                 runs.append(run)
-    component_columns = _PHYSICS_COMPONENTS[physics]
-    columns = {name: np.concatenate([run.columns[name] for run in runs]) for name in FRAME_COLUMNS}
+    return campaign_bunch(
+        runs,
+        _PHYSICS_COMPONENTS[physics],
+        unit_params=unit_params,
+        design_params=design_params,
+        as_frame=as_frame,
+        return_X_y=return_X_y,
+    )
+
+
+def campaign_bunch(
+    runs,
+    component_columns,
+    *,
+    unit_params,
+    design_params,
+    as_frame,
+    return_X_y,
+    frame_columns=FRAME_COLUMNS,
+    feature_names=FEATURE_NAMES,
+    descr=_DESCR,
+):
+    """A simulated campaign's runs concatenated into its Bunch (or ``(X, y)``).
+
+    ``runs``: per run, ``(columns, components, params)`` (a ``_CampaignRun`` or a tuple in
+    that order): the columns of ``frame_columns``, the hidden per-row truth of
+    ``component_columns`` and the run's parameters. The target is ``rate - reference``.
+    Shared by :func:`make_thermal_campaign` and the rate-table simulator.
+    """
+    columns = {name: np.concatenate([run[0][name] for run in runs]) for name in frame_columns}
     components = {
-        name: np.concatenate([run.components[name] for run in runs]) for name in component_columns
+        name: np.concatenate([run[1][name] for run in runs]) for name in component_columns
     }
-    run_params = [run.params for run in runs]
+    run_params = [run[2] for run in runs]
     target_values = columns["rate"] - columns["reference"]
 
     if as_frame:
-        frame = pd.DataFrame(columns, columns=list(FRAME_COLUMNS))
-        data = frame[list(FEATURE_NAMES)]
+        frame = pd.DataFrame(columns, columns=list(frame_columns))
+        data = frame[list(feature_names)]
         target = pd.Series(target_values, name=TARGET_NAME)
         components = pd.DataFrame(components, columns=list(component_columns))
         run_params = pd.DataFrame(run_params)
     else:
         frame = None
-        data = np.column_stack([columns[name].astype(np.float64) for name in FEATURE_NAMES])
+        data = np.column_stack([columns[name].astype(np.float64) for name in feature_names])
         target = target_values
 
     if return_X_y:
@@ -725,13 +753,13 @@ default="paper"
         frame=frame,
         data=data,
         target=target,
-        feature_names=list(FEATURE_NAMES),
+        feature_names=list(feature_names),
         target_names=[TARGET_NAME],
         unit_params=unit_params,
         design_params=design_params,
         run_params=run_params,
         components=components,
-        DESCR=_DESCR,
+        DESCR=descr,
     )
 
 
