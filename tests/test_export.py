@@ -504,8 +504,14 @@ def evaluate_json(spec, frame):
                     lagged = deficit[:, sensor, taus.index(tau)]
                     columns.append(T * lagged if term.startswith("TT_lag") else lagged)
         rows[index] = np.column_stack(columns)
-    x = rows
-    for step in spec["steps"]:
+    x = evaluate_steps(spec["steps"], rows)
+    return x[:, 0] if spec["single_output"] else x
+
+
+def evaluate_steps(steps, rows):
+    """The schema's ``steps`` on feature rows (the first step's output), with numpy alone."""
+    x = np.asarray(rows, dtype=np.float64)
+    for step in steps:
         op = step["op"]
         if op == "center_scale":
             x = (x - np.array(step["center"])) / np.array(step["scale"])
@@ -531,7 +537,7 @@ def evaluate_json(spec, frame):
             x = x + np.array(step["intercept"])
         else:
             raise AssertionError(f"unknown op {op}")
-    return x[:, 0] if spec["single_output"] else x
+    return x
 
 
 def test_the_schema_text_names_the_schema_version():

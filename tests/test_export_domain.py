@@ -237,9 +237,10 @@ def _quiet(function, *args):
         return function(*args)
 
 
-def _build(model, directory, precision="double", **options):
+def _build(model, directory, precision="double", driver=DRIVER, **options):
+    """Export ``model`` to C in ``directory`` and compile it with ``driver`` (C source)."""
     to_c(model, directory, precision=precision, **options)
-    (directory / "driver.c").write_text(DRIVER)
+    (directory / "driver.c").write_text(driver)
     result = subprocess.run(
         [CC, *STRICT_FLAGS, *EXTRA_FLAGS, "-O1", "driver.c", "ifog.c", "-lm", "-o", "driver"],
         cwd=directory,

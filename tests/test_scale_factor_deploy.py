@@ -21,8 +21,9 @@ import numpy as np
 import pandas as pd
 import pytest
 from sklearn.linear_model import LinearRegression
-from test_export import evaluate_json
-from test_export_domain import EXTRA_FLAGS, STRICT_FLAGS, _evaluate_domain
+from test_export import evaluate_json, evaluate_steps
+from test_export_domain import _build as _build_with_driver
+from test_export_domain import _evaluate_domain
 
 from sklearn_ifog import RBFNetRegressor, make_compensation_pipeline
 from sklearn_ifog._description import SCHEMA_VERSION, describe_pipeline
@@ -206,7 +207,7 @@ def test_json_reproduces_compensate_and_predict(name, policy, calibration, trial
     features = np.asarray(model[0].transform(frame), dtype=np.float64)
     network = evaluate_json(document, frame)
     pair, _, outside = _evaluate_domain(
-        document["domain"], features, network, lambda rows: _steps_only(document, rows)
+        document["domain"], features, network, lambda rows: evaluate_steps(document["steps"], rows)
     )
     scale = document["scale_factor"]
     low, high = scale["input_rate_range"]
@@ -225,31 +226,6 @@ def test_json_reproduces_compensate_and_predict(name, policy, calibration, trial
     _assert_close(pair[:, 0] + omega * pair[:, 1] + a * np.abs(omega), expected["drift"], 1e-10)
     np.testing.assert_array_equal(outside | beyond(rate), expected["compensate_outside"])
     np.testing.assert_array_equal(outside | beyond(omega), expected["drift_outside"])
-
-
-def _steps_only(document, rows):
-    """The document's steps after ThermalFeatures on feature rows (numpy, as the schema
-    documents them)."""
-    x = np.asarray(rows, dtype=np.float64)
-    for step in document["steps"]:
-        if step["op"] == "center_scale":
-            x = (x - np.array(step["center"])) / np.array(step["scale"])
-        elif step["op"] == "linear":
-            x = x @ np.array(step["coef"]).T + np.array(step["intercept"])
-        else:
-            assert step["op"] == "rbf_network"
-            z = (x - np.array(step["x_mean"])) / np.array(step["x_scale"])
-            centers = np.array(step["centers"]).reshape(-1, step["n_inputs"])
-            d2 = ((z[:, None, :] - centers[None]) ** 2).sum(axis=2)
-            phi = np.exp(-d2 / (2 * np.array(step["widths"]) ** 2))
-            coef = np.array(step["coef"]).reshape(step["n_outputs"], -1)
-            tail = [z]
-            if step["tail_degree"] == 2:
-                first, second = np.triu_indices(z.shape[1])
-                tail.append(z[:, first] * z[:, second])
-            x = phi @ coef.T + np.hstack(tail) @ np.array(step["tail_coef"]).T
-            x = x + np.array(step["intercept"])
-    return x
 
 
 # --- C --------------------------------------------------------------------------------------
@@ -338,20 +314,6 @@ int main(int argc, char **argv)
 """
 
 
-def _build(model, directory, precision="double"):
-    to_c(model, directory, precision=precision)
-    (directory / "driver.c").write_text(DRIVER)
-    result = subprocess.run(
-        [CC, *STRICT_FLAGS, *EXTRA_FLAGS, "-O1", "driver.c", "ifog.c", "-lm", "-o", "driver"],
-        cwd=directory,
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    assert result.returncode == 0, result.stderr
-    return directory / "driver"
-
-
 def _run(executable, frame, rate, real=np.float64):
     """The C outputs for ``frame`` and the gyro output ``rate`` (see DRIVER)."""
     n = len(frame)
@@ -387,7 +349,7 @@ def _run(executable, frame, rate, real=np.float64):
 def test_c_equals_compensate_and_predict(name, policy, calibration, trial, tmp_path):
     frame, rate, _ = trial
     model = _fit(name, policy, calibration)
-    c = _run(_build(model, tmp_path), frame, rate)
+    c = _run(_build_with_driver(model, tmp_path, driver=DRIVER), frame, rate)
     expected = _expected(model, frame, rate)
     _assert_close(c["compensated"], expected["compensated"])
     _assert_close(c["drift"], expected["drift"])
@@ -412,7 +374,12 @@ def test_c_float_build_follows_in_single_precision(calibration, trial, tmp_path)
     # (6e-8 relative): the input rate is that close, the flags exact.
     frame, rate, _ = trial
     model = _fit("rbf", "blend", calibration)
-    c = _run(_build(model, tmp_path, precision="float"), frame, rate, real=np.float32)
+    c = _run(
+        _build_with_driver(model, tmp_path, precision="float", driver=DRIVER),
+        frame,
+        rate,
+        real=np.float32,
+    )
     expected = _expected(model, frame, rate)
     _assert_close(c["compensated"], expected["compensated"], 1e-6)
     _assert_close(c["drift"], expected["drift"], 1e-4)
