@@ -26,6 +26,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from sklearn_ifog import _transition
+
 __all__ = [
     "DEFAULT_ROW_TERMS",
     "DEFAULT_SMOOTHING",
@@ -114,9 +116,24 @@ class Term(NamedTuple):
     """True if the term needs the rate: the last temperature and time as state."""
     first_sensor: bool = True
     """False if the first sensor has no column of this term (identically zero)."""
-    time_constant: float | None = None
-    """Time constant (s) of the first-order lag the term reads, or None: a lag term needs a
-    time column and carries the lag's deficit as state."""
+    time_constants: tuple = ()
+    """Time constants (s) of the first-order lags the term reads, in the order of the
+    ``{lag0}``, ``{lag1}`` fields of ``c_expression``: a term with one needs a time column
+    and carries each lag's deficit as state."""
+    parameters: dict | None = None
+    """What a parametrised term's name says, for the exports (a transition term's shape,
+    centre, width, lag and multiplier); None for the fixed terms and the lag terms."""
+
+    @property
+    def time_constant(self):
+        """The first of :attr:`time_constants` (the lag a lag term reads), or None."""
+        return self.time_constants[0] if self.time_constants else None
+
+    def expression(self, time_constants):
+        """:attr:`c_expression` with each lag field replaced by its index in
+        ``time_constants`` (the carried deficits' order)."""
+        indices = [list(time_constants).index(tau) for tau in self.time_constants]
+        return self.c_expression.format(**{f"lag{k}": index for k, index in enumerate(indices)})
 
 
 #: Every term ThermalFeatures knows, by name, in the order the documentation lists them.
@@ -176,6 +193,8 @@ class TermFamily(NamedTuple):
     """Valid names, for error messages."""
     make: Callable[[re.Match], Term]
     """The :class:`Term` of a matching name; raises ValueError on a bad parameter."""
+    rule: str = "with tau in seconds, an integer or decimal number > 0"
+    """What the name's parameters are, for error messages."""
 
 
 def _time_constant(match):
@@ -193,9 +212,9 @@ def _lag_term(match):
         name=match.group(0),
         output=f"T_lag{format_seconds(tau)}s",
         compute=lambda s: s.lag[tau],
-        c_expression="deficit[{lag}]",
+        c_expression="deficit[{lag0}]",
         uses_rate=False,
-        time_constant=tau,
+        time_constants=(tau,),
     )
 
 
@@ -205,11 +224,70 @@ def _lag_product_term(match):
         name=match.group(0),
         output=f"T_T_lag{format_seconds(tau)}s",
         compute=lambda s: s.T * s.lag[tau],
-        c_expression="raw * deficit[{lag}]",
+        c_expression="raw * deficit[{lag0}]",
         uses_rate=False,
-        time_constant=tau,
+        time_constants=(tau,),
     )
 
+
+def _transition_term(match):
+    shape, centre, width, lag, multiplier, multiplier_lag = match.groups()
+    centre, width, lag = float(centre), float(width), float(lag)
+    name = match.group(0)
+    if not (np.isfinite(width) and width > 0):
+        raise ValueError(f"Term {name!r}: the transition's width must be > 0 degC, got {width!r}.")
+    if not (np.isfinite(lag) and lag > 0):
+        raise ValueError(f"Term {name!r}: the transition's lag must be > 0 seconds, got {lag!r}.")
+    output = _transition.transition_name(shape, centre, width, lag)
+    inner = "raw - deficit[{lag0}]"
+    expression = _transition.step_c_expression(shape, inner, centre, width)
+    # Literal braces of the C text would be read as format fields by Term.expression.
+    expression = expression.replace("{", "{{").replace("}", "}}").replace("{{lag0}}", "{lag0}")
+
+    def step_of(s):
+        return _transition.step(shape, s.T - s.lag[lag], centre, width)
+
+    time_constants = (lag,)
+    compute = step_of
+    uses_rate = False
+    if multiplier == "dT":
+        output += "_dT"
+        expression = f"{expression} * delta"
+        uses_rate = True
+
+        def compute(s):
+            return step_of(s) * s.dT
+
+    elif multiplier is not None:
+        tau = float(multiplier_lag)
+        if not (np.isfinite(tau) and tau > 0):
+            raise ValueError(f"Term {name!r}: the time constant must be > 0 seconds, got {tau!r}.")
+        output += f"_T_lag{format_seconds(tau)}s"
+        expression = f"{expression} * deficit[{{lag1}}]"
+        time_constants = (lag, tau)
+
+        def compute(s):
+            return step_of(s) * s.lag[tau]
+
+    return Term(
+        name=name,
+        output=output,
+        compute=compute,
+        c_expression=expression,
+        uses_rate=uses_rate,
+        time_constants=time_constants,
+        parameters={
+            "shape": shape,
+            "centre": centre,
+            "width": width,
+            "lag": lag,
+            "multiplier": multiplier if multiplier in (None, "dT") else "T_lag",
+            "multiplier_lag": None if multiplier_lag is None else float(multiplier_lag),
+        },
+    )
+
+
+_NUMBER = r"([0-9]+(?:\.[0-9]+)?)"
 
 #: Parametrised terms: ``T_lag<tau>s`` is the excess ``T - lag_tau(T)`` of the temperature
 #: over its causal first-order lag at time constant ``tau`` seconds (an integer or decimal
@@ -217,6 +295,12 @@ def _lag_product_term(match):
 #: row (see :mod:`sklearn_ifog._lags`). ``TT_lag<tau>s`` is ``T * (T - lag_tau(T))``: what
 #: ``TdT`` is to ``dT``, since the coil's Shupe and stress coefficients vary with T, so each
 #: thermal-state term acts with a temperature-dependent gain (output name ``T_T_lag<tau>s``).
+#:
+#: ``<shape><c>C_w<w>C_lag<tau>s`` is a transition term (:mod:`sklearn_ifog._transition`): a
+#: smooth step of shape ``logistic``, ``erf`` or ``hinge`` (softplus), centre ``c`` and width
+#: ``w`` degC, of the inner temperature ``T - (T - lag_tau(T))`` (the sensor's lag at ``tau``
+#: seconds); ``..._dT`` is that step times the rate, ``..._T_lag<tau2>s`` times the lag excess
+#: at ``tau2`` (a coating's stiffness step times the coil's radial gradient).
 TERM_FAMILIES = (
     TermFamily(
         pattern=re.compile(r"T_lag([0-9]+(?:\.[0-9]+)?)s"),
@@ -229,6 +313,29 @@ TERM_FAMILIES = (
         form="TT_lag<tau>s",
         examples=("TT_lag600s",),
         make=_lag_product_term,
+    ),
+    TermFamily(
+        pattern=re.compile(
+            "("
+            + "|".join(_transition.TRANSITION_SHAPES)
+            + ")"
+            + r"(-?[0-9]+(?:\.[0-9]+)?)C_w"
+            + _NUMBER
+            + "C_lag"
+            + _NUMBER
+            + "s"
+            + r"(?:_(dT|T_lag"
+            + _NUMBER
+            + "s))?"
+        ),
+        form="<shape><c>C_w<w>C_lag<tau>s[_dT|_T_lag<tau>s]",
+        examples=("logistic20C_w2C_lag900s_T_lag3600s", "erf-5.5C_w3C_lag600s_dT"),
+        make=_transition_term,
+        rule=(
+            f"with <shape> one of {list(_transition.TRANSITION_SHAPES)}, the centre <c> and "
+            "width <w> > 0 in degC and the inner temperature's lag <tau> > 0 in seconds: a "
+            "smooth step, alone or times dT or a lag excess"
+        ),
     ),
 )
 
@@ -247,10 +354,14 @@ def valid_terms_text():
     >>> print(valid_terms_text())  # doctest: +NORMALIZE_WHITESPACE
     ['T', 'dT', 'TdT', 'T2', 'gradient'], or 'T_lag<tau>s' with tau in seconds, an integer or
     decimal number > 0 (e.g. 'T_lag600s', 'T_lag90.5s'); 'TT_lag<tau>s' with tau in
-    seconds, an integer or decimal number > 0 (e.g. 'TT_lag600s')
+    seconds, an integer or decimal number > 0 (e.g. 'TT_lag600s');
+    '<shape><c>C_w<w>C_lag<tau>s[_dT|_T_lag<tau>s]' with <shape> one of ['logistic', 'erf',
+    'hinge'], the centre <c> and width <w> > 0 in degC and the inner temperature's lag <tau>
+    > 0 in seconds: a smooth step, alone or times dT or a lag excess (e.g.
+    'logistic20C_w2C_lag900s_T_lag3600s', 'erf-5.5C_w3C_lag600s_dT')
     """
     forms = "; ".join(
-        f"{family.form!r} with tau in seconds, an integer or decimal number > 0 (e.g. "
+        f"{family.form!r} {family.rule} (e.g. "
         + ", ".join(repr(example) for example in family.examples)
         + ")"
         for family in TERM_FAMILIES
@@ -313,8 +424,8 @@ def lag_time_constants(terms):
     >>> lag_time_constants(["T", "T_lag3600s", "dT", "T_lag600s"])
     (600.0, 3600.0)
     """
-    taus = {get_term(term).time_constant for term in terms}
-    return tuple(sorted(tau for tau in taus if tau is not None))
+    taus = {tau for term in terms for tau in get_term(term).time_constants}
+    return tuple(sorted(taus))
 
 
 def uses_rate(terms):
@@ -465,7 +576,7 @@ def check_needs_time(terms, smoothing, has_time):
     """
     if has_time:
         return
-    lags = [term for term in terms if get_term(term).time_constant is not None]
+    lags = [term for term in terms if get_term(term).time_constants]
     if lags:
         raise ValueError(
             f"The lag term(s) {lags} need a time column (time=...): their time constants are "

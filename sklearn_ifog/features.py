@@ -21,7 +21,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import validate_data
 
-from sklearn_ifog import _contract, _lags, _table
+from sklearn_ifog import _contract, _lags, _table, _transition
 from sklearn_ifog._compat import Interval, StrOptions, _check_feature_names_in, _fit_context
 from sklearn_ifog._contract import (
     SECONDS_PER_UNIT,
@@ -244,7 +244,7 @@ def assemble_terms(temperature, rate, terms, *, deficit=None, time_constants=())
     missing = [
         term.name
         for term in definitions
-        if term.time_constant is not None and term.time_constant not in time_constants
+        if any(tau not in time_constants for tau in term.time_constants)
     ]
     if missing:
         raise ValueError(
@@ -400,6 +400,76 @@ def compute_thermal_features(
     return features
 
 
+def _find_transition(columns, y, terms, smoothing, seconds_per_unit, search):
+    """:func:`sklearn_ifog._transition.search_transition` on a table's columns.
+
+    The first sensor's temperature carries the step (several sensors each get the found
+    terms); the folds are those of the calibration domain's threshold (whole runs, or
+    contiguous blocks of one run); at most ``MAX_SEARCH_ROWS`` rows are read. None when the
+    calibration is too short to hold anything out.
+    """
+    from sklearn_ifog.domain import held_out_folds  # the domain imports this module
+
+    temperature = columns.temperature
+    n_samples = temperature.shape[0]
+    Y = np.asarray(y, dtype=np.float64)
+    if Y.shape[0] != n_samples:
+        raise ValueError(f"y has {Y.shape[0]} rows; X has {n_samples}.")
+    Y = Y.reshape(n_samples, -1)
+    if n_samples < _transition.MIN_SEARCH_ROWS or not np.all(np.isfinite(Y)):
+        return None
+    base_lags = _contract.lag_time_constants(
+        [term for term in terms if _contract.get_term(term).output.startswith("T_lag")]
+    )
+    lags = tuple(float(lag) for lag in search["lags"])
+    needed = sorted(set(lags) | set(base_lags))
+    probe_terms = ("T", "dT", *(f"T_lag{_contract.format_seconds(tau)}s" for tau in needed))
+    probe = compute_thermal_features(
+        temperature[:, 0],
+        time=columns.time,
+        run=columns.run,
+        terms=probe_terms,
+        smoothing=smoothing,
+        seconds_per_unit=seconds_per_unit,
+    )
+    base = compute_thermal_features(
+        temperature,
+        time=columns.time,
+        run=columns.run,
+        terms=terms,
+        smoothing=smoothing,
+        seconds_per_unit=seconds_per_unit,
+    )
+    runs = None if columns.run is None else np.unique(columns.run, return_inverse=True)[1]
+    rows = _transition.search_rows(runs, n_samples)
+    folds = held_out_folds(n_samples, runs)[rows]
+    if np.unique(folds).size < 2:
+        return None
+    deficit = {tau: probe[rows, 2 + k] for k, tau in enumerate(needed)}
+    centres = search["centres"]
+    if centres is not None:
+        low, high = float(temperature.min()), float(temperature.max())
+        if centres[0] < low or centres[1] > high:
+            raise ValueError(
+                f"transition['centres']={tuple(centres)!r} reaches beyond the calibrated "
+                f"temperatures [{low:.6g}, {high:.6g}] degC: a transition there could not be "
+                "confirmed by the calibration."
+            )
+    return _transition.search_transition(
+        base[rows],
+        Y[rows],
+        probe[rows, 0],
+        probe[rows, 1],
+        deficit.__getitem__,
+        folds,
+        base_lags=base_lags,
+        shapes=search["shapes"],
+        centres=centres,
+        widths=search["widths"],
+        lags=lags,
+    )
+
+
 class ThermalFeatures(TransformerMixin, BaseEstimator):
     """Causal thermal features per run: temperature T, its rate dT, T·dT, lags and extra terms.
 
@@ -447,6 +517,15 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         backward difference. Tunable by GridSearchCV.
     rate_unit : {"s", "min", "h"} or float, default="min"
         Time unit of ``dT`` when ``time`` is given (a float is the unit in seconds).
+    transition : None, "auto" or dict, default=None
+        Search the calibration for a coating's transition (needs ``time`` and the drift
+        target ``y`` at :meth:`fit`; experimental, see Notes). None: no search. ``"auto"``:
+        the grid of :data:`sklearn_ifog._transition.DEFAULT_SEARCH` (every shape, widths
+        1.5, 3 and 6 degC, lags 300, 900 and 1800 s, centres over the calibrated inner
+        temperatures). A dict overrides some of its keys: ``"shapes"`` (of ``"logistic"``,
+        ``"erf"``, ``"hinge"``), ``"centres"`` (a range ``(low, high)`` in degC inside the
+        calibrated temperatures), ``"widths"`` (degC, > 0) and ``"lags"`` (s, > 0). The
+        terms found are appended to ``terms_``.
 
     Attributes
     ----------
@@ -454,6 +533,13 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         The terms computed: ``terms`` with ``"auto"`` resolved (see ``terms``).
     smoothing_ : float
         The smoothing time constant, s: ``smoothing`` with ``"auto"`` resolved.
+    transition_ : Transition or None
+        With ``transition``, the best transition of the search
+        (:class:`sklearn_ifog._transition.Transition`: ``shape``, ``centre``, ``width``,
+        ``lag``, ``held_out_gain`` and its ``standard_error``, ``n_candidates``) and the
+        ``terms`` it added (empty when it did not beat the other terms by more than one
+        standard error on held-out folds). None without a search, or when the calibration
+        is too short to hold anything out (fewer than 200 rows or a single fold).
     n_features_in_ : int
         Number of columns of X seen during :meth:`fit`.
     feature_names_in_ : ndarray of shape (`n_features_in_`,)
@@ -511,12 +597,26 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
     ``terms=("T", "dT", "TdT")`` to reproduce the paper's experiments or its models; without
     a time column (``time=None``) the default is the paper's set and T², unsmoothed.
 
-    **Fitting.** Nothing is learnt: :meth:`transform` works without :meth:`fit`
-    (``__sklearn_is_fitted__`` is True, the ``requires_fit`` tag False), resolving
-    ``"auto"`` from the parameters. :meth:`fit` validates X and records ``terms_``,
-    ``smoothing_``, ``n_features_in_`` and ``feature_names_in_``; after it,
-    :meth:`transform` computes ``terms_`` with ``smoothing_`` and checks that X has the
-    same number and names of columns.
+    **Transitions.** A polymer coating or potting changes its stiffness over a few degC
+    around its glass transition, and so the gain of the coil's thermal-stress drift. The
+    transition terms ``<shape><c>C_w<w>C_lag<tau>s`` (a smooth step of the sensor's lag at
+    ``tau`` seconds, the inner temperature, centred at ``c`` with width ``w``), alone and
+    times ``dT`` (``..._dT``) or a lag excess (``..._T_lag<tau2>s``), can be given in
+    ``terms`` by hand. ``transition="auto"`` searches shape, centre, width and lag on the
+    calibration: each candidate's terms are added to the other terms, their squares and
+    products in a least-squares model, which predicts held-out runs (or contiguous blocks
+    of one run); the best candidate is kept when it beats the model without it by more
+    than one standard error. It is opt-in and experimental: on the simulator's glass
+    transitions it does not yet find the transition temperature reliably (measured by
+    ``python benchmarks/bench_transition.py``).
+
+    **Fitting.** Nothing is learnt but the transition: :meth:`transform` works without
+    :meth:`fit` (``__sklearn_is_fitted__`` is True, the ``requires_fit`` tag False),
+    resolving ``"auto"`` from the parameters (and computing no transition term).
+    :meth:`fit` validates X and records ``terms_``, ``smoothing_``, ``transition_``,
+    ``n_features_in_`` and ``feature_names_in_``; after it, :meth:`transform` computes
+    ``terms_`` with ``smoothing_`` and checks that X has the same number and names of
+    columns.
 
     Only the temperature, time and run columns are read and validated; other columns of X
     pass untouched and unconverted.
@@ -566,6 +666,7 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
             StrOptions(set(SECONDS_PER_RATE_UNIT)),
             Interval(numbers.Real, 0, None, closed="neither"),
         ],
+        "transition": [StrOptions({"auto"}), dict, None],
     }
 
     def __init__(
@@ -577,6 +678,7 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         terms="auto",
         smoothing="auto",
         rate_unit="min",
+        transition=None,
     ):
         self.temperature = temperature
         self.time = time
@@ -584,6 +686,7 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         self.terms = terms
         self.smoothing = smoothing
         self.rate_unit = rate_unit
+        self.transition = transition
 
     # -- column handling ------------------------------------------------------------------
 
@@ -592,10 +695,41 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         :meth:`fit`, before it the parameters with ``"auto"`` resolved."""
         return resolved_settings(self)
 
-    def _record_resolved(self):
+    def _record_resolved(self, X=None, y=None):
         self.terms_, self.smoothing_ = resolve_defaults(
             self.terms, self.smoothing, self.time is not None
         )
+        self.transition_ = None
+        search = self._transition_search()
+        if search is None or y is None:
+            return
+        columns = _table.read_thermal_columns(
+            X, temperature=sensor_keys(self.temperature), time=self.time, run=self.run
+        )
+        validate_terms(self.terms_, columns.temperature.shape[1])
+        self.transition_ = _find_transition(
+            columns,
+            y,
+            self.terms_,
+            self.smoothing_,
+            _contract.seconds_per_unit(self.rate_unit),
+            search,
+        )
+        if self.transition_ is not None:
+            self.terms_ = self.terms_ + self.transition_.terms
+
+    def _transition_search(self):
+        """The search's grid, or None when no transition is searched for."""
+        if self.transition is None:
+            return None
+        if self.time is None:
+            raise ValueError(
+                f"transition={self.transition!r}: a transition's inner temperature is a lag "
+                "in seconds and needs a time column (time=...)."
+            )
+        if isinstance(self.transition, str):
+            return dict(_transition.DEFAULT_SEARCH)
+        return _transition.check_search(self.transition)
 
     def _features(self, X):
         columns = _table.read_thermal_columns(
@@ -633,8 +767,8 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         ----------
         X : {array-like, DataFrame} of shape (n_samples, n_features)
             Table with the temperature column(s) and, if named, the time and run columns.
-        y : None
-            Ignored.
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs), default=None
+            The drift target: read only by the ``transition`` search.
 
         Returns
         -------
@@ -644,7 +778,7 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         """
         X = _table.as_table(X)
         validate_data(self, X, reset=True, skip_check_array=True)
-        self._record_resolved()
+        self._record_resolved(X, y)
         self._features(X)
         return self
 
@@ -656,8 +790,8 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         ----------
         X : {array-like, DataFrame} of shape (n_samples, n_features)
             Table with the temperature column(s) and, if named, the time and run columns.
-        y : None
-            Ignored.
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs), default=None
+            The drift target: read only by the ``transition`` search.
 
         Returns
         -------
@@ -666,7 +800,7 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         """
         X = _table.as_table(X)
         validate_data(self, X, reset=True, skip_check_array=True)
-        self._record_resolved()
+        self._record_resolved(X, y)
         return self._features(X)
 
     def transform(self, X):

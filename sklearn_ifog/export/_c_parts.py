@@ -127,9 +127,7 @@ def features_body(features, prefix):
                 lines.append("            delta = change;")
         lines += ["        }", "        state->last_temperature[sensor] = raw;"]
     for term in map(get_term, terms):
-        expression = term.c_expression
-        if term.time_constant is not None:
-            expression = expression.format(lag=taus.index(term.time_constant))
+        expression = term.expression(taus)
         assignment = f"features[column++] = ({expression});"
         if not term.first_sensor:
             # The first sensor has no column of this term (e.g. its gradient is zero).

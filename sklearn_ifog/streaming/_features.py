@@ -186,9 +186,7 @@ def row_function(n_sensors, terms, time_constants, smoothing, seconds_per_unit, 
         for term in map(get_term, terms):
             if s == 0 and not term.first_sensor:
                 continue
-            expression = term.c_expression
-            if term.time_constant is not None:
-                expression = expression.format(lag=taus.index(term.time_constant))
+            expression = term.expression(taus)
             expression = (
                 expression.replace("temperature[0]", "u0")
                 .replace("raw", f"u{s}")
@@ -204,6 +202,15 @@ def row_function(n_sensors, terms, time_constants, smoothing, seconds_per_unit, 
         ]
         deficit = "[" + ", ".join(per_sensor) + "]"
     lines.append(f"    return [{', '.join(columns)}], {deficit}")
-    namespace = {"exp": math.exp, "expm1": math.expm1}
+    # The C names of the transition terms' steps (see sklearn_ifog._transition).
+    namespace = {
+        "exp": math.exp,
+        "expm1": math.expm1,
+        "tanh": math.tanh,
+        "erf": math.erf,
+        "log1p": math.log1p,
+        "fabs": math.fabs,
+        "fmax": max,
+    }
     exec("\n".join(lines), namespace)  # generated from the term registry, as the C export
     return namespace["row"]
