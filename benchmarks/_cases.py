@@ -185,6 +185,22 @@ SEEDS = {
         "term and per-column penalty) was developed on rate-table seed 0 (issue 44); "
         "--quick runs seed 0. 4451-4453: fresh in issue 44, run once at its end",
     },
+    "bench_transition": {
+        "physics": (
+            "lumped",
+            "layered",
+            "layered_glass",
+            "layered_glass_asymmetric",
+            "layered_glass_two",
+            "layered_glass_hysteresis",
+        ),
+        "tuning": (0, 1, 2),
+        "retired": (),
+        "judged": (4511, 4512, 4513),
+        "chose": "the transition search's grid and gate were developed on 0-2 of "
+        "bench_thermal_state's campaigns and of this script's (issue 45); --quick runs seed 0. "
+        "4511-4513: fresh in issue 45, run once at its end",
+    },
     "bench_unitwise": {
         "physics": ("lumped", "layered_glass"),
         "tuning": (0, 1, 2, 3, 4),

@@ -538,7 +538,8 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         (:class:`sklearn_ifog._transition.Transition`: ``shape``, ``centre``, ``width``,
         ``lag``, ``held_out_gain`` and its ``standard_error``, ``n_candidates``) and the
         ``terms`` it added (empty when it did not beat the other terms by more than one
-        standard error on held-out folds). None without a search, or when the calibration
+        standard error on held-out folds, chosen on one half of them and judged on the
+        other, both ways round). None without a search, or when the calibration
         is too short to hold anything out (fewer than 200 rows or a single fold).
     n_features_in_ : int
         Number of columns of X seen during :meth:`fit`.
@@ -605,10 +606,10 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
     ``terms`` by hand. ``transition="auto"`` searches shape, centre, width and lag on the
     calibration: each candidate's terms are added to the other terms, their squares and
     products in a least-squares model, which predicts held-out runs (or contiguous blocks
-    of one run); the best candidate is kept when it beats the model without it by more
-    than one standard error. It is opt-in and experimental: on the simulator's glass
-    transitions it does not yet find the transition temperature reliably (measured by
-    ``python benchmarks/bench_transition.py``).
+    of one run); the candidate chosen on half of those folds must beat the model without
+    it on the other half by more than one standard error, both ways round. It is opt-in
+    and experimental: on the simulator's glass transitions it does not yet find the
+    transition temperature reliably (measured by ``python benchmarks/bench_transition.py``).
 
     **Fitting.** Nothing is learnt but the transition: :meth:`transform` works without
     :meth:`fit` (``__sklearn_is_fitted__`` is True, the ``requires_fit`` tag False),

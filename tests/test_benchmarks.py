@@ -77,6 +77,11 @@ QUICK_RUNS = {
         ["scale_factor_quick.md", "scale_factor_quick.json"],
         True,
     ),
+    "bench_transition": (
+        ["--quick", "--out", "{out}"],
+        ["transition_quick.md", "transition_quick.json"],
+        True,
+    ),
     "bench_unitwise": (
         ["--quick", "--out", "{out}"],
         ["unitwise_quick.md", "unitwise_quick.json"],
