@@ -178,7 +178,7 @@ def summarise(rows):
     summary = {}
     for physics in dict.fromkeys(row["physics"] for row in rows):
         mine = [row for row in rows if row["physics"] == physics]
-        cell = {"folds": len(mine)}
+        cell = {"folds": len(mine), "floor": float(np.mean([row["floor"] for row in mine]))}
         for name in ("today", "search", "oracle"):
             if name not in mine[0]:
                 continue
@@ -261,9 +261,13 @@ def markdown(summary, recording, command, seeds, elapsed, verdicts):
         "fourth (every azimuth in turn). MSD in (deg/h)², means over the folds; "
         "'residual' is the mean squared difference to the simulated drift.",
         "",
+        "'floor / today' is the lowest MSD ratio to today's any model can reach (a perfect "
+        "drift model leaves the noise floor).",
+        "",
         "| preset | folds | today MSD/floor | search MSD/floor | oracle MSD/floor | search / "
-        "today | oracle / today | kept | centre within 2 degC | today fit s | search fit s |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "today | oracle / today | floor / today | kept | centre within 2 degC | today fit s | "
+        "search fit s |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for physics, cell in summary.items():
         oracle = cell.get("oracle")
@@ -273,6 +277,7 @@ def markdown(summary, recording, command, seeds, elapsed, verdicts):
             + (f"{cell['oracle/floor']:.3f}" if oracle else "-")
             + f" | {cell['search'] / cell['today']:.3f} | "
             + (f"{oracle / cell['today']:.3f}" if oracle else "-")
+            + f" | {cell['floor'] / cell['today']:.3f}"
             + f" | {cell['kept']} | {cell.get('centre within 2 degC', '-')} | "
             f"{cell['today fit s']:.2f} | {cell['search fit s']:.2f} |"
         )
