@@ -15,6 +15,7 @@ READING_ORDER = (
     "plot_outside_calibration.py",
     "plot_paper_experiments.py",
     "plot_recalibration.py",
+    "plot_transition_terms.py",
     "plot_scale_factor.py",
     "plot_real_recording.py",
 )
