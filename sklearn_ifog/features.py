@@ -100,7 +100,10 @@ def validate_terms(terms, n_sensors):
     for term in terms:
         try:
             definitions[term] = get_term(term)
-        except ValueError:
+        except ValueError as error:
+            if not str(error).startswith("Unknown term"):
+                # A known form with a bad parameter (a width <= 0): its own message.
+                raise ValueError(f"In terms: {error}") from None
             unknown.append(term)
     if unknown:
         raise ValueError(
@@ -520,9 +523,8 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
     transition : None, "auto" or dict, default=None
         Search the calibration for a coating's transition (needs ``time`` and the drift
         target ``y`` at :meth:`fit`; experimental, see Notes). None: no search. ``"auto"``:
-        the grid of :data:`sklearn_ifog._transition.DEFAULT_SEARCH` (every shape, widths
-        1.5, 3 and 6 degC, lags 300, 900 and 1800 s, centres over the calibrated inner
-        temperatures). A dict overrides some of its keys: ``"shapes"`` (of ``"logistic"``,
+        the grid of :data:`sklearn_ifog._transition.DEFAULT_SEARCH` (every shape, its
+        widths and lags, centres over the calibrated inner temperatures). A dict overrides some of its keys: ``"shapes"`` (of ``"logistic"``,
         ``"erf"``, ``"hinge"``), ``"centres"`` (a range ``(low, high)`` in degC inside the
         calibrated temperatures), ``"widths"`` (degC, > 0) and ``"lags"`` (s, > 0). The
         terms found are appended to ``terms_``.
