@@ -525,9 +525,10 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
         target ``y`` at :meth:`fit`; experimental, see Notes). None: no search. ``"auto"``:
         the grid of :data:`sklearn_ifog._transition.DEFAULT_SEARCH` (every shape, its
         widths and lags, centres over the calibrated inner temperatures). A dict overrides
-        some of its keys: ``"shapes"`` (of ``"logistic"``, ``"erf"``, ``"hinge"``), ``"centres"`` (a range ``(low, high)`` in degC inside the
-        calibrated temperatures), ``"widths"`` (degC, > 0) and ``"lags"`` (s, > 0). The
-        terms found are appended to ``terms_``.
+        some of its keys: ``"shapes"`` (of ``"logistic"``, ``"erf"``, ``"hinge"``),
+        ``"centres"`` (a range ``(low, high)`` in degC inside the calibrated temperatures),
+        ``"widths"`` (degC, > 0) and ``"lags"`` (s, > 0). The terms found are appended to
+        ``terms_``.
 
     Attributes
     ----------
