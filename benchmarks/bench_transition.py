@@ -36,7 +36,7 @@ import warnings
 import numpy as np
 from joblib import Parallel, delayed
 
-from sklearn_ifog import make_compensation_pipeline
+from sklearn_ifog import ThermalFeatures, make_compensation_pipeline
 from sklearn_ifog._contract import DEFAULT_STATE_TERMS
 from sklearn_ifog.datasets._simulator import noise_floor
 
@@ -120,12 +120,30 @@ def run_campaign(physics, seed, quick):
     drift = campaign.frame["drift"].to_numpy()
     unit = campaign.unit_params[0]
     n_calibration = QUICK_CALIBRATION_RUNS if quick else CALIBRATION_RUNS
+    clean = None
+    if physics in FIXED_TG:
+        # The same gyro and runs with noise=False (no gyro or sensor noise): whether the
+        # search finds the simulated Tg when nothing but the drift is in the target.
+        clean = make_thermal_campaign(
+            n_units=1,
+            profile="mix",
+            sampling_period=PERIOD,
+            physics=physics,
+            random_state=seed,
+            noise=False,
+            **sizes,
+        )
     rows = []
     for azimuth, train, test in folds(X, n_calibration):
         floor = noise_floor(campaign.frame, test)
         row = {"physics": physics, "seed": seed, "azimuth": azimuth, "floor": floor}
         if physics in GLASS:
             row["true_centre"] = float(unit["glass_temperature"])
+        if clean is not None:
+            features = ThermalFeatures(time="time", run="run", transition="auto")
+            features.fit(clean.data.iloc[train], clean.frame["drift"].to_numpy()[train])
+            found = features.transition_
+            row["found_noise_free"] = None if found is None else found._asdict()
         for name, make in models_of(physics, unit).items():
             model = make()
             start = time.perf_counter()
@@ -199,6 +217,16 @@ def summarise(rows):
                 for row in mine
             ]
             cell["centre within 2 degC"] = sum(error <= CENTRE_TOLERANCE for error in errors)
+            clean = [
+                abs(row["found_noise_free"]["centre"] - row["true_centre"])
+                if row["found_noise_free"]
+                else np.inf
+                for row in mine
+            ]
+            cell["noise-free centre within 2 degC"] = sum(e <= CENTRE_TOLERANCE for e in clean)
+            cell["noise-free kept"] = sum(
+                bool(row["found_noise_free"] and row["found_noise_free"]["terms"]) for row in mine
+            )
         summary[physics] = cell
     return summary
 
@@ -283,6 +311,20 @@ def markdown(summary, recording, command, seeds, elapsed, verdicts):
             + f" | {cell['kept']} | {cell.get('centre within 2 degC', '-')} | "
             f"{cell['today fit s']:.2f} | {cell['search fit s']:.2f} |"
         )
+    lines += [
+        "",
+        "## The search on the drift alone (the same gyros and runs, noise=False: no gyro or "
+        "sensor noise)",
+        "",
+        "| preset | folds | centre within 2 degC | kept |",
+        "|---|---|---|---|",
+    ]
+    for physics, cell in summary.items():
+        if "noise-free kept" in cell:
+            lines.append(
+                f"| {physics} | {cell['folds']} | {cell['noise-free centre within 2 degC']} | "
+                f"{cell['noise-free kept']} |"
+            )
     lines += [
         "",
         "## Thermal residual / floor",

@@ -339,6 +339,16 @@ def check_search(search):
     return grid
 
 
+def _squares_and_products(base):
+    """The standardised base features, their squares and pairwise products: a step must
+    beat a smooth curvature of them, not only their plane (any bend otherwise looks like a
+    transition)."""
+    base = _standardise(base)
+    base = base[:, np.isfinite(base).all(axis=0)]
+    upper = np.triu_indices(base.shape[1])
+    return np.hstack([base, base[:, upper[0]] * base[:, upper[1]]])
+
+
 def search_transition(
     base,
     Y,
@@ -386,19 +396,14 @@ def search_transition(
     Y = np.asarray(Y, dtype=np.float64).reshape(base.shape[0], -1)
     spread = Y.std(axis=0)
     Y = (Y - Y.mean(axis=0)) / np.where(spread > 0, spread, 1.0)
-    base = _standardise(np.asarray(base, dtype=np.float64))
-    base = base[:, np.isfinite(base).all(axis=0)]
-    # Squares and products of the base features: a step must beat a smooth curvature of
-    # them, not only their plane (any bend otherwise looks like a transition).
-    upper = np.triu_indices(base.shape[1])
-    base = np.hstack([base, base[:, upper[0]] * base[:, upper[1]]])
-    solver = _FoldSolver(base, Y, folds)
-    base_losses = solver.losses()
-    base_mean = float(base_losses.mean())
     multipliers = [None]
     if rate is not None:
         multipliers.append(np.asarray(rate, dtype=np.float64))
     multipliers += [deficit_of(tau) for tau in base_lags]
+    base = _squares_and_products(np.asarray(base, dtype=np.float64))
+    solver = _FoldSolver(base, Y, folds)
+    base_losses = solver.losses()
+    base_mean = float(base_losses.mean())
     inner_of = {float(lag): temperature - deficit_of(lag) for lag in lags}
 
     def candidate_losses(shape, centre, width, lag):
