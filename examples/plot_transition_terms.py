@@ -121,13 +121,14 @@ fig.tight_layout()
 # The opt-in search
 # -----------------
 # ``transition="auto"`` (experimental, not the default) searches shape, centre, width and
-# lag on the calibration runs alone, with a least-squares model of the other features, their
-# squares and products on held-out runs, and appends the best candidate's terms only when the
-# candidate chosen on half of the held-out runs beats the features without it on the other
-# half by more than one standard error, both ways round. ``transition_`` of the third model's feature step reports what it
-# found, whether or not it was kept (``terms`` is empty when it was not); its
-# ``held_out_gain`` is the search's own linear model's, on the calibration's held-out runs,
-# not the network's on the runs at 90° (that one is the third line of the table above).
+# lag on the calibration runs alone, with a least-squares model of the other features whose
+# coefficients vary smoothly with temperature, on held-out runs, and appends the best
+# candidate's terms only when the candidate chosen on half of the held-out runs beats the
+# features without it on the other half by more than one standard error, both ways round.
+# ``transition_`` of the third model's feature step reports what it found, whether or not
+# it was kept (``terms`` is empty when it was not); its ``held_out_gain`` is the search's
+# own linear model's, on the calibration's held-out runs, not the network's on the runs at
+# 90° (that one is the third line of the table above).
 found = models['transition="auto"'].named_steps["features"].transition_
 print(found)
 

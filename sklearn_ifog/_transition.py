@@ -21,11 +21,11 @@ lag excess ``T - lag_tau(T)`` (the thermal-state terms, which carry the radial g
 :mod:`sklearn_ifog._contract` names them ``<shape><c>C_w<w>C_lag<lag>s[_dT|_T_lag<tau>s]``.
 
 :func:`search_transition` chooses one transition on the calibration runs only: every
-candidate's terms are added to the base features, their squares and products in a
-least-squares model, each fold of held-out runs (or contiguous blocks of one run) predicted by
-the model fitted on the others. The folds are split in two halves; the candidate chosen on one
-half must beat the model without it on the other half by more than one standard error of the
-paired difference (the rule the network's own selection uses,
+candidate's terms are added to a least-squares model of the base features whose coefficients
+vary smoothly with temperature, each fold of held-out runs (or contiguous blocks of one run)
+predicted by the model fitted on the others. The folds are split in two halves; the candidate
+chosen on one half must beat the model without it on the other half by more than one standard
+error of the paired difference (the rule the network's own selection uses,
 :func:`sklearn_ifog._statistics.within_one_standard_error`), both ways round: the best of
 hundreds of candidates always looks better on the rows it was chosen on.
 """
@@ -339,14 +339,24 @@ def check_search(search):
     return grid
 
 
-def _squares_and_products(base):
-    """The standardised base features, their squares and pairwise products: a step must
-    beat a smooth curvature of them, not only their plane (any bend otherwise looks like a
-    transition)."""
+#: Spacing (degC) of the knots of the base's smooth coefficients (hat functions of T): a
+#: step must beat each term's coefficient varying smoothly with temperature at this scale.
+#: Chosen on the tuning gyros (noise-free, it found the simulated Tg more often than the
+#: base's squares and products; with gyro noise neither does).
+KNOT_SPACING = 8.0
+
+
+def _smooth_coefficients(base, temperature, multipliers):
+    """The standardised base features, and each multiplier (1, dT, the lag excesses) times
+    piecewise-linear hat functions of the temperature, knots every :data:`KNOT_SPACING`
+    degC: a model whose coefficients vary smoothly with T, so that a broad bend of the
+    drift is not taken for a transition."""
     base = _standardise(base)
     base = base[:, np.isfinite(base).all(axis=0)]
-    upper = np.triu_indices(base.shape[1])
-    return np.hstack([base, base[:, upper[0]] * base[:, upper[1]]])
+    knots = np.arange(temperature.min(), temperature.max() + KNOT_SPACING, KNOT_SPACING)
+    hats = np.maximum(0.0, 1.0 - np.abs(temperature[:, None] - knots[None]) / KNOT_SPACING)
+    columns = [hats if m is None else hats * m[:, None] for m in multipliers]
+    return np.hstack([base, *columns])
 
 
 def search_transition(
@@ -368,7 +378,8 @@ def search_transition(
     Parameters
     ----------
     base : ndarray of shape (n_samples, n_features)
-        The features without a transition (ThermalFeatures' other terms).
+        The features without a transition (ThermalFeatures' other terms); the model adds
+        each multiplier times hat functions of ``temperature`` (smooth coefficients).
     Y : ndarray of shape (n_samples, n_outputs)
         The drift target(s); several outputs are each scaled to unit variance.
     temperature : ndarray of shape (n_samples,)
@@ -400,7 +411,7 @@ def search_transition(
     if rate is not None:
         multipliers.append(np.asarray(rate, dtype=np.float64))
     multipliers += [deficit_of(tau) for tau in base_lags]
-    base = _squares_and_products(np.asarray(base, dtype=np.float64))
+    base = _smooth_coefficients(np.asarray(base, dtype=np.float64), temperature, multipliers)
     solver = _FoldSolver(base, Y, folds)
     base_losses = solver.losses()
     base_mean = float(base_losses.mean())

@@ -607,10 +607,11 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
     ``tau`` seconds, the inner temperature, centred at ``c`` with width ``w``), alone and
     times ``dT`` (``..._dT``) or a lag excess (``..._T_lag<tau2>s``), can be given in
     ``terms`` by hand. ``transition="auto"`` searches shape, centre, width and lag on the
-    calibration: each candidate's terms are added to the other terms, their squares and
-    products in a least-squares model, which predicts held-out runs (or contiguous blocks
-    of one run); the candidate chosen on half of those folds must beat the model without
-    it on the other half by more than one standard error, both ways round. It is opt-in
+    calibration: each candidate's terms are added to a least-squares model of the other
+    terms with coefficients smooth in temperature, which predicts held-out runs (or
+    contiguous blocks of one run); the candidate chosen on half of those folds must beat
+    the model without it on the other half by more than one standard error, both ways
+    round. It is opt-in
     and experimental: on the simulator's glass transitions it does not yet find the
     transition temperature reliably (measured by ``python benchmarks/bench_transition.py``).
 
