@@ -19,6 +19,7 @@ from sklearn_ifog.report._sections import (
     _add_compensation_figures,
     _add_model,
     _add_summary,
+    _add_transition,
 )
 from sklearn_ifog.report._status import calibration_status, per_run_calibration
 
@@ -57,7 +58,9 @@ def compensation_report(
     :class:`~sklearn_ifog.CompensationPipeline`, or a meta-estimator around them), a
     "Calibration domain" section says whether rows lay outside it and what the model's
     ``uncalibrated`` policy did there, with a table per run (:func:`per_run_calibration`), and
-    the figures shade the stretches outside. For rate-table data (a model fitted with
+    the figures shade the stretches outside; a model whose feature step searched for a
+    coating's transition (``ThermalFeatures(transition=...)``) gets a "Transition search"
+    table of what it found and whether it was kept. For rate-table data (a model fitted with
     ``input_rate``, or ``scale_factor=True``), a "Scale factor" section: the scale-factor
     error in ppm per temperature bin before and after compensation, its peak-to-peak over
     temperature, the linearity and asymmetry, the residual at each input rate and a figure
@@ -285,6 +288,7 @@ def compensation_report(
     _add_summary(report, heading, data, table, data_name, bias_window, no_time, unit_table)
     if model is not None:
         _add_calibration(report, data, status, calibration_table)
+        _add_transition(report, model)
     scale = None
     if with_scale_factor:
         scale = add_scale_factor(report, directory, data, run, temperature_bins)

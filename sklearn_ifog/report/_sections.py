@@ -227,3 +227,61 @@ def _add_model(report, model_metadata):
         },
         index=False,
     )
+
+
+def transitions_of(model):
+    """``[(label, Transition)]``: every searched transition of a model's feature steps.
+
+    A pipeline's first step, a meta-estimator's fitted ``estimator_`` or
+    ``lot_estimator_``, and a lot's per-unit ``estimators_`` (labelled by unit); only
+    ThermalFeatures fitted with ``transition`` (a ``transition_`` that is not None).
+    """
+    found = []
+
+    def walk(estimator, label):
+        if estimator is None:
+            return
+        steps = getattr(estimator, "steps", None)
+        if steps:
+            transition = getattr(steps[0][1], "transition_", None)
+            if transition is not None:
+                found.append((label, transition))
+            return
+        units = getattr(estimator, "estimators_", None)
+        if isinstance(units, dict):
+            for unit, member in units.items():
+                walk(member, f"unit {unit}")
+            return
+        walk(getattr(estimator, "estimator_", None), label)
+
+    walk(model, None)
+    return found
+
+
+def _add_transition(report, model):
+    """What the feature step's transition search found (only when it ran)."""
+    found = transitions_of(model)
+    if not found:
+        return
+    report.add_heading("Transition search", level=3)
+    report.add_paragraph(
+        "The feature step searched the calibration for a coating's transition (experimental, "
+        "ThermalFeatures(transition=...)): a smooth step of the lagged sensor temperature, "
+        "kept only when, chosen on half of the calibration's held-out runs, it beat the "
+        "features without it on the other half by more than one standard error, both ways "
+        "round. The held-out gain is the search's own least-squares model's."
+    )
+    report.add_table(
+        {
+            "model": ["the model" if label is None else label for label, _ in found],
+            "shape": [t.shape for _, t in found],
+            "centre, °C": [t.centre for _, t in found],
+            "width, °C": [t.width for _, t in found],
+            "lag, s": [t.lag for _, t in found],
+            "held-out gain": [t.held_out_gain for _, t in found],
+            "standard error": [t.standard_error for _, t in found],
+            "kept": ["yes" if t.terms else "no" for _, t in found],
+        },
+        index=False,
+        caption="The best transition of each search and whether its terms were kept.",
+    )
