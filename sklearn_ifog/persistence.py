@@ -47,6 +47,7 @@ TRUSTED_TYPES = [
     "sklearn_ifog.comparison.SubsampledRegressor",
     "sklearn_ifog.rbf._network.RBFNetRegressor",
     "sklearn_ifog.scale_factor.RateNoise",
+    "sklearn_ifog._transition.Transition",
     "sklearn_ifog.unitwise.UnitwiseRegressor",
     # the kernel of compare_regressors' Gaussian process baseline (kernels are not estimators,
     # so skops does not trust them by default)

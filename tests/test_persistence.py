@@ -192,3 +192,31 @@ def test_bad_metadata_and_foreign_files_are_rejected(tmp_path):
         load_model(tmp_path / "bare.joblib")
     with pytest.raises(FileNotFoundError, match="No model file"):
         load_model(tmp_path / "missing.joblib")
+
+
+@pytest.mark.parametrize("extension", ["joblib", "skops"])
+def test_a_model_with_a_searched_transition_saves_and_loads(tmp_path, extension):
+    # ThermalFeatures(transition=...) holds a Transition (a named tuple of the package):
+    # skops must trust it, and both formats must give it back with the same predictions.
+    from sklearn_ifog import make_compensation_pipeline
+    from sklearn_ifog.datasets import make_thermal_campaign
+
+    campaign = make_thermal_campaign(
+        n_units=1,
+        n_runs=2,
+        azimuths=(0.0, 90.0),
+        profile="mix",
+        physics="layered_glass",
+        random_state=3,
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = make_compensation_pipeline(transition="auto").fit(
+            campaign.data, np.asarray(campaign.target)
+        )
+    assert model.steps[0][1].transition_ is not None
+    path = tmp_path / f"model.{extension}"
+    save_model(model, path)
+    loaded = load_model(path)
+    assert loaded.steps[0][1].transition_ == model.steps[0][1].transition_
+    np.testing.assert_array_equal(loaded.predict(campaign.data), model.predict(campaign.data))
