@@ -41,7 +41,7 @@ def test_feature_parameters_are_passed_on():
     params = model.named_steps["features"].get_params()
     assert params == {
         "temperature": ["a", "b"], "time": None, "run": "id", "terms": ("T", "dT"),
-        "smoothing": 2.0, "rate_unit": "s",
+        "smoothing": 2.0, "rate_unit": "s", "transition": None,
     }  # fmt: skip
     # terms=None keeps ThermalFeatures' own default
     assert make_compensation_pipeline(terms=None)[0].terms == ThermalFeatures().terms
