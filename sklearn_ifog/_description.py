@@ -10,17 +10,19 @@ of the final regressor is read by :mod:`sklearn_ifog._output_layer`.
 Every float goes through ``float(...)`` of a float64, so ``json`` (which writes ``repr``)
 and the C generator (``repr`` / ``%.9g``) keep round-trip precision.
 
-Schema (version 8; version 7 had no ``"scale_factor"``, which version 8 writes only for a
-pipeline fitted with ``input_rate``, so a version-7 document means what it meant: the drift
-is the prediction; version 6 named the policy's key ``"outside"``, now ``"uncalibrated"`` as
-the pipeline's parameter; version 5 ended "clip" on the temperature clamp, where the row
-could stay outside the widened box; version 4 had the margin where version 5 has the calibrated
-threshold, and no boost; version 3 no rate term in the domain (``"rate_columns"``...),
-version 2 no ``"domain"``, version 1 an EMA ``smoothing`` in samples and its ``alpha``)::
+Schema (version 9; version 8 had no ``"term_parameters"``, and so no transition term a
+reader could compute without parsing its name; version 7 had no ``"scale_factor"``, which
+version 8 writes only for a pipeline fitted with ``input_rate``, so a version-7 document
+means what it meant: the drift is the prediction; version 6 named the policy's key
+``"outside"``, now ``"uncalibrated"`` as the pipeline's parameter; version 5 ended "clip" on
+the temperature clamp, where the row could stay outside the widened box; version 4 had the
+margin where version 5 has the calibrated threshold, and no boost; version 3 no rate term in
+the domain (``"rate_columns"``...), version 2 no ``"domain"``, version 1 an EMA
+``smoothing`` in samples and its ``alpha``)::
 
     {
       "schema": "sklearn-ifog-pipeline",
-      "schema_version": 8,
+      "schema_version": 9,
       "generator": "sklearn-ifog <version>",
       "features": {
         "op": "thermal_features",
@@ -28,8 +30,10 @@ version 2 no ``"domain"``, version 1 an EMA ``smoothing`` in samples and its ``a
         "time": <column> | null,
         "run": <column> | null,
         "terms": [...],              # among "T", "dT", "TdT", "T2", "gradient", "T_lag<tau>s",
-                                     # "TT_lag<tau>s"
-        "term_time_constants": [...],  # per term: its lag's time constant, s, or null
+                                     # "TT_lag<tau>s", transition terms (below)
+        "term_time_constants": [...],  # per term: its lag's time constant, s, or null (a
+                                     # transition term: its step's lag)
+        "term_parameters": [...],    # per term: null, or a transition term's parameters
         "smoothing": float,          # time constant of dT's smoothing, s (0: none)
         "time_constants": [...],     # s: the lags carried per sensor (lag terms, smoothing)
         "seconds_per_unit": float | null,   # null when time is null (per-sample difference)
@@ -174,6 +178,29 @@ seconds_per_unit`` when ``smoothing > 0`` (``e_smoothing``: the deficit at
 first sensor), ``"T_lag<tau>s"`` = the deficit at its ``term_time_constants`` entry,
 ``"TT_lag<tau>s"`` = ``T *`` that deficit. Columns:
 sensor by sensor, term by term within a sensor.
+
+A transition term (``<shape><c>C_w<w>C_lag<tau>s[_dT|_T_lag<tau2>s]``, see
+:mod:`sklearn_ifog._transition`) has its ``term_parameters`` entry::
+
+    {
+      "shape": "logistic" | "erf" | "hinge",
+      "centre": <float>,            # c, degC
+      "width": <float>,             # w, degC, > 0
+      "lag": <float>,               # s: the inner temperature's lag (in time_constants)
+      "multiplier": null | "dT" | "T_lag",
+      "multiplier_lag": <float> | null   # s: the lag excess multiplied ("T_lag"; in
+                                         # time_constants), null otherwise
+    }
+
+With ``z = ((T - deficit[lag]) - c) / w`` (``T`` the raw temperature, ``deficit[lag]`` the
+sensor's deficit at that time constant, so ``T - deficit[lag]`` is its lag), the step is:
+
+- ``"logistic"``: ``s = 0.5 + 0.5 * tanh(0.5 * z)``;
+- ``"erf"``: ``s = 0.5 + 0.5 * erf(sqrt(0.5) * z)``;
+- ``"hinge"``: ``s = w * (max(z, 0) + log1p(exp(-|z|)))`` (degC).
+
+The term is ``s`` (multiplier null), ``s * dT`` (``"dT"``) or ``s * deficit[multiplier_lag]``
+(``"T_lag"``).
 """
 
 import numbers
@@ -199,7 +226,7 @@ from sklearn_ifog.policy import BlendWithFallback, policy_for
 from sklearn_ifog.scale_factor import INPUT_RATE_UNIT
 
 SCHEMA_NAME = "sklearn-ifog-pipeline"
-SCHEMA_VERSION = 8
+SCHEMA_VERSION = 9
 
 
 def _floats(values):
@@ -230,6 +257,16 @@ def _column(value):
     return str(value)
 
 
+def _term_parameters(term):
+    """A term's ``"term_parameters"`` entry: a copy of its parameters (floats), or None."""
+    if term.parameters is None:
+        return None
+    return {
+        key: float(value) if isinstance(value, numbers.Real) else value
+        for key, value in term.parameters.items()
+    }
+
+
 def describe_features(step, name="thermalfeatures"):
     """The ThermalFeatures part of the schema (see the module docstring)."""
     check_is_fitted(step)
@@ -252,6 +289,7 @@ def describe_features(step, name="thermalfeatures"):
         "run": _column(step.run),
         "terms": terms,
         "term_time_constants": [definitions[term].time_constant for term in terms],
+        "term_parameters": [_term_parameters(definitions[term]) for term in terms],
         "smoothing": smoothing,
         "time_constants": list(state_time_constants(terms, smoothing)),
         "seconds_per_unit": None if step.time is None else seconds_per_unit(step.rate_unit),

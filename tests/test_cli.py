@@ -260,7 +260,7 @@ def test_export_writes_c_and_json(fitted_model, tmp_path):
     pytest.importorskip("sklearn_ifog.export")
     assert main(["export", str(fitted_model), "--json", str(tmp_path / "model.json")]) == 0
     spec = json.loads((tmp_path / "model.json").read_text())
-    assert spec["schema_version"] == 8
+    assert spec["schema_version"] == 9
     assert main(["export", str(fitted_model), "--c", str(tmp_path / "c")]) == 0
     assert _listing(tmp_path / "c") == ["ifog.c", "ifog.h"]
     assert main(["export", str(fitted_model)]) == 2  # --c or --json is required

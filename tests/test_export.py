@@ -495,10 +495,19 @@ def evaluate_json(spec, frame):
         for sensor in range(n_sensors):
             T, dT = raw[:, sensor], delta[:, sensor]
             terms = {"T": T, "dT": dT, "TdT": T * dT, "T2": T * T, "gradient": T - raw[:, 0]}
-            for term, tau in zip(features["terms"], features["term_time_constants"], strict=True):
+            described = zip(
+                features["terms"],
+                features["term_time_constants"],
+                features["term_parameters"],
+                strict=True,
+            )
+            for term, tau, parameters in described:
                 if term == "gradient" and sensor == 0:
                     continue
-                if tau is None:
+                if parameters is not None:
+                    lagged = {tau: deficit[:, sensor, taus.index(tau)] for tau in taus}
+                    columns.append(_transition_column(parameters, T, dT, lagged))
+                elif tau is None:
                     columns.append(terms[term])
                 else:
                     lagged = deficit[:, sensor, taus.index(tau)]
@@ -506,6 +515,29 @@ def evaluate_json(spec, frame):
         rows[index] = np.column_stack(columns)
     x = evaluate_steps(spec["steps"], rows)
     return x[:, 0] if spec["single_output"] else x
+
+
+def _transition_column(parameters, T, dT, deficit):
+    """A transition term from its ``term_parameters`` entry, the schema's formulas written
+    out here (not the package's step): ``deficit`` maps a time constant to its deficit."""
+    c, w = parameters["centre"], parameters["width"]
+    z = ((T - deficit[parameters["lag"]]) - c) / w
+    shape = parameters["shape"]
+    if shape == "logistic":
+        s = 0.5 + 0.5 * np.tanh(0.5 * z)
+    elif shape == "erf":
+        s = 0.5 + 0.5 * np.array([math.erf(math.sqrt(0.5) * value) for value in z])
+    elif shape == "hinge":
+        s = w * (np.maximum(z, 0.0) + np.log1p(np.exp(-np.abs(z))))
+    else:
+        raise AssertionError(f"unknown shape {shape}")
+    if parameters["multiplier"] == "dT":
+        return s * dT
+    if parameters["multiplier"] == "T_lag":
+        return s * deficit[parameters["multiplier_lag"]]
+    assert parameters["multiplier"] is None
+    assert parameters["multiplier_lag"] is None
+    return s
 
 
 def evaluate_steps(steps, rows):

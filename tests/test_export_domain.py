@@ -310,7 +310,7 @@ def _assert_close(actual, expected, rtol=RTOL):
 def test_schema_carries_the_exact_domain(calibration, tmp_path):
     model = _fit("two-sensors-two-outputs", "clip", calibration)
     document = json.loads(to_json(model, tmp_path / "model.json").read_text())
-    assert document["schema_version"] == SCHEMA_VERSION == 8
+    assert document["schema_version"] == SCHEMA_VERSION == 9
     domain = document["domain"]
     box = model.domain_.box_
     for key in ("center", "scale", "axes", "axis_scale", "lower", "upper"):

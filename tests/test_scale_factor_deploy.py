@@ -176,7 +176,7 @@ def test_beyond_input_rates_is_the_pipelines_rule(calibration):
 def test_schema_carries_the_scale_factor(calibration, tmp_path):
     model = _fit("rbf", "blend", calibration)
     document = json.loads(to_json(model, tmp_path / "model.json").read_text())
-    assert document["schema_version"] == SCHEMA_VERSION == 8
+    assert document["schema_version"] == SCHEMA_VERSION == 9
     assert document["n_outputs"] == 2
     assert not document["single_output"]
     assert len(document["domain"]["fallback"]["intercept"]) == 2
