@@ -78,8 +78,9 @@ def validate_terms(terms, n_sensors):
     ------
     ValueError
         On an empty sequence, an unknown or duplicate term (two names of one time constant,
-        such as ``"T_lag600s"`` and ``"T_lag600.0s"``, are duplicates), or ``"gradient"``
-        with one sensor.
+        such as ``"T_lag600s"`` and ``"T_lag600.0s"``, are duplicates), a term of a known form
+        with a bad parameter (such as a transition's width of 0; the message names the term),
+        or ``"gradient"`` with one sensor.
 
     Examples
     --------
@@ -100,10 +101,10 @@ def validate_terms(terms, n_sensors):
     for term in terms:
         try:
             definitions[term] = get_term(term)
-        except ValueError as error:
-            if not str(error).startswith("Unknown term"):
-                # A known form with a bad parameter (a width <= 0): its own message.
-                raise ValueError(f"In terms: {error}") from None
+        except ValueError as exc:
+            if isinstance(term, str) and str(exc).startswith(f"Term {term!r}:"):
+                # A known form with a bad parameter (a width or lag <= 0): say which.
+                raise ValueError(f"Bad term in terms: {exc}") from None
             unknown.append(term)
     if unknown:
         raise ValueError(
@@ -419,6 +420,15 @@ def _find_transition(columns, y, terms, smoothing, seconds_per_unit, search):
     if Y.shape[0] != n_samples:
         raise ValueError(f"y has {Y.shape[0]} rows; X has {n_samples}.")
     Y = Y.reshape(n_samples, -1)
+    centres = search["centres"]
+    if centres is not None:
+        low, high = float(temperature[:, 0].min()), float(temperature[:, 0].max())
+        if centres[0] < low or centres[1] > high:
+            raise ValueError(
+                f"transition['centres']={tuple(centres)!r} reaches beyond the calibrated "
+                f"temperatures of the first sensor [{low:.6g}, {high:.6g}] degC: a "
+                "transition there could not be confirmed by the calibration."
+            )
     if n_samples < _transition.MIN_SEARCH_ROWS or not np.all(np.isfinite(Y)):
         return None
     base_lags = _contract.lag_time_constants(
@@ -449,15 +459,6 @@ def _find_transition(columns, y, terms, smoothing, seconds_per_unit, search):
     if np.unique(folds).size < 2:
         return None
     deficit = {tau: probe[rows, 2 + k] for k, tau in enumerate(needed)}
-    centres = search["centres"]
-    if centres is not None:
-        low, high = float(temperature.min()), float(temperature.max())
-        if centres[0] < low or centres[1] > high:
-            raise ValueError(
-                f"transition['centres']={tuple(centres)!r} reaches beyond the calibrated "
-                f"temperatures [{low:.6g}, {high:.6g}] degC: a transition there could not be "
-                "confirmed by the calibration."
-            )
     return _transition.search_transition(
         base[rows],
         Y[rows],
@@ -611,9 +612,9 @@ class ThermalFeatures(TransformerMixin, BaseEstimator):
     terms with coefficients smooth in temperature, which predicts held-out runs (or
     contiguous blocks of one run); the candidate chosen on half of those folds must beat
     the model without it on the other half by more than one standard error, both ways
-    round. It is opt-in
-    and experimental: on the simulator's glass transitions it does not yet find the
-    transition temperature reliably (measured by ``python benchmarks/bench_transition.py``).
+    round. It is opt-in and experimental: on the simulator's glass transitions it does not
+    yet find the transition temperature reliably (measured by
+    ``python benchmarks/bench_transition.py``).
 
     **Fitting.** Nothing is learnt but the transition: :meth:`transform` works without
     :meth:`fit` (``__sklearn_is_fitted__`` is True, the ``requires_fit`` tag False),
