@@ -196,7 +196,7 @@ SEEDS = {
         "judged": (4511, 4512, 4513),
         "chose": "the transition search's grid and gate were developed on 0-2 of "
         "bench_thermal_state's campaigns and of this script's (issue 45); --quick runs seed 0. "
-        "4511-4513: fresh in issue 45, run once at its end",
+        "4511-4513: fresh in issue 45, run once at its end (transition_judged.md)",
     },
     "bench_unitwise": {
         "physics": ("lumped", "layered_glass"),
