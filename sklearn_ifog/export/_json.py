@@ -100,7 +100,7 @@ def to_json(pipeline, path):
     >>> with tempfile.TemporaryDirectory() as directory:
     ...     spec = json.loads(to_json(model, Path(directory) / "model.json").read_text())
     >>> spec["schema_version"], [step["op"] for step in spec["steps"]], spec["domain"]
-    (8, ['linear'], None)
+    (9, ['linear'], None)
 
     A CompensationPipeline also writes where it was calibrated:
 
