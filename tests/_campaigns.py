@@ -33,3 +33,17 @@ def rate_drift_table(seed, temperature_range):
     rate = X.groupby("run")["temperature"].diff().fillna(0.0).to_numpy() / 5.0  # per minute
     noise = np.random.default_rng(seed).normal(0.0, 0.003, X.shape[0])
     return X, 0.1 + 0.003 * X["temperature"].to_numpy() + RATE_GAIN * rate + noise
+
+
+def small_glass_campaign():
+    """One "layered_glass" unit, two runs at each of two azimuths, profile "mix", 60-s samples
+    (seed 3): long enough for ThermalFeatures(transition="auto") to search (it needs 200 rows
+    and two held-out folds), short enough for a unit test."""
+    return make_thermal_campaign(
+        n_units=1,
+        n_runs=2,
+        azimuths=(0.0, 90.0),
+        profile="mix",
+        physics="layered_glass",
+        random_state=3,
+    )

@@ -198,17 +198,11 @@ def test_bad_metadata_and_foreign_files_are_rejected(tmp_path):
 def test_a_model_with_a_searched_transition_saves_and_loads(tmp_path, extension):
     # ThermalFeatures(transition=...) holds a Transition (a named tuple of the package):
     # skops must trust it, and both formats must give it back with the same predictions.
-    from sklearn_ifog import make_compensation_pipeline
-    from sklearn_ifog.datasets import make_thermal_campaign
+    from _campaigns import small_glass_campaign
 
-    campaign = make_thermal_campaign(
-        n_units=1,
-        n_runs=2,
-        azimuths=(0.0, 90.0),
-        profile="mix",
-        physics="layered_glass",
-        random_state=3,
-    )
+    from sklearn_ifog import make_compensation_pipeline
+
+    campaign = small_glass_campaign()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         model = make_compensation_pipeline(transition="auto").fit(

@@ -6,22 +6,16 @@ import numpy as np
 import pytest
 
 from sklearn_ifog import make_compensation_pipeline
-from sklearn_ifog.datasets import make_thermal_campaign
 from sklearn_ifog.report import compensation_report
 from sklearn_ifog.report._columns import RunColumns
 from sklearn_ifog.report._sections import transitions_of
 
+from _campaigns import small_glass_campaign  # isort: skip
+
 
 @pytest.fixture(scope="module")
 def campaign():
-    return make_thermal_campaign(
-        n_units=1,
-        n_runs=2,
-        azimuths=(0.0, 90.0),
-        profile="mix",
-        physics="layered_glass",
-        random_state=3,
-    )
+    return small_glass_campaign()
 
 
 def _report(tmp_path, campaign, **params):
