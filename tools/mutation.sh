@@ -3,7 +3,7 @@
 #
 # Usage: tools/mutation.sh MODULE [MUTANT_GLOB ...]
 #   MODULE       domain | fallback | policy | features | lags | ols | conformal |
-#                conformal_numerics | scale_factor
+#                conformal_numerics | scale_factor | transition
 #   MUTANT_GLOB  optional mutmut mutant names or globs to restrict the run to a subset,
 #                e.g. 'sklearn_ifog.domain.x_fit_fallback__mutmut_*' (default: every mutant
 #                of the module)
@@ -64,12 +64,16 @@ scale_factor)
     # The deployment tests (C compiled per case) are left out for speed.
     tests="tests/test_scale_factor.py tests/test_scale_factor_mutants.py"
     ;;
+transition)
+    source_file=sklearn_ifog/_transition.py
+    tests="tests/test_transition_terms.py tests/test_transition_mutants.py"
+    ;;
 conformal)
     source_file=sklearn_ifog/conformal.py
     tests="tests/test_conformal.py tests/test_conformal_domain.py tests/test_conformal_mutants.py"
     ;;
 *)
-    echo "tools/mutation.sh: unknown module '$module' (expected domain, fallback, policy, features, lags, ols, conformal, conformal_numerics or scale_factor)" >&2
+    echo "tools/mutation.sh: unknown module '$module' (expected domain, fallback, policy, features, lags, ols, conformal, conformal_numerics, scale_factor or transition)" >&2
     exit 2
     ;;
 esac
