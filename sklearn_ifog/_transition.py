@@ -422,17 +422,20 @@ def search_transition(
         extra = np.column_stack([values if m is None else values * m for m in multipliers])
         return solver.losses(extra)
 
-    def centre_grid(lag, low, high, spacing):
+    low, high = (-np.inf, np.inf) if centres is None else map(float, centres)
+
+    def centre_grid(lag, start, stop, spacing):
+        # Never beyond the given centre range (the fine grid around a coarse centre near
+        # its edge would otherwise reach past it), nor the calibrated inner temperatures.
+        start, stop = max(start, low), min(stop, high)
         if centres is None:
             inner = inner_of[lag]
-            low = max(low, float(np.quantile(inner, EDGE)))
-            high = min(high, float(np.quantile(inner, 1.0 - EDGE)))
-        if high < low:
+            start = max(start, float(np.quantile(inner, EDGE)))
+            stop = min(stop, float(np.quantile(inner, 1.0 - EDGE)))
+        if stop < start:
             return np.empty(0)
-        first = np.ceil(low / spacing) * spacing
-        return np.arange(first, high + 1e-9, spacing)
-
-    low, high = (-np.inf, np.inf) if centres is None else map(float, centres)
+        first = np.ceil(start / spacing) * spacing
+        return np.arange(first, stop + 1e-9, spacing)
     lags = [float(lag) for lag in lags]
     row_losses = {}
 
@@ -442,7 +445,7 @@ def search_transition(
         return row_losses[key]
 
     lag0, width0, shape0 = lags[len(lags) // 2], sorted(widths)[len(widths) // 2], shapes[0]
-    coarse = centre_grid(lag0, low, high, COARSE_STEP)
+    coarse = centre_grid(lag0, -np.inf, np.inf, COARSE_STEP)
     if coarse.size == 0:
         return None
 
