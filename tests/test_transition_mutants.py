@@ -191,12 +191,26 @@ def test_search_reads_every_output_on_its_own_scale():
     case = _glass_case(20.5)
     base, y, T, rate, deficit, runs = case
     one = _search(case)
+    assert type(one.n_candidates) is int
+    assert one.n_candidates >= 13  # coarse and fine
+    # A second output of pure noise on a far larger scale: each output counts once.
+    noise = 1e3 * np.random.default_rng(5).normal(size=y.size) + 7.0
+    Y = np.column_stack([y, noise])
     two = _transition.search_transition(
-        base, np.column_stack([y, 1e3 * y + 7.0]), T, rate, deficit.__getitem__, runs,
+        base, Y, T, rate, deficit.__getitem__, runs,
         base_lags=(900.0, 3600.0), shapes=("logistic",), widths=(0.75,), lags=(900.0,),
     )  # fmt: skip
-    assert (two.centre, two.terms) == (one.centre, one.terms)
-    assert two.held_out_gain == pytest.approx(one.held_out_gain, rel=1e-6)
+    multipliers = [None, rate, deficit[900.0], deficit[3600.0]]
+    Z = (Y - Y.mean(axis=0)) / Y.std(axis=0)
+    solver = _transition._FoldSolver(
+        _transition._smooth_coefficients(base, T, multipliers), Z, runs
+    )
+    values = _transition.step("logistic", T - deficit[900.0], two.centre, 0.75)
+    extra = np.column_stack([values if m is None else values * m for m in multipliers])
+    gain = 1.0 - solver.losses(extra).mean() / solver.losses().mean()
+    assert two.held_out_gain == pytest.approx(gain, rel=1e-9)
+    # the noise output's held-out loss, in the denominator, dilutes the gain
+    assert 0.0 < two.held_out_gain < one.held_out_gain
 
 
 def test_search_without_a_rate_has_no_rate_terms():
