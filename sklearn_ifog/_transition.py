@@ -436,6 +436,7 @@ def search_transition(
             return np.empty(0)
         first = np.ceil(start / spacing) * spacing
         return np.arange(first, stop + 1e-9, spacing)
+
     lags = [float(lag) for lag in lags]
     row_losses = {}
 
