@@ -241,8 +241,6 @@ def _transition_term(match):
     output = _transition.transition_name(shape, centre, width, lag)
     inner = "raw - deficit[{lag0}]"
     expression = _transition.step_c_expression(shape, inner, centre, width)
-    # Literal braces of the C text would be read as format fields by Term.expression.
-    expression = expression.replace("{", "{{").replace("}", "}}").replace("{{lag0}}", "{lag0}")
 
     def step_of(s):
         return _transition.step(shape, s.T - s.lag[lag], centre, width)

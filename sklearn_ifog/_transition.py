@@ -188,8 +188,11 @@ def multiplier_names(base_lags, has_rate=True):
 
 
 def _number(value):
-    value = float(value)
-    return str(int(value)) if value.is_integer() else repr(value)
+    """A number as the feature contract writes it in a term's name."""
+    # Imported here: the contract imports this module for its transition family.
+    from sklearn_ifog._contract import format_seconds
+
+    return format_seconds(value)
 
 
 def transition_name(shape, centre, width, lag):
@@ -341,8 +344,9 @@ def check_search(search):
 
 #: Spacing (degC) of the knots of the base's smooth coefficients (hat functions of T): a
 #: step must beat each term's coefficient varying smoothly with temperature at this scale.
-#: Chosen on the tuning gyros (noise-free, it found the simulated Tg more often than the
-#: base's squares and products; with gyro noise neither does).
+#: Chosen while developing the search on the tuning gyros (by runs not committed: with the
+#: drift alone as target it placed the centre nearer the simulated Tg than a base of the
+#: features' squares and products did; bench_transition.py measures the result).
 KNOT_SPACING = 8.0
 
 
