@@ -429,7 +429,12 @@ def _find_transition(columns, y, terms, smoothing, seconds_per_unit, search):
                 f"temperatures of the first sensor [{low:.6g}, {high:.6g}] degC: a "
                 "transition there could not be confirmed by the calibration."
             )
-    if n_samples < _transition.MIN_SEARCH_ROWS or not np.all(np.isfinite(Y)):
+    if not np.all(np.isfinite(Y)):
+        raise ValueError(
+            "transition: the search needs a finite drift target y; it holds NaN or infinite "
+            f"values in {int(np.sum(~np.isfinite(Y)))} entries."
+        )
+    if n_samples < _transition.MIN_SEARCH_ROWS:
         return None
     base_lags = _contract.lag_time_constants(
         [term for term in terms if _contract.get_term(term).output.startswith("T_lag")]

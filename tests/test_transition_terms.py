@@ -273,6 +273,13 @@ def test_bad_transition_names_the_entry(transition, match, profile):
             features.fit(profile.iloc[:50], y[:50])
 
 
+def test_transition_needs_a_finite_target(profile):
+    y = np.ones(len(profile))
+    y[3] = np.nan
+    with pytest.raises(ValueError, match=r"transition: .*finite drift target y.* 1 entries"):
+        ThermalFeatures(time="time", run="run", transition="auto").fit(profile, y)
+
+
 def test_transition_needs_a_time_column(profile):
     features = ThermalFeatures(run="run", transition="auto")
     needs_time = r"transition='auto'.*needs a time column \(time=\.\.\.\)"
